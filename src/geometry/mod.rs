@@ -1,0 +1,8 @@
+//! Geometry: shapes, their ray intersection, robust ray offsets and the BVH over them.
+
+pub mod bvh;
+pub mod offset;
+pub mod shapes;
+
+pub use bvh::Accel;
+pub use shapes::{Primitive, Shape, NO_LIGHT};

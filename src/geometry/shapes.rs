@@ -1,0 +1,247 @@
+//! Shapes (sphere, triangle, parallelogram) and scalar ray intersection.
+//!
+//! Every test returns the distance `t` of the nearest hit in the open interval
+//! `(tmin, tmax)`, or `f32::INFINITY` for a miss, so a caller keeps the minimum.
+
+use glam::Vec3;
+use obvhs::aabb::Aabb;
+
+/// Light index of a primitive that is not an emitter.
+pub const NO_LIGHT: u32 = u32::MAX;
+
+/// A geometric shape in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// A sphere; the normal points outwards.
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius (> 0).
+        radius: f32,
+    },
+    /// A triangle `v0, v0 + e1, v0 + e2`; the normal is `e1 × e2` (counter-clockwise front).
+    Triangle {
+        /// First vertex.
+        v0: Vec3,
+        /// Second vertex minus the first.
+        e1: Vec3,
+        /// Third vertex minus the first.
+        e2: Vec3,
+    },
+    /// A parallelogram `corner + a·u + b·v`, a, b in [0,1]; the normal is `u × v`.
+    Quad {
+        /// One corner.
+        corner: Vec3,
+        /// First edge.
+        u: Vec3,
+        /// Second edge.
+        v: Vec3,
+    },
+}
+
+/// A shape with what it is made of.
+#[derive(Clone, Copy, Debug)]
+pub struct Primitive {
+    /// The shape.
+    pub shape: Shape,
+    /// Index into the scene's materials (unused for emitters).
+    pub material: u32,
+    /// Index into the scene's lights when this primitive is an area light, else [`NO_LIGHT`].
+    pub light: u32,
+}
+
+impl Shape {
+    /// Distance to the nearest hit in `(tmin, tmax)`, or infinity.
+    #[inline]
+    pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> f32 {
+        let t = match *self {
+            Shape::Sphere { center, radius } => intersect_sphere(center, radius, o, d, tmin, tmax),
+            Shape::Triangle { v0, e1, e2 } => intersect_triangle(v0, e1, e2, o, d),
+            Shape::Quad { corner, u, v } => intersect_quad(corner, u, v, o, d),
+        };
+        if t > tmin && t < tmax {
+            t
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Unnormalised geometric normal at point `p` on the shape (outward for spheres).
+    #[inline]
+    pub fn normal(&self, p: Vec3) -> Vec3 {
+        match *self {
+            Shape::Sphere { center, .. } => p - center,
+            Shape::Triangle { e1, e2, .. } => e1.cross(e2),
+            Shape::Quad { u, v, .. } => u.cross(v),
+        }
+    }
+
+    /// Axis-aligned bounds.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match *self {
+            Shape::Sphere { center, radius } => (center - Vec3::splat(radius), center + Vec3::splat(radius)),
+            Shape::Triangle { v0, e1, e2 } => {
+                let (a, b) = (v0 + e1, v0 + e2);
+                (v0.min(a).min(b), v0.max(a).max(b))
+            }
+            Shape::Quad { corner, u, v } => {
+                let pts = [corner, corner + u, corner + v, corner + u + v];
+                let lo = pts.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
+                let hi = pts.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &p| a.max(p));
+                (lo, hi)
+            }
+        }
+    }
+
+    /// Surface area.
+    pub fn area(&self) -> f32 {
+        match *self {
+            Shape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
+            Shape::Triangle { e1, e2, .. } => 0.5 * e1.cross(e2).length(),
+            Shape::Quad { u, v, .. } => u.cross(v).length(),
+        }
+    }
+}
+
+impl obvhs::Boundable for Primitive {
+    fn aabb(&self) -> Aabb {
+        let (lo, hi) = self.shape.bounds();
+        Aabb::new(lo.into(), hi.into())
+    }
+}
+
+/// Ray–sphere intersection with the numerically careful discriminant of Haines et al.,
+/// "Precision Improvements for Ray/Sphere Intersection" (Ray Tracing Gems, 2019):
+/// `r² - |f - (f·d)d|²` keeps its precision for distant spheres where `b² - c` cancels.
+/// `d` must be unit length.
+#[inline]
+pub fn intersect_sphere(center: Vec3, radius: f32, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> f32 {
+    let f = o - center;
+    let b = -f.dot(d);
+    let l = f + b * d;
+    let r2 = radius * radius;
+    let disc = r2 - l.length_squared();
+    if disc < 0.0 {
+        return f32::INFINITY;
+    }
+    let c = f.length_squared() - r2;
+    let q = b + b.signum() * disc.sqrt();
+    // q = 0 only when b = 0 and disc = 0: a tangent ray from the sphere's centre plane.
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (c / q, q) };
+    let (near, far) = if t0 < t1 { (t0, t1) } else { (t1, t0) };
+    if near > tmin && near < tmax {
+        near
+    } else if far > tmin && far < tmax {
+        far
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// Möller–Trumbore ray–triangle intersection. Hits from both sides count.
+#[inline]
+pub fn intersect_triangle(v0: Vec3, e1: Vec3, e2: Vec3, o: Vec3, d: Vec3) -> f32 {
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return f32::INFINITY;
+    }
+    let inv = 1.0 / det;
+    let s = o - v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return f32::INFINITY;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return f32::INFINITY;
+    }
+    e2.dot(q) * inv
+}
+
+/// Ray–parallelogram intersection. Hits from both sides count.
+#[inline]
+pub fn intersect_quad(corner: Vec3, u: Vec3, v: Vec3, o: Vec3, d: Vec3) -> f32 {
+    let n = u.cross(v);
+    let denom = n.dot(d);
+    if denom == 0.0 || !denom.is_finite() {
+        return f32::INFINITY;
+    }
+    let t = n.dot(corner - o) / denom;
+    let p = o + t * d - corner;
+    let w = n / n.length_squared();
+    let a = w.dot(p.cross(v));
+    let b = w.dot(u.cross(p));
+    if (0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b) {
+        t
+    } else {
+        f32::INFINITY
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const INF: f32 = f32::INFINITY;
+
+    fn sphere() -> Shape {
+        Shape::Sphere { center: Vec3::ZERO, radius: 1.0 }
+    }
+
+    #[test]
+    fn sphere_hit_from_outside_inside_tangent_and_miss() {
+        let s = sphere();
+        let t = s.intersect(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z, 0.0, INF);
+        assert!((t - 4.0).abs() < 1e-6, "outside: {t}");
+        let t = s.intersect(Vec3::ZERO, Vec3::X, 0.0, INF);
+        assert!((t - 1.0).abs() < 1e-6, "inside: {t}");
+        // Tangent: grazes the sphere at x = 1.
+        let t = s.intersect(Vec3::new(1.0, 0.0, 5.0), Vec3::NEG_Z, 0.0, INF);
+        assert!((t - 5.0).abs() < 1e-3, "tangent: {t}");
+        let t = s.intersect(Vec3::new(1.001, 0.0, 5.0), Vec3::NEG_Z, 0.0, INF);
+        assert_eq!(t, INF, "just outside the tangent");
+        let t = s.intersect(Vec3::new(0.0, 0.0, 5.0), Vec3::Z, 0.0, INF);
+        assert_eq!(t, INF, "pointing away");
+        // tmax before the sphere.
+        assert_eq!(s.intersect(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z, 0.0, 3.9), INF);
+    }
+
+    #[test]
+    fn distant_sphere_keeps_precision() {
+        // A small sphere far away: the naive b² - c form loses it entirely.
+        let s = Shape::Sphere { center: Vec3::new(0.0, 0.0, -1.0e5), radius: 0.01 };
+        let t = s.intersect(Vec3::ZERO, Vec3::NEG_Z, 0.0, INF);
+        assert!((t - (1.0e5 - 0.01)).abs() < 0.02, "{t}");
+    }
+
+    #[test]
+    fn triangle_hits_edges_and_misses() {
+        let tri = Shape::Triangle { v0: Vec3::ZERO, e1: Vec3::X, e2: Vec3::Y };
+        let t = tri.intersect(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, INF);
+        assert!((t - 1.0).abs() < 1e-6);
+        // From behind.
+        let t = tri.intersect(Vec3::new(0.25, 0.25, -2.0), Vec3::Z, 0.0, INF);
+        assert!((t - 2.0).abs() < 1e-6);
+        // Outside the hypotenuse.
+        assert_eq!(tri.intersect(Vec3::new(0.6, 0.6, 1.0), Vec3::NEG_Z, 0.0, INF), INF);
+        // Parallel to the plane.
+        assert_eq!(tri.intersect(Vec3::new(0.1, 0.1, 0.0), Vec3::X, 0.0, INF), INF);
+        // A vertex is inside.
+        assert!(tri.intersect(Vec3::new(0.0, 0.0, 1.0), Vec3::NEG_Z, 0.0, INF).is_finite());
+    }
+
+    #[test]
+    fn quad_hits_inside_and_misses_outside() {
+        let q = Shape::Quad { corner: Vec3::ZERO, u: Vec3::new(2.0, 0.0, 0.0), v: Vec3::new(0.0, 0.0, 1.0) };
+        let t = q.intersect(Vec3::new(1.9, 3.0, 0.9), Vec3::NEG_Y, 0.0, INF);
+        assert!((t - 3.0).abs() < 1e-6);
+        let t = q.intersect(Vec3::new(1.0, -1.0, 0.5), Vec3::Y, 0.0, INF);
+        assert!((t - 1.0).abs() < 1e-6, "from below");
+        assert_eq!(q.intersect(Vec3::new(2.1, 3.0, 0.5), Vec3::NEG_Y, 0.0, INF), INF);
+        assert_eq!(q.intersect(Vec3::new(1.0, 3.0, -0.1), Vec3::NEG_Y, 0.0, INF), INF);
+        assert_eq!(q.intersect(Vec3::new(1.0, 3.0, 0.5), Vec3::Y, 0.0, INF), INF, "behind origin");
+        assert!(q.normal(Vec3::ZERO).normalize().abs_diff_eq(Vec3::NEG_Y, 1e-6));
+    }
+}

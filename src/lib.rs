@@ -1,0 +1,21 @@
+//! wavetrace: a data-oriented wavefront CPU ray tracer.
+//!
+//! Rays live in structure-of-arrays queues ([`queue`]) and move between stages
+//! ([`stages`]): camera generation, closest-hit intersection, shading, shadow
+//! occlusion, reflection/refraction scattering and film accumulation. The
+//! driver in [`render`] runs the stages over screen tiles in parallel.
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod geometry;
+pub mod output;
+pub mod queue;
+pub mod render;
+pub mod sampling;
+pub mod scene;
+pub mod stages;
+pub mod stats;
+
+pub use error::{Error, Result};
+pub use render::{render, RenderOptions, RenderOutput};
+pub use scene::{Scene, DEFAULT_SCENE};

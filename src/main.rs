@@ -1,0 +1,130 @@
+//! The `wavetrace` command line.
+
+use clap::{Args, Parser, Subcommand};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use wavetrace::output::{check_folder, check_image_path, write_image, write_text};
+use wavetrace::scene::{load, SceneSource};
+use wavetrace::stats::{Report, SceneReport};
+use wavetrace::{render, Error, RenderOptions, Result};
+
+/// A wavefront CPU ray tracer with adaptive sampling, soft shadows, refraction and depth of field.
+#[derive(Parser, Debug)]
+#[command(name = "wavetrace", version, args_conflicts_with_subcommands = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    /// With no subcommand, `wavetrace` renders.
+    #[command(flatten)]
+    render: RenderArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a scene to an image (the default command).
+    Render(RenderArgs),
+}
+
+#[derive(Args, Debug, Default)]
+struct RenderArgs {
+    /// Scene file (TOML). Omitted: the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Output image; the extension picks the format: .png (8-bit sRGB) or .exr (linear float).
+    #[arg(short, long, default_value = "render.png")]
+    output: PathBuf,
+    /// Override a scene value by its dotted path, e.g. render.width=64 or objects.0.radius=2.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Seed of every random decision (overrides render.seed).
+    #[arg(long)]
+    seed: Option<u32>,
+    /// Print the per-stage statistics table.
+    #[arg(long)]
+    stats: bool,
+    /// Write the statistics as JSON to this path.
+    #[arg(long, value_name = "PATH")]
+    stats_json: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let args = match cli.command {
+        Some(Command::Render(a)) => a,
+        None => cli.render,
+    };
+    if let Err(e) = run_render(args) {
+        eprintln!("error: {e}");
+        std::process::exit(e.exit_code());
+    }
+}
+
+fn run_render(args: RenderArgs) -> Result<()> {
+    // Every output is checked before any work, so bad paths cost nothing.
+    check_image_path(&args.output)?;
+    if let Some(p) = &args.stats_json {
+        check_folder(p)?;
+    }
+    if args.threads == Some(0) {
+        return Err(Error::input("--threads must be at least 1"));
+    }
+    let load_start = Instant::now();
+    let source = match &args.scene {
+        Some(path) => SceneSource::from_file(path)?,
+        None => SceneSource::default_scene(),
+    };
+    let mut sets = args.sets.clone();
+    if let Some(seed) = args.seed {
+        sets.push(format!("render.seed={seed}"));
+    }
+    let scene = load(&source, &sets)?;
+    let load_seconds = load_start.elapsed().as_secs_f64();
+
+    let progress = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
+        let pb = indicatif::ProgressBar::new(0);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles, ETA {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        pb
+    });
+    let out = render(&scene, &RenderOptions { threads: args.threads, progress: progress.clone() })?;
+    if let Some(pb) = progress {
+        pb.finish_and_clear();
+    }
+    write_image(&args.output, &out.image)?;
+
+    let info = &scene.info;
+    let report = Report::new(
+        out.image.width,
+        out.image.height,
+        out.seconds,
+        &out.stats,
+        &out.per_thread,
+        SceneReport {
+            primitives: info.primitives,
+            triangles: info.triangles,
+            degenerate_triangles: info.degenerate_triangles,
+            bvh_seconds: info.bvh_seconds,
+            load_seconds,
+        },
+    );
+    if let Some(p) = &args.stats_json {
+        let json = serde_json::to_string_pretty(&report).map_err(|e| Error::Internal(e.to_string()))?;
+        write_text(p, &(json + "\n"))?;
+    }
+    if !args.quiet {
+        if args.stats {
+            println!("{}", report.table());
+        }
+        println!("{} -> {}", report.summary(), args.output.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,135 @@
+//! Writing results: PNG (8-bit sRGB, clamped) and EXR (linear 32-bit float RGB), and
+//! text files. Every file is written to a temporary file in the same folder and
+//! renamed, so an error never leaves a partial file or clobbers an earlier one.
+
+use glam::Vec3;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use crate::render::Image;
+use crate::{Error, Result};
+
+/// Image file formats, picked by the output's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// `.png`: 8-bit sRGB, values clamped to [0, 1].
+    Png,
+    /// `.exr`: linear 32-bit float RGB.
+    Exr,
+}
+
+/// Checks an output path before any work starts: a known extension and an existing folder.
+pub fn check_image_path(path: &Path) -> Result<Format> {
+    let format = match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("png") => Format::Png,
+        Some("exr") => Format::Exr,
+        Some(e) => return Err(Error::output(path, format!("unknown extension `.{e}` (expected .png or .exr)"))),
+        None => return Err(Error::output(path, "no extension (expected .png or .exr)")),
+    };
+    check_folder(path)?;
+    Ok(format)
+}
+
+/// Checks that the folder an output goes to exists and that the name is not a folder.
+pub fn check_folder(path: &Path) -> Result<()> {
+    let dir = parent(path);
+    if !dir.is_dir() {
+        return Err(Error::output(path, format!("folder `{}` does not exist", dir.display())));
+    }
+    if path.is_dir() {
+        return Err(Error::output(path, "is a folder"));
+    }
+    Ok(())
+}
+
+fn parent(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// The sRGB transfer function of a linear value clamped to [0, 1].
+#[inline]
+pub fn srgb_encode(linear: f32) -> f32 {
+    let c = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// The 8-bit display value the PNG stores for a linear value.
+#[inline]
+pub fn to_display8(linear: f32) -> u8 {
+    (srgb_encode(linear) * 255.0 + 0.5) as u8
+}
+
+/// 8-bit sRGB bytes of an image, RGB interleaved.
+pub fn to_srgb8(image: &Image) -> Vec<u8> {
+    image.pixels.iter().flat_map(|p| [to_display8(p.x), to_display8(p.y), to_display8(p.z)]).collect()
+}
+
+/// Writes `image` to `path` in the format its extension names, atomically.
+pub fn write_image(path: &Path, image: &Image) -> Result<()> {
+    let format = check_image_path(path)?;
+    atomic_write(path, |tmp| match format {
+        Format::Png => image::save_buffer_with_format(
+            tmp,
+            &to_srgb8(image),
+            image.width,
+            image.height,
+            image::ExtendedColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| e.to_string()),
+        Format::Exr => {
+            let w = image.width as usize;
+            let px = |x: usize, y: usize| {
+                let p: Vec3 = image.pixels[y * w + x];
+                (p.x, p.y, p.z)
+            };
+            exr::prelude::write_rgb_file(tmp, w, image.height as usize, px).map_err(|e| e.to_string())
+        }
+    })
+}
+
+/// Writes text to `path` atomically.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    check_folder(path)?;
+    atomic_write(path, |tmp| {
+        let mut f = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+        f.write_all(text.as_bytes()).and_then(|_| f.sync_all()).map_err(|e| e.to_string())
+    })
+}
+
+/// Runs `write` on a temporary path beside `path`, then renames it into place; on any
+/// failure the temporary file is removed and `path` is left as it was.
+fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+    // Keep the real extension last: encoders that look at it must see the right one.
+    let tmp = parent(path).join(format!(".{name}.{}.tmp.{ext}", std::process::id()));
+    let result = write(&tmp).and_then(|_| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::output(path, format!("cannot write: {e}")));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_known_values() {
+        assert_eq!(to_display8(0.0), 0);
+        assert_eq!(to_display8(1.0), 255);
+        assert_eq!(to_display8(7.0), 255);
+        assert_eq!(to_display8(-1.0), 0);
+        // 0.214 linear is about 0.5 display (128).
+        assert_eq!(to_display8(0.214), 128);
+    }
+}

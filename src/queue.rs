@@ -1,0 +1,283 @@
+//! Structure-of-arrays ray queues: plain data that stages read and write.
+//!
+//! A queue is one `Vec` per field with `push`, `len`, `clear`; it holds no logic
+//! beyond keeping its fields the same length. Workers own their queues and reuse
+//! them across waves, so steady-state rendering allocates nothing per ray.
+
+use glam::Vec3;
+
+/// Rays to be intersected with the scene (camera rays and reflection/refraction rays).
+#[derive(Default, Debug, Clone)]
+pub struct RayQueue {
+    /// Origin x.
+    pub ox: Vec<f32>,
+    /// Origin y.
+    pub oy: Vec<f32>,
+    /// Origin z.
+    pub oz: Vec<f32>,
+    /// Direction x (unit length).
+    pub dx: Vec<f32>,
+    /// Direction y.
+    pub dy: Vec<f32>,
+    /// Direction z.
+    pub dz: Vec<f32>,
+    /// Global pixel index (y * width + x) the ray's radiance goes to.
+    pub pixel: Vec<u32>,
+    /// Path throughput red: the weight of this ray's radiance in the pixel estimate.
+    pub wr: Vec<f32>,
+    /// Path throughput green.
+    pub wg: Vec<f32>,
+    /// Path throughput blue.
+    pub wb: Vec<f32>,
+    /// Number of reflection/refraction bounces before this ray (0 for camera rays).
+    pub depth: Vec<u32>,
+    /// Path key: a hash naming this path uniquely within the pixel, for sampling.
+    pub key: Vec<u32>,
+}
+
+impl RayQueue {
+    /// Appends a ray.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn push(&mut self, o: Vec3, d: Vec3, pixel: u32, w: Vec3, depth: u32, key: u32) {
+        self.ox.push(o.x);
+        self.oy.push(o.y);
+        self.oz.push(o.z);
+        self.dx.push(d.x);
+        self.dy.push(d.y);
+        self.dz.push(d.z);
+        self.pixel.push(pixel);
+        self.wr.push(w.x);
+        self.wg.push(w.y);
+        self.wb.push(w.z);
+        self.depth.push(depth);
+        self.key.push(key);
+    }
+
+    /// Number of rays.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.ox.len()
+    }
+
+    /// True when the queue holds no ray.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.ox.is_empty()
+    }
+
+    /// Removes all rays, keeping the capacity.
+    pub fn clear(&mut self) {
+        self.ox.clear();
+        self.oy.clear();
+        self.oz.clear();
+        self.dx.clear();
+        self.dy.clear();
+        self.dz.clear();
+        self.pixel.clear();
+        self.wr.clear();
+        self.wg.clear();
+        self.wb.clear();
+        self.depth.clear();
+        self.key.clear();
+    }
+
+    /// Origin of ray `i`.
+    #[inline]
+    pub fn origin(&self, i: usize) -> Vec3 {
+        Vec3::new(self.ox[i], self.oy[i], self.oz[i])
+    }
+
+    /// Direction of ray `i`.
+    #[inline]
+    pub fn dir(&self, i: usize) -> Vec3 {
+        Vec3::new(self.dx[i], self.dy[i], self.dz[i])
+    }
+
+    /// Throughput of ray `i`.
+    #[inline]
+    pub fn weight(&self, i: usize) -> Vec3 {
+        Vec3::new(self.wr[i], self.wg[i], self.wb[i])
+    }
+
+    /// Bytes held by the queue's buffers (capacity, not length).
+    pub fn bytes(&self) -> usize {
+        // Twelve 4-byte fields that grow together.
+        12 * 4 * self.ox.capacity()
+    }
+}
+
+/// Closest hits of a [`RayQueue`], one entry per ray, in the same order.
+#[derive(Default, Debug, Clone)]
+pub struct HitQueue {
+    /// Distance along the ray; infinite for a miss.
+    pub t: Vec<f32>,
+    /// Index of the primitive hit (in the scene's primitive order), or [`MISS`].
+    pub prim: Vec<u32>,
+}
+
+/// Primitive index of a ray that hit nothing.
+pub const MISS: u32 = u32::MAX;
+
+impl HitQueue {
+    /// Appends a hit (or a miss with `prim == MISS`).
+    #[inline]
+    pub fn push(&mut self, t: f32, prim: u32) {
+        self.t.push(t);
+        self.prim.push(prim);
+    }
+
+    /// Number of entries.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// True when empty.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Removes all entries, keeping the capacity.
+    pub fn clear(&mut self) {
+        self.t.clear();
+        self.prim.clear();
+    }
+}
+
+/// Shadow rays: segments towards a light, each carrying the radiance it adds to its
+/// pixel if nothing blocks it.
+#[derive(Default, Debug, Clone)]
+pub struct ShadowQueue {
+    /// Origin x.
+    pub ox: Vec<f32>,
+    /// Origin y.
+    pub oy: Vec<f32>,
+    /// Origin z.
+    pub oz: Vec<f32>,
+    /// Direction x (unit length).
+    pub dx: Vec<f32>,
+    /// Direction y.
+    pub dy: Vec<f32>,
+    /// Direction z.
+    pub dz: Vec<f32>,
+    /// Segment length: occluders beyond it do not count.
+    pub tmax: Vec<f32>,
+    /// Global pixel index the contribution goes to.
+    pub pixel: Vec<u32>,
+    /// Unoccluded contribution red (already weighted by path throughput and sample count).
+    pub lr: Vec<f32>,
+    /// Contribution green.
+    pub lg: Vec<f32>,
+    /// Contribution blue.
+    pub lb: Vec<f32>,
+}
+
+impl ShadowQueue {
+    /// Appends a shadow ray.
+    #[inline]
+    pub fn push(&mut self, o: Vec3, d: Vec3, tmax: f32, pixel: u32, l: Vec3) {
+        self.ox.push(o.x);
+        self.oy.push(o.y);
+        self.oz.push(o.z);
+        self.dx.push(d.x);
+        self.dy.push(d.y);
+        self.dz.push(d.z);
+        self.tmax.push(tmax);
+        self.pixel.push(pixel);
+        self.lr.push(l.x);
+        self.lg.push(l.y);
+        self.lb.push(l.z);
+    }
+
+    /// Number of shadow rays.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.ox.len()
+    }
+
+    /// True when empty.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.ox.is_empty()
+    }
+
+    /// Removes all rays, keeping the capacity.
+    pub fn clear(&mut self) {
+        self.ox.clear();
+        self.oy.clear();
+        self.oz.clear();
+        self.dx.clear();
+        self.dy.clear();
+        self.dz.clear();
+        self.tmax.clear();
+        self.pixel.clear();
+        self.lr.clear();
+        self.lg.clear();
+        self.lb.clear();
+    }
+
+    /// Origin of ray `i`.
+    #[inline]
+    pub fn origin(&self, i: usize) -> Vec3 {
+        Vec3::new(self.ox[i], self.oy[i], self.oz[i])
+    }
+
+    /// Direction of ray `i`.
+    #[inline]
+    pub fn dir(&self, i: usize) -> Vec3 {
+        Vec3::new(self.dx[i], self.dy[i], self.dz[i])
+    }
+
+    /// Contribution of ray `i`.
+    #[inline]
+    pub fn radiance(&self, i: usize) -> Vec3 {
+        Vec3::new(self.lr[i], self.lg[i], self.lb[i])
+    }
+}
+
+/// Radiance ready to be added to pixels: background, emitters seen directly or through
+/// mirrors, and unoccluded shadow contributions.
+#[derive(Default, Debug, Clone)]
+pub struct FilmQueue {
+    /// Global pixel index.
+    pub pixel: Vec<u32>,
+    /// Radiance red.
+    pub r: Vec<f32>,
+    /// Radiance green.
+    pub g: Vec<f32>,
+    /// Radiance blue.
+    pub b: Vec<f32>,
+}
+
+impl FilmQueue {
+    /// Appends a contribution.
+    #[inline]
+    pub fn push(&mut self, pixel: u32, l: Vec3) {
+        self.pixel.push(pixel);
+        self.r.push(l.x);
+        self.g.push(l.y);
+        self.b.push(l.z);
+    }
+
+    /// Number of contributions.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.pixel.len()
+    }
+
+    /// True when empty.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.pixel.is_empty()
+    }
+
+    /// Removes all entries, keeping the capacity.
+    pub fn clear(&mut self) {
+        self.pixel.clear();
+        self.r.clear();
+        self.g.clear();
+        self.b.clear();
+    }
+}

@@ -1,0 +1,164 @@
+//! Counter-based random numbers and stratified sample patterns.
+//!
+//! Every random number is a pure function of (seed, pixel, sample, dimension), so
+//! queues carry no generator state and an image is bit-identical for any thread
+//! count or tile order.
+
+use glam::Vec2;
+
+/// Sample dimensions: each use of randomness gets its own, so streams never correlate.
+pub mod dim {
+    /// Position of a camera sample inside its pixel.
+    pub const PIXEL: u32 = 1;
+    /// Position of a camera sample on the lens.
+    pub const LENS: u32 = 2;
+    /// Position of a shadow sample on a quad light.
+    pub const LIGHT: u32 = 3;
+}
+
+/// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").
+#[inline]
+pub fn mix(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}
+
+/// Hashes a list of counters into one well-mixed key.
+#[inline]
+pub fn hash(keys: &[u32]) -> u32 {
+    let mut h = 0x9e37_79b9u32;
+    for &k in keys {
+        h = mix(h ^ k.wrapping_add(0x632b_e5ab));
+    }
+    h
+}
+
+/// A float in [0, 1) from a hash value (24 bits of mantissa).
+#[inline]
+pub fn to_unit(h: u32) -> f32 {
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Kensler's hashed permutation of `i` within `0..len` ("Correlated Multi-Jittered
+/// Sampling", Pixar 2013): a bijection chosen by `pattern`, computed without tables.
+fn permute(mut i: u32, len: u32, pattern: u32) -> u32 {
+    let mut w = len.wrapping_sub(1);
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    loop {
+        i ^= pattern;
+        i = i.wrapping_mul(0xe170_893d);
+        i ^= pattern >> 16;
+        i ^= (i & w) >> 4;
+        i ^= pattern >> 8;
+        i = i.wrapping_mul(0x0929_eb3f);
+        i ^= pattern >> 23;
+        i ^= (i & w) >> 1;
+        i = i.wrapping_mul(1 | pattern >> 27);
+        i = i.wrapping_mul(0x6935_fa69);
+        i ^= (i & w) >> 11;
+        i = i.wrapping_mul(0x74dc_b303);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0x9e50_1cc3);
+        i ^= (i & w) >> 2;
+        i = i.wrapping_mul(0xc860_a3df);
+        i &= w;
+        i ^= i >> 5;
+        if i < len {
+            break;
+        }
+    }
+    (i.wrapping_add(pattern)) % len
+}
+
+/// Sample `s` of `n` of a correlated multi-jittered 2D pattern in [0,1)^2 (Kensler 2013).
+///
+/// The `n` samples of one pattern are stratified in both 1D projections and, when `n`
+/// is m*k with m = round(sqrt n), in an m×k grid too. Any `n >= 1` is allowed.
+pub fn cmj(s: u32, n: u32, pattern: u32) -> Vec2 {
+    debug_assert!(s < n);
+    if n == 1 {
+        return Vec2::new(to_unit(hash(&[pattern, 1])), to_unit(hash(&[pattern, 2])));
+    }
+    let m = ((n as f32).sqrt().round() as u32).max(1);
+    let k = n.div_ceil(m);
+    let s = permute(s, n, pattern.wrapping_mul(0x5163_3e2d));
+    let sx = permute(s % m, m, pattern.wrapping_mul(0x68bc_21eb));
+    let sy = permute(s / m, k, pattern.wrapping_mul(0x02e5_be93));
+    let jx = to_unit(hash(&[s, pattern.wrapping_mul(0x967a_889b)]));
+    let jy = to_unit(hash(&[s, pattern.wrapping_mul(0x368c_c8b7)]));
+    let x = ((s % m) as f32 + (sy as f32 + jx) / k as f32) / m as f32;
+    let y = ((s / m) as f32 + (sx as f32 + jy) / m as f32) / k as f32;
+    // Rounding in the divisions can give exactly 1.0; keep the half-open interval.
+    Vec2::new(x.min(ONE_MINUS_EPS), y.min(ONE_MINUS_EPS))
+}
+
+/// The largest f32 below 1.
+pub const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// Maps [0,1)^2 to the unit disk with Shirley's concentric mapping (area preserving,
+/// so stratification survives).
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn permute_is_a_bijection() {
+        for len in [1u32, 2, 3, 7, 16, 100] {
+            let mut seen = vec![false; len as usize];
+            for i in 0..len {
+                let p = permute(i, len, 12345) as usize;
+                assert!(!seen[p], "len {len}: {p} twice");
+                seen[p] = true;
+            }
+        }
+    }
+
+    #[test]
+    fn cmj_is_stratified_in_each_axis() {
+        for n in [4u32, 9, 16, 10, 64] {
+            let mut xs = vec![0u32; n as usize];
+            let mut ys = vec![0u32; n as usize];
+            for s in 0..n {
+                let p = cmj(s, n, 777);
+                assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y));
+                xs[(p.x * n as f32) as usize] += 1;
+                ys[(p.y * n as f32) as usize] += 1;
+            }
+            // Perfect 1D stratification holds when n = m*k exactly.
+            let m = ((n as f32).sqrt().round()) as u32;
+            if n % m == 0 {
+                assert!(xs.iter().all(|&c| c == 1), "n {n}: x strata {xs:?}");
+                assert!(ys.iter().all(|&c| c == 1), "n {n}: y strata {ys:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn concentric_disk_stays_inside() {
+        for s in 0..256 {
+            let d = concentric_disk(cmj(s, 256, 3));
+            assert!(d.length() <= 1.0 + 1e-6);
+        }
+    }
+}

@@ -1,0 +1,263 @@
+//! Scene format v1: the TOML file as serde types. Every field is documented in
+//! docs/scene-format.md with its default; unknown fields are errors.
+
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// A whole scene file.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Image and sampling settings.
+    #[serde(default)]
+    pub render: RenderDesc,
+    /// The camera.
+    pub camera: CameraDesc,
+    /// What rays that escape see.
+    #[serde(default)]
+    pub background: BackgroundDesc,
+    /// Named materials.
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialDesc>,
+    /// Light sources.
+    #[serde(default)]
+    pub lights: Vec<LightDesc>,
+    /// Geometry.
+    #[serde(default)]
+    pub objects: Vec<ObjectDesc>,
+}
+
+/// `[render]`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderDesc {
+    /// Image width in pixels (default 320).
+    pub width: u32,
+    /// Image height in pixels (default 240).
+    pub height: u32,
+    /// Reflection/refraction bounces (default 6).
+    pub max_depth: u32,
+    /// Seed of every random decision (default 1).
+    pub seed: u32,
+    /// Anti-aliasing.
+    pub aa: AaDesc,
+    /// Soft shadows.
+    pub shadows: ShadowsDesc,
+    /// Depth of field.
+    pub dof: DofDesc,
+}
+
+impl Default for RenderDesc {
+    fn default() -> Self {
+        RenderDesc {
+            width: 320,
+            height: 240,
+            max_depth: 6,
+            seed: 1,
+            aa: AaDesc::default(),
+            shadows: ShadowsDesc::default(),
+            dof: DofDesc::default(),
+        }
+    }
+}
+
+/// `[render.aa]`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct AaDesc {
+    /// Sampling mode (default "uniform").
+    pub mode: String,
+    /// Stratified samples per pixel (default 16).
+    pub samples: u32,
+}
+
+impl Default for AaDesc {
+    fn default() -> Self {
+        AaDesc { mode: "uniform".into(), samples: 16 }
+    }
+}
+
+/// `[render.shadows]`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct ShadowsDesc {
+    /// Sampling mode (default "uniform").
+    pub mode: String,
+    /// Shadow rays per quad light per shading point (default 16).
+    pub samples: u32,
+}
+
+impl Default for ShadowsDesc {
+    fn default() -> Self {
+        ShadowsDesc { mode: "uniform".into(), samples: 16 }
+    }
+}
+
+/// `[render.dof]`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct DofDesc {
+    /// Lens samples per pixel sample when the aperture is open (default 1).
+    pub samples: u32,
+}
+
+impl Default for DofDesc {
+    fn default() -> Self {
+        DofDesc { samples: 1 }
+    }
+}
+
+/// `[camera]`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    /// Eye position.
+    pub position: [f32; 3],
+    /// Point the camera looks at.
+    pub look_at: [f32; 3],
+    /// Up hint (default [0, 1, 0]).
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees (default 40).
+    #[serde(default = "default_fov")]
+    pub fov_y: f32,
+    /// Thin-lens radius in scene units; 0 is a pinhole (default 0).
+    #[serde(default)]
+    pub aperture: f32,
+    /// Distance of the plane in focus (default |look_at - position|).
+    #[serde(default)]
+    pub focus_distance: Option<f32>,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+fn default_fov() -> f32 {
+    40.0
+}
+
+/// `[background]`.
+#[derive(Deserialize, Debug, Clone, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct BackgroundDesc {
+    /// Radiance of rays that hit nothing (default black).
+    pub color: [f32; 3],
+}
+
+/// `[materials.NAME]`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum MaterialDesc {
+    /// Lambertian with an optional normalised Phong highlight.
+    Diffuse {
+        /// Albedo.
+        color: [f32; 3],
+        /// Phong specular reflectance (default 0).
+        #[serde(default)]
+        specular: [f32; 3],
+        /// Phong exponent (default 0; only used when `specular` is non-zero).
+        #[serde(default)]
+        shininess: f32,
+    },
+    /// Perfect mirror.
+    Mirror {
+        /// Reflectance.
+        color: [f32; 3],
+    },
+    /// Smooth glass.
+    Dielectric {
+        /// Index of refraction relative to the outside medium.
+        ior: f32,
+        /// The paper's C, or "fresnel" (default "fresnel").
+        #[serde(default)]
+        reflect_ratio: Option<RatioDesc>,
+        /// Transmission tint (default white).
+        #[serde(default = "white")]
+        color: [f32; 3],
+    },
+}
+
+fn white() -> [f32; 3] {
+    [1.0, 1.0, 1.0]
+}
+
+/// `reflect_ratio`: a number in [0, 1] or the string "fresnel".
+#[derive(Deserialize, Debug, Clone)]
+#[serde(untagged)]
+pub enum RatioDesc {
+    /// A fixed ratio C.
+    Value(f32),
+    /// A name; only "fresnel" is valid.
+    Name(String),
+}
+
+/// `[[lights]]`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum LightDesc {
+    /// One-sided parallelogram emitter.
+    Quad {
+        /// One corner.
+        corner: [f32; 3],
+        /// First edge.
+        edge_u: [f32; 3],
+        /// Second edge; emits towards `edge_u × edge_v`.
+        edge_v: [f32; 3],
+        /// Emitted radiance.
+        radiance: [f32; 3],
+    },
+    /// Isotropic point light.
+    Point {
+        /// Position.
+        position: [f32; 3],
+        /// Radiant intensity, W/sr.
+        intensity: [f32; 3],
+    },
+}
+
+/// `[[objects]]`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum ObjectDesc {
+    /// A sphere.
+    Sphere {
+        /// Centre.
+        center: [f32; 3],
+        /// Radius.
+        radius: f32,
+        /// Material name.
+        material: String,
+    },
+    /// A two-sided parallelogram.
+    Quad {
+        /// One corner.
+        corner: [f32; 3],
+        /// First edge.
+        edge_u: [f32; 3],
+        /// Second edge.
+        edge_v: [f32; 3],
+        /// Material name.
+        material: String,
+    },
+    /// A triangle mesh from an OBJ file.
+    Mesh {
+        /// Path relative to the scene file.
+        file: String,
+        /// Material name.
+        material: String,
+        /// Uniform scale (default 1).
+        #[serde(default = "one")]
+        scale: f32,
+        /// Rotation about +y in degrees, applied after scaling (default 0).
+        #[serde(default)]
+        rotate_y: f32,
+        /// Translation, applied last (default 0).
+        #[serde(default)]
+        translate: [f32; 3],
+    },
+}
+
+fn one() -> f32 {
+    1.0
+}

@@ -1,0 +1,419 @@
+//! Loading a scene: TOML parsing, `--set` overrides, validation with file/line/field
+//! in every message, mesh loading, and the BVH build.
+
+use glam::Vec3;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use super::format::*;
+use super::{AaMode, Camera, Light, Material, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
+use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
+use crate::{Error, Result};
+
+/// Bytes each pixel costs while rendering and writing (film sum plus output buffers).
+pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4;
+
+/// Where a scene's text came from: mesh paths are relative to `dir`.
+#[derive(Clone, Debug)]
+pub struct SceneSource {
+    /// Name used in messages (the file path, or `<default scene>`).
+    pub name: String,
+    /// The TOML text.
+    pub text: String,
+    /// Folder that relative mesh paths start from.
+    pub dir: PathBuf,
+}
+
+impl SceneSource {
+    /// Reads a scene file.
+    pub fn from_file(path: &Path) -> Result<SceneSource> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::input(format!("scene `{}`: cannot read: {e}", path.display())))?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Ok(SceneSource { name: path.display().to_string(), text, dir })
+    }
+
+    /// The embedded default scene.
+    pub fn default_scene() -> SceneSource {
+        SceneSource { name: "<default scene>".into(), text: super::DEFAULT_SCENE.into(), dir: PathBuf::from(".") }
+    }
+
+    /// A scene given as text, with meshes relative to `dir`.
+    pub fn from_text(name: &str, text: &str, dir: &Path) -> SceneSource {
+        SceneSource { name: name.into(), text: text.into(), dir: dir.into() }
+    }
+}
+
+/// Error context: maps a dotted field path back to the file position or `--set` flag.
+struct Ctx<'a> {
+    src: &'a SceneSource,
+    doc: Option<toml_edit::ImDocument<&'a str>>,
+    sets: &'a [String],
+}
+
+impl Ctx<'_> {
+    fn fail(&self, path: &str, msg: impl std::fmt::Display) -> Error {
+        if let Some(set) = self.sets.iter().find(|s| {
+            let key = s.split('=').next().unwrap_or("");
+            key == path || path.starts_with(&format!("{key}.")) || key.starts_with(&format!("{path}."))
+        }) {
+            return Error::input(format!("{} (--set {set}): field `{path}`: {msg}", self.src.name));
+        }
+        Error::at(&self.src.name, self.locate(path), path, msg)
+    }
+
+    fn locate(&self, path: &str) -> Option<(usize, usize)> {
+        let doc = self.doc.as_ref()?;
+        let mut item = doc.as_item();
+        let mut span = None;
+        for seg in path.split('.') {
+            let next = match seg.parse::<usize>() {
+                Ok(i) => item.get(i),
+                Err(_) => item.get(seg),
+            };
+            match next {
+                Some(it) => {
+                    item = it;
+                    span = it.span().or(span);
+                }
+                None => break,
+            }
+        }
+        span.map(|s| line_col(&self.src.text, s.start))
+    }
+}
+
+/// 1-based line and column of byte `offset` in `text`.
+pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rfind('\n').map_or(before.len(), |nl| before.len() - nl - 1) + 1;
+    (line, col)
+}
+
+/// Parses, overrides, validates and builds a scene. `sets` are `KEY=VALUE` overrides
+/// with dotted keys (array elements by index: `objects.0.radius=2`).
+pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
+    let doc = toml_edit::ImDocument::parse(src.text.as_str()).ok();
+    let ctx = Ctx { src, doc, sets };
+    let toml_err = |e: toml::de::Error| {
+        let loc = e.span().map(|s| line_col(&src.text, s.start));
+        let line_text = loc.and_then(|(l, _)| src.text.lines().nth(l - 1)).unwrap_or("").trim();
+        let mut msg = e.message().trim().to_string();
+        if !line_text.is_empty() {
+            msg = format!("{msg} (in `{line_text}`)");
+        }
+        Error::at(&src.name, loc, "", msg)
+    };
+    let mut value: toml::Value = toml::from_str::<toml::Table>(&src.text).map(toml::Value::Table).map_err(toml_err)?;
+    check_finite(&value, "", &ctx)?;
+    // Deserialize the file alone first, so its errors carry line and column.
+    let mut file: SceneFile = toml::from_str(&src.text).map_err(toml_err)?;
+    if !sets.is_empty() {
+        for set in sets {
+            apply_set(&mut value, set)?;
+        }
+        check_finite(&value, "", &ctx)?;
+        file = SceneFile::deserialize(value)
+            .map_err(|e| Error::input(format!("{}: after --set overrides: {}", src.name, e.message().trim())))?;
+    }
+    build(&file, &ctx)
+}
+
+fn apply_set(root: &mut toml::Value, set: &str) -> Result<()> {
+    let bad = |msg: &str| Error::input(format!("--set `{set}`: {msg}"));
+    let (key, raw) = set.split_once('=').ok_or_else(|| bad("expected KEY=VALUE"))?;
+    let segs: Vec<&str> = key.trim().split('.').collect();
+    if segs.iter().any(|s| s.is_empty()) {
+        return Err(bad("empty key segment"));
+    }
+    // A TOML literal if it parses as one (numbers, arrays, booleans, quoted strings), else a bare string.
+    let value = toml::from_str::<toml::Table>(&format!("v = {raw}"))
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(raw.to_string()));
+    let mut cur = root;
+    for (i, seg) in segs.iter().enumerate() {
+        let last = i + 1 == segs.len();
+        cur = match cur {
+            toml::Value::Table(t) => {
+                if last {
+                    t.insert(seg.to_string(), value);
+                    return Ok(());
+                }
+                t.entry(seg.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()))
+            }
+            toml::Value::Array(a) => {
+                let idx: usize = seg.parse().map_err(|_| bad(&format!("`{seg}` is not an array index")))?;
+                let len = a.len();
+                let slot = a.get_mut(idx).ok_or_else(|| bad(&format!("index {idx} out of range (length {len})")))?;
+                if last {
+                    *slot = value;
+                    return Ok(());
+                }
+                slot
+            }
+            _ => return Err(bad(&format!("`{}` is not a table", segs[..i].join(".")))),
+        };
+    }
+    Ok(())
+}
+
+fn check_finite(v: &toml::Value, path: &str, ctx: &Ctx) -> Result<()> {
+    let join = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };
+    match v {
+        toml::Value::Float(f) if !f.is_finite() || f.abs() > f32::MAX as f64 => {
+            Err(ctx.fail(path, format!("{f} is not a finite number")))
+        }
+        toml::Value::Table(t) => t.iter().try_for_each(|(k, v)| check_finite(v, &join(k), ctx)),
+        toml::Value::Array(a) => a.iter().enumerate().try_for_each(|(i, v)| check_finite(v, &join(&i.to_string()), ctx)),
+        _ => Ok(()),
+    }
+}
+
+fn vec3(a: [f32; 3]) -> Vec3 {
+    Vec3::from_array(a)
+}
+
+fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
+    if c.iter().any(|&x| x < 0.0) {
+        return Err(ctx.fail(path, "components must be >= 0"));
+    }
+    Ok(vec3(c))
+}
+
+fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)> {
+    let (u, v) = (vec3(u), vec3(v));
+    if u.length_squared() == 0.0 {
+        return Err(ctx.fail(&format!("{path}.edge_u"), "zero-length edge"));
+    }
+    if v.length_squared() == 0.0 {
+        return Err(ctx.fail(&format!("{path}.edge_v"), "zero-length edge"));
+    }
+    let n = u.cross(v);
+    if !(n.length() > 1e-12 * u.length() * v.length()) || !n.is_finite() {
+        return Err(ctx.fail(&format!("{path}.edge_v"), "edges are parallel: the parallelogram has zero area"));
+    }
+    Ok((u, v))
+}
+
+/// Bytes of memory available to this process: MemAvailable, or a conservative guess.
+fn available_memory() -> u64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u64>().ok())
+        })
+        .map_or(8 << 30, |kb| kb * 1024)
+}
+
+fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
+    if r.width == 0 {
+        return Err(ctx.fail("render.width", "must be at least 1"));
+    }
+    if r.height == 0 {
+        return Err(ctx.fail("render.height", "must be at least 1"));
+    }
+    let need = r.width as u64 * r.height as u64 * BYTES_PER_PIXEL;
+    let have = available_memory();
+    if need > have / 2 {
+        return Err(ctx.fail(
+            "render.width",
+            format!(
+                "{}×{} pixels would need {:.1} GiB of memory; {:.1} GiB is available (at most half of it may be used)",
+                r.width,
+                r.height,
+                need as f64 / (1u64 << 30) as f64,
+                have as f64 / (1u64 << 30) as f64
+            ),
+        ));
+    }
+    let aa_mode = match r.aa.mode.as_str() {
+        "uniform" => AaMode::Uniform,
+        "adaptive" => return Err(ctx.fail("render.aa.mode", "\"adaptive\" is not available in this version; use \"uniform\"")),
+        other => return Err(ctx.fail("render.aa.mode", format!("unknown mode \"{other}\" (expected \"uniform\")"))),
+    };
+    let shadow_mode = match r.shadows.mode.as_str() {
+        "uniform" => ShadowMode::Uniform,
+        "adaptive" => {
+            return Err(ctx.fail("render.shadows.mode", "\"adaptive\" is not available in this version; use \"uniform\""))
+        }
+        other => return Err(ctx.fail("render.shadows.mode", format!("unknown mode \"{other}\" (expected \"uniform\")"))),
+    };
+    for (path, n) in [("render.aa.samples", r.aa.samples), ("render.shadows.samples", r.shadows.samples), ("render.dof.samples", r.dof.samples)] {
+        if n == 0 {
+            return Err(ctx.fail(path, "must be at least 1"));
+        }
+    }
+    let dof_samples = if cam.aperture > 0.0 { r.dof.samples } else { 1 };
+    if r.aa.samples as u64 * dof_samples as u64 > u32::MAX as u64 {
+        return Err(ctx.fail("render.dof.samples", "render.aa.samples × render.dof.samples exceeds 2^32"));
+    }
+    Ok(Settings {
+        width: r.width,
+        height: r.height,
+        max_depth: r.max_depth,
+        seed: r.seed,
+        aa_mode,
+        aa_samples: r.aa.samples,
+        shadow_mode,
+        shadow_samples: r.shadows.samples,
+        dof_samples,
+    })
+}
+
+fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> {
+    let position = vec3(c.position);
+    let to = vec3(c.look_at) - position;
+    if to.length_squared() == 0.0 {
+        return Err(ctx.fail("camera.look_at", "equals camera.position: no view direction"));
+    }
+    let forward = to.normalize();
+    let up_hint = vec3(c.up);
+    let right = forward.cross(up_hint);
+    if up_hint.length_squared() == 0.0 || right.length() < 1e-6 * up_hint.length() {
+        return Err(ctx.fail("camera.up", "is zero or parallel to the view direction (look_at - position)"));
+    }
+    let right = right.normalize();
+    let up = right.cross(forward);
+    if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
+        return Err(ctx.fail("camera.fov_y", format!("{} is not in (0, 180) degrees", c.fov_y)));
+    }
+    if c.aperture < 0.0 {
+        return Err(ctx.fail("camera.aperture", "must be >= 0"));
+    }
+    let focus_distance = c.focus_distance.unwrap_or(to.length());
+    if focus_distance <= 0.0 {
+        return Err(ctx.fail("camera.focus_distance", "must be > 0"));
+    }
+    Ok(Camera {
+        position,
+        forward,
+        right,
+        up,
+        tan_half_fov: (c.fov_y.to_radians() * 0.5).tan(),
+        aspect: width as f32 / height as f32,
+        aperture: c.aperture,
+        focus_distance,
+    })
+}
+
+fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
+    let p = |f: &str| format!("materials.{name}.{f}");
+    Ok(match *m {
+        MaterialDesc::Diffuse { color: c, specular, shininess } => {
+            if shininess < 0.0 {
+                return Err(ctx.fail(&p("shininess"), "must be >= 0"));
+            }
+            Material::Diffuse { color: color(ctx, &p("color"), c)?, specular: color(ctx, &p("specular"), specular)?, shininess }
+        }
+        MaterialDesc::Mirror { color: c } => Material::Mirror { color: color(ctx, &p("color"), c)? },
+        MaterialDesc::Dielectric { ior, ref reflect_ratio, color: c } => {
+            if ior <= 0.0 {
+                return Err(ctx.fail(&p("ior"), format!("{ior} must be > 0")));
+            }
+            let ratio = match reflect_ratio {
+                None => ReflectRatio::Fresnel,
+                Some(RatioDesc::Name(s)) if s == "fresnel" => ReflectRatio::Fresnel,
+                Some(RatioDesc::Name(s)) => {
+                    return Err(ctx.fail(&p("reflect_ratio"), format!("\"{s}\" is neither a number in [0, 1] nor \"fresnel\"")))
+                }
+                Some(RatioDesc::Value(c)) if (0.0..=1.0).contains(c) => ReflectRatio::Fixed(*c),
+                Some(RatioDesc::Value(c)) => return Err(ctx.fail(&p("reflect_ratio"), format!("{c} is not in [0, 1]"))),
+            };
+            Material::Dielectric { ior, ratio, tint: color(ctx, &p("color"), c)? }
+        }
+    })
+}
+
+fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
+    let settings = settings(&f.render, &f.camera, ctx)?;
+    let camera = camera(&f.camera, settings.width, settings.height, ctx)?;
+    let background = color(ctx, "background.color", f.background.color)?;
+    let mut names: BTreeMap<&str, u32> = BTreeMap::new();
+    let mut materials = Vec::new();
+    for (name, m) in &f.materials {
+        names.insert(name.as_str(), materials.len() as u32);
+        materials.push(material(name, m, ctx)?);
+    }
+    let mut prims = Vec::new();
+    let mut lights = Vec::new();
+    for (i, l) in f.lights.iter().enumerate() {
+        let path = format!("lights.{i}");
+        lights.push(match *l {
+            LightDesc::Quad { corner, edge_u, edge_v, radiance } => {
+                let (u, v) = edges(ctx, &path, edge_u, edge_v)?;
+                let n = u.cross(v);
+                let shape = Shape::Quad { corner: vec3(corner), u, v };
+                prims.push(Primitive { shape, material: 0, light: i as u32 });
+                Light::Quad {
+                    corner: vec3(corner),
+                    u,
+                    v,
+                    normal: n.normalize(),
+                    area: n.length(),
+                    radiance: color(ctx, &format!("{path}.radiance"), radiance)?,
+                }
+            }
+            LightDesc::Point { position, intensity } => Light::Point {
+                position: vec3(position),
+                intensity: color(ctx, &format!("{path}.intensity"), intensity)?,
+            },
+        });
+    }
+    let mut info = SceneInfo::default();
+    for (i, o) in f.objects.iter().enumerate() {
+        let path = format!("objects.{i}");
+        let lookup = |name: &str| {
+            names.get(name).copied().ok_or_else(|| {
+                let known: Vec<&str> = names.keys().copied().collect();
+                ctx.fail(&format!("{path}.material"), format!("unknown material \"{name}\" (defined: {})", known.join(", ")))
+            })
+        };
+        match o {
+            ObjectDesc::Sphere { center, radius, material } => {
+                if !(*radius > 0.0) {
+                    return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
+                }
+                let material = lookup(material)?;
+                prims.push(Primitive { shape: Shape::Sphere { center: vec3(*center), radius: *radius }, material, light: NO_LIGHT });
+            }
+            ObjectDesc::Quad { corner, edge_u, edge_v, material } => {
+                let (u, v) = edges(ctx, &path, *edge_u, *edge_v)?;
+                let material = lookup(material)?;
+                prims.push(Primitive { shape: Shape::Quad { corner: vec3(*corner), u, v }, material, light: NO_LIGHT });
+            }
+            ObjectDesc::Mesh { file, material, scale, rotate_y, translate } => {
+                let material = lookup(material)?;
+                if !(*scale > 0.0) {
+                    return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
+                }
+                let tris = super::mesh::load_obj(&ctx.src.dir.join(file)).map_err(|e| ctx.fail(&format!("{path}.file"), e))?;
+                let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
+                let t = vec3(*translate);
+                let xf = |p: Vec3| rot * (p * *scale) + t;
+                for tri in tris {
+                    let (v0, v1, v2) = (xf(tri[0]), xf(tri[1]), xf(tri[2]));
+                    let (e1, e2) = (v1 - v0, v2 - v0);
+                    if e1.cross(e2).length_squared() == 0.0 {
+                        info.degenerate_triangles += 1;
+                        continue;
+                    }
+                    info.triangles += 1;
+                    prims.push(Primitive { shape: Shape::Triangle { v0, e1, e2 }, material, light: NO_LIGHT });
+                }
+            }
+        }
+    }
+    // Only specular materials that some object uses give the scatter stage work.
+    let has_specular =
+        prims.iter().any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
+    info.primitives = prims.len();
+    let accel = Accel::build(prims);
+    info.bvh_seconds = accel.build_seconds;
+    Ok(Scene { settings, camera, background, materials, lights, accel, has_specular, info })
+}

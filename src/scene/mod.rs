@@ -1,0 +1,182 @@
+//! Scenes: the TOML format ([`format`]), loading and validation ([`load`]), OBJ
+//! meshes ([`mesh`]), and the validated, ready-to-render [`Scene`].
+
+pub mod format;
+pub mod load;
+pub mod mesh;
+
+use glam::{Vec2, Vec3};
+
+use crate::geometry::Accel;
+
+pub use load::{load, SceneSource};
+
+/// The default scene, compiled into the binary: what `wavetrace` renders with no SCENE.
+pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
+
+/// How anti-aliasing samples are placed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AaMode {
+    /// `samples` stratified samples in every pixel.
+    Uniform,
+}
+
+/// How shadow rays towards quad lights are placed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowMode {
+    /// `samples` stratified rays per quad light per shading point.
+    Uniform,
+}
+
+/// Sampling settings, validated.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Maximum reflection/refraction bounces.
+    pub max_depth: u32,
+    /// Seed of every random decision.
+    pub seed: u32,
+    /// Anti-aliasing mode.
+    pub aa_mode: AaMode,
+    /// Anti-aliasing samples per pixel.
+    pub aa_samples: u32,
+    /// Shadow sampling mode.
+    pub shadow_mode: ShadowMode,
+    /// Shadow rays per quad light per shading point.
+    pub shadow_samples: u32,
+    /// Lens samples per pixel sample; forced to 1 for a pinhole camera, so a closed
+    /// aperture costs no lens sampling.
+    pub dof_samples: u32,
+}
+
+/// A thin-lens camera with an orthonormal basis.
+#[derive(Clone, Debug)]
+pub struct Camera {
+    /// Centre of the lens.
+    pub position: Vec3,
+    /// Unit view direction.
+    pub forward: Vec3,
+    /// Unit vector to the image's right.
+    pub right: Vec3,
+    /// Unit vector to the image's top.
+    pub up: Vec3,
+    /// tan(fov_y / 2).
+    pub tan_half_fov: f32,
+    /// Width / height.
+    pub aspect: f32,
+    /// Lens radius; 0 is a pinhole.
+    pub aperture: f32,
+    /// Distance from the lens to the plane in focus, along `forward`.
+    pub focus_distance: f32,
+}
+
+impl Camera {
+    /// Unit direction of the pinhole ray through film position `film` (pixels, y down)
+    /// of a `width`×`height` image.
+    #[inline]
+    pub fn pinhole_dir(&self, film: Vec2, width: u32, height: u32) -> Vec3 {
+        let sx = (2.0 * film.x / width as f32 - 1.0) * self.tan_half_fov * self.aspect;
+        let sy = (1.0 - 2.0 * film.y / height as f32) * self.tan_half_fov;
+        (self.forward + sx * self.right + sy * self.up).normalize()
+    }
+}
+
+/// How a dielectric splits weight between reflection and refraction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ReflectRatio {
+    /// The paper's contribution ratio C: reflection C, refraction 1 - C.
+    Fixed(f32),
+    /// Exact unpolarised dielectric Fresnel reflectance.
+    Fresnel,
+}
+
+/// A material, validated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Material {
+    /// Lambert (color/π) plus normalised Phong `specular·(n+2)/(2π)·cos^n α`.
+    Diffuse {
+        /// Albedo.
+        color: Vec3,
+        /// Phong reflectance.
+        specular: Vec3,
+        /// Phong exponent.
+        shininess: f32,
+    },
+    /// Perfect mirror.
+    Mirror {
+        /// Reflectance.
+        color: Vec3,
+    },
+    /// Smooth dielectric.
+    Dielectric {
+        /// Index of refraction relative to the outside.
+        ior: f32,
+        /// Reflection/refraction split.
+        ratio: ReflectRatio,
+        /// Transmission tint.
+        tint: Vec3,
+    },
+}
+
+/// A light source, validated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// One-sided parallelogram emitter.
+    Quad {
+        /// One corner.
+        corner: Vec3,
+        /// First edge.
+        u: Vec3,
+        /// Second edge.
+        v: Vec3,
+        /// Unit normal of the emitting side (u × v).
+        normal: Vec3,
+        /// Area.
+        area: f32,
+        /// Emitted radiance.
+        radiance: Vec3,
+    },
+    /// Isotropic point light.
+    Point {
+        /// Position.
+        position: Vec3,
+        /// Intensity, W/sr.
+        intensity: Vec3,
+    },
+}
+
+/// Facts about the loaded scene, reported in the stats.
+#[derive(Clone, Debug, Default)]
+pub struct SceneInfo {
+    /// Primitives in the BVH (quad lights included).
+    pub primitives: usize,
+    /// Triangles from meshes.
+    pub triangles: usize,
+    /// Zero-area mesh triangles that were skipped.
+    pub degenerate_triangles: usize,
+    /// BVH build time in seconds.
+    pub bvh_seconds: f64,
+}
+
+/// A validated scene ready to render.
+pub struct Scene {
+    /// Sampling settings.
+    pub settings: Settings,
+    /// Camera.
+    pub camera: Camera,
+    /// Radiance of escaped rays.
+    pub background: Vec3,
+    /// Materials, indexed by `Primitive::material`.
+    pub materials: Vec<Material>,
+    /// Lights, indexed by `Primitive::light`.
+    pub lights: Vec<Light>,
+    /// Geometry with its BVH.
+    pub accel: Accel,
+    /// True when some material is a mirror or dielectric (so the scatter stage has work).
+    pub has_specular: bool,
+    /// Load facts for the stats.
+    pub info: SceneInfo,
+}

@@ -1,0 +1,161 @@
+//! Reflection and refraction: reads the specular list (indices of rays that hit a
+//! mirror or dielectric) and writes the next wave's rays.
+//!
+//! Dielectrics follow the paper (§3): inside an object the normal is flipped and eta
+//! inverted, both decided here from the geometric normal alone, so the errors of the
+//! paper's Figure 5 cannot occur. Reflection and refraction are both traced, weighted
+//! C and 1 - C (or by exact Fresnel); total internal reflection sends all the weight
+//! to reflection.
+
+use glam::Vec3;
+
+use crate::geometry::offset::offset_ray_origin;
+use crate::queue::{HitQueue, RayQueue};
+use crate::sampling::hash;
+use crate::scene::{Material, ReflectRatio, Scene};
+
+/// Mirror direction of `d` about the unit normal `n`.
+#[inline]
+pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
+    d - 2.0 * d.dot(n) * n
+}
+
+/// The side of a dielectric boundary a ray is on, and the quantities that depend on it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interface {
+    /// Unit normal facing the incoming ray (flipped when the ray is inside).
+    pub normal: Vec3,
+    /// n_incident / n_transmitted: 1/ior entering, ior leaving.
+    pub eta: f32,
+    /// True when the ray travels from outside to inside.
+    pub entering: bool,
+}
+
+/// Orients a dielectric boundary for a ray with direction `d` hitting a surface with
+/// outward geometric normal `ng` (unit) of relative index `ior`.
+#[inline]
+pub fn interface(d: Vec3, ng: Vec3, ior: f32) -> Interface {
+    let entering = d.dot(ng) < 0.0;
+    if entering {
+        Interface { normal: ng, eta: 1.0 / ior, entering }
+    } else {
+        Interface { normal: -ng, eta: ior, entering }
+    }
+}
+
+/// Snell refraction of unit `d` through a boundary with unit normal `n` facing `d`'s
+/// origin side and eta = n_i / n_t. `None` on total internal reflection.
+#[inline]
+pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = (-d.dot(n)).min(1.0);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some((eta * d + (eta * cos_i - cos_t) * n).normalize())
+}
+
+/// Unpolarised Fresnel reflectance of a smooth dielectric boundary for incidence cosine
+/// `cos_i` and eta = n_i / n_t; 1 under total internal reflection.
+#[inline]
+pub fn fresnel(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// Spawns the reflection and refraction rays of every listed hit.
+pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &[u32], next: &mut RayQueue) {
+    for &i in specular {
+        let i = i as usize;
+        let prim = &scene.accel.prims[hits.prim[i] as usize];
+        let (d, w) = (rays.dir(i), rays.weight(i));
+        let x = rays.origin(i) + hits.t[i] * d;
+        let ng = prim.shape.normal(x).normalize();
+        let (pixel, depth, key) = (rays.pixel[i], rays.depth[i] + 1, rays.key[i]);
+        match scene.materials[prim.material as usize] {
+            Material::Mirror { color } => {
+                let n = if d.dot(ng) < 0.0 { ng } else { -ng };
+                next.push(offset_ray_origin(x, n), reflect(d, n), pixel, w * color, depth, hash(&[key, 1]));
+            }
+            Material::Dielectric { ior, ratio, tint } => {
+                let side = interface(d, ng, ior);
+                let n = side.normal;
+                let refracted = refract(d, n, side.eta);
+                let c = match (refracted, ratio) {
+                    (None, _) => 1.0,
+                    (Some(_), ReflectRatio::Fixed(c)) => c,
+                    (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(n), side.eta),
+                };
+                if c > 0.0 {
+                    next.push(offset_ray_origin(x, n), reflect(d, n), pixel, w * c, depth, hash(&[key, 1]));
+                }
+                if let Some(t) = refracted {
+                    if c < 1.0 {
+                        next.push(offset_ray_origin(x, -n), t, pixel, w * tint * (1.0 - c), depth, hash(&[key, 2]));
+                    }
+                }
+            }
+            Material::Diffuse { .. } => debug_assert!(false, "diffuse hit in the specular list"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interface_flips_normal_and_eta_inside() {
+        let ng = Vec3::Y;
+        let outside = interface(Vec3::new(0.0, -1.0, 0.0), ng, 1.5);
+        assert!(outside.entering && outside.normal == Vec3::Y && (outside.eta - 1.0 / 1.5).abs() < 1e-7);
+        let inside = interface(Vec3::new(0.0, 1.0, 0.0), ng, 1.5);
+        assert!(!inside.entering && inside.normal == Vec3::NEG_Y && inside.eta == 1.5);
+    }
+
+    #[test]
+    fn snell_law_holds_and_tir_beyond_critical_angle() {
+        let n = Vec3::Y;
+        for deg in [0.0f32, 10.0, 30.0, 60.0, 85.0] {
+            let th = deg.to_radians();
+            let d = Vec3::new(th.sin(), -th.cos(), 0.0);
+            let t = refract(d, n, 1.0 / 1.5).unwrap();
+            assert!((th.sin() - 1.5 * t.x).abs() < 1e-6, "snell at {deg}");
+            assert!(t.y < 0.0);
+        }
+        // From glass (eta 1.5) the critical angle is asin(1/1.5) = 41.81°.
+        let crit = (1.0f32 / 1.5).asin();
+        let below = crit - 1e-3;
+        assert!(refract(Vec3::new(below.sin(), -below.cos(), 0.0), n, 1.5).is_some());
+        let beyond = crit + 1e-3;
+        assert!(refract(Vec3::new(beyond.sin(), -beyond.cos(), 0.0), n, 1.5).is_none());
+        assert_eq!(fresnel(beyond.cos(), 1.5), 1.0);
+    }
+
+    #[test]
+    fn fresnel_known_values() {
+        // Normal incidence on glass: ((1.5 - 1) / (1.5 + 1))^2 = 0.04.
+        assert!((fresnel(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
+        // Same from inside.
+        assert!((fresnel(1.0, 1.5) - 0.04).abs() < 1e-6);
+        // Matched media reflect nothing.
+        assert!(fresnel(0.3, 1.0).abs() < 1e-6);
+        // Grazing incidence reflects everything.
+        assert!(fresnel(0.0, 1.0 / 1.5) > 0.999);
+    }
+
+    #[test]
+    fn ior_one_leaves_direction_unchanged() {
+        let d = Vec3::new(0.3, -0.8, 0.1).normalize();
+        let t = refract(d, Vec3::Y, 1.0).unwrap();
+        assert!(t.abs_diff_eq(d, 1e-6), "{t} vs {d}");
+    }
+}
