@@ -129,7 +129,9 @@ mod tests {
         assert_eq!(to_display8(1.0), 255);
         assert_eq!(to_display8(7.0), 255);
         assert_eq!(to_display8(-1.0), 0);
-        // 0.214 linear is about 0.5 display (128).
-        assert_eq!(to_display8(0.214), 128);
+        // Linear 0.5 is sRGB 0.7354, 187.52 of 255.
+        assert_eq!(to_display8(0.5), 188);
+        // The linear segment: 0.002 * 12.92 * 255 = 6.59.
+        assert_eq!(to_display8(0.002), 7);
     }
 }

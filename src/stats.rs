@@ -24,7 +24,8 @@ pub enum Stage {
 
 impl Stage {
     /// All stages in pipeline order.
-    pub const ALL: [Stage; 6] = [Stage::Camera, Stage::Intersect, Stage::Shade, Stage::Shadow, Stage::Scatter, Stage::Film];
+    pub const ALL: [Stage; 6] =
+        [Stage::Camera, Stage::Intersect, Stage::Shade, Stage::Shadow, Stage::Scatter, Stage::Film];
 
     /// Name used in tables and JSON.
     pub fn name(self) -> &'static str {
@@ -154,7 +155,14 @@ pub struct ThreadReport {
 
 impl Report {
     /// Builds the report from merged and per-thread stats.
-    pub fn new(width: u32, height: u32, seconds: f64, total: &Stats, per_thread: &[Stats], scene: SceneReport) -> Report {
+    pub fn new(
+        width: u32,
+        height: u32,
+        seconds: f64,
+        total: &Stats,
+        per_thread: &[Stats],
+        scene: SceneReport,
+    ) -> Report {
         let total_rays = total.total_rays();
         Report {
             version: 1,
@@ -214,7 +222,11 @@ impl Report {
         );
         s += &format!(
             "scene: {} primitives ({} triangles, {} degenerate skipped), BVH {:.3} s, load {:.3} s",
-            self.scene.primitives, self.scene.triangles, self.scene.degenerate_triangles, self.scene.bvh_seconds, self.scene.load_seconds
+            self.scene.primitives,
+            self.scene.triangles,
+            self.scene.degenerate_triangles,
+            self.scene.bvh_seconds,
+            self.scene.load_seconds
         );
         s
     }

@@ -167,7 +167,9 @@ fn check_finite(v: &toml::Value, path: &str, ctx: &Ctx) -> Result<()> {
             Err(ctx.fail(path, format!("{f} is not a finite number")))
         }
         toml::Value::Table(t) => t.iter().try_for_each(|(k, v)| check_finite(v, &join(k), ctx)),
-        toml::Value::Array(a) => a.iter().enumerate().try_for_each(|(i, v)| check_finite(v, &join(&i.to_string()), ctx)),
+        toml::Value::Array(a) => {
+            a.iter().enumerate().try_for_each(|(i, v)| check_finite(v, &join(&i.to_string()), ctx))
+        }
         _ => Ok(()),
     }
 }
@@ -234,17 +236,27 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     }
     let aa_mode = match r.aa.mode.as_str() {
         "uniform" => AaMode::Uniform,
-        "adaptive" => return Err(ctx.fail("render.aa.mode", "\"adaptive\" is not available in this version; use \"uniform\"")),
+        "adaptive" => {
+            return Err(ctx.fail("render.aa.mode", "\"adaptive\" is not available in this version; use \"uniform\""))
+        }
         other => return Err(ctx.fail("render.aa.mode", format!("unknown mode \"{other}\" (expected \"uniform\")"))),
     };
     let shadow_mode = match r.shadows.mode.as_str() {
         "uniform" => ShadowMode::Uniform,
         "adaptive" => {
-            return Err(ctx.fail("render.shadows.mode", "\"adaptive\" is not available in this version; use \"uniform\""))
+            return Err(
+                ctx.fail("render.shadows.mode", "\"adaptive\" is not available in this version; use \"uniform\"")
+            )
         }
-        other => return Err(ctx.fail("render.shadows.mode", format!("unknown mode \"{other}\" (expected \"uniform\")"))),
+        other => {
+            return Err(ctx.fail("render.shadows.mode", format!("unknown mode \"{other}\" (expected \"uniform\")")))
+        }
     };
-    for (path, n) in [("render.aa.samples", r.aa.samples), ("render.shadows.samples", r.shadows.samples), ("render.dof.samples", r.dof.samples)] {
+    for (path, n) in [
+        ("render.aa.samples", r.aa.samples),
+        ("render.shadows.samples", r.shadows.samples),
+        ("render.dof.samples", r.dof.samples),
+    ] {
         if n == 0 {
             return Err(ctx.fail(path, "must be at least 1"));
         }
@@ -309,7 +321,11 @@ fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
             if shininess < 0.0 {
                 return Err(ctx.fail(&p("shininess"), "must be >= 0"));
             }
-            Material::Diffuse { color: color(ctx, &p("color"), c)?, specular: color(ctx, &p("specular"), specular)?, shininess }
+            Material::Diffuse {
+                color: color(ctx, &p("color"), c)?,
+                specular: color(ctx, &p("specular"), specular)?,
+                shininess,
+            }
         }
         MaterialDesc::Mirror { color: c } => Material::Mirror { color: color(ctx, &p("color"), c)? },
         MaterialDesc::Dielectric { ior, ref reflect_ratio, color: c } => {
@@ -320,7 +336,9 @@ fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
                 None => ReflectRatio::Fresnel,
                 Some(RatioDesc::Name(s)) if s == "fresnel" => ReflectRatio::Fresnel,
                 Some(RatioDesc::Name(s)) => {
-                    return Err(ctx.fail(&p("reflect_ratio"), format!("\"{s}\" is neither a number in [0, 1] nor \"fresnel\"")))
+                    return Err(
+                        ctx.fail(&p("reflect_ratio"), format!("\"{s}\" is neither a number in [0, 1] nor \"fresnel\""))
+                    )
                 }
                 Some(RatioDesc::Value(c)) if (0.0..=1.0).contains(c) => ReflectRatio::Fixed(*c),
                 Some(RatioDesc::Value(c)) => return Err(ctx.fail(&p("reflect_ratio"), format!("{c} is not in [0, 1]"))),
@@ -371,7 +389,10 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         let lookup = |name: &str| {
             names.get(name).copied().ok_or_else(|| {
                 let known: Vec<&str> = names.keys().copied().collect();
-                ctx.fail(&format!("{path}.material"), format!("unknown material \"{name}\" (defined: {})", known.join(", ")))
+                ctx.fail(
+                    &format!("{path}.material"),
+                    format!("unknown material \"{name}\" (defined: {})", known.join(", ")),
+                )
             })
         };
         match o {
@@ -380,7 +401,11 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
                     return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
                 }
                 let material = lookup(material)?;
-                prims.push(Primitive { shape: Shape::Sphere { center: vec3(*center), radius: *radius }, material, light: NO_LIGHT });
+                prims.push(Primitive {
+                    shape: Shape::Sphere { center: vec3(*center), radius: *radius },
+                    material,
+                    light: NO_LIGHT,
+                });
             }
             ObjectDesc::Quad { corner, edge_u, edge_v, material } => {
                 let (u, v) = edges(ctx, &path, *edge_u, *edge_v)?;
@@ -392,7 +417,8 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
                 if !(*scale > 0.0) {
                     return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
                 }
-                let tris = super::mesh::load_obj(&ctx.src.dir.join(file)).map_err(|e| ctx.fail(&format!("{path}.file"), e))?;
+                let tris =
+                    super::mesh::load_obj(&ctx.src.dir.join(file)).map_err(|e| ctx.fail(&format!("{path}.file"), e))?;
                 let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
                 let t = vec3(*translate);
                 let xf = |p: Vec3| rot * (p * *scale) + t;
@@ -410,8 +436,9 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         }
     }
     // Only specular materials that some object uses give the scatter stage work.
-    let has_specular =
-        prims.iter().any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
+    let has_specular = prims
+        .iter()
+        .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = prims.len();
     let accel = Accel::build(prims);
     info.bvh_seconds = accel.build_seconds;
