@@ -1,0 +1,332 @@
+//! The command line: success paths, and every bad-input case exits 2 with a message
+//! naming the file, line and field, leaving no output file behind.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_wavetrace");
+
+/// A small valid scene; each bad case replaces one piece of it.
+const GOOD: &str = r#"[render]
+width = 8
+height = 6
+[render.aa]
+samples = 2
+[render.shadows]
+samples = 2
+
+[camera]
+position = [0, 1, 5]
+look_at = [0, 1, 0]
+
+[materials.white]
+type = "diffuse"
+color = [0.8, 0.8, 0.8]
+[materials.glass]
+type = "dielectric"
+ior = 1.5
+
+[[lights]]
+type = "quad"
+corner = [-0.5, 1.99, -0.5]
+edge_u = [1, 0, 0]
+edge_v = [0, 0, 1]
+radiance = [10, 10, 10]
+
+[[objects]]
+type = "sphere"
+center = [0, 1, 0]
+radius = 1.0
+material = "glass"
+[[objects]]
+type = "quad"
+corner = [-2, 0, -2]
+edge_u = [4, 0, 0]
+edge_v = [0, 0, 4]
+material = "white"
+"#;
+
+struct Case {
+    dir: tempfile::TempDir,
+}
+
+impl Case {
+    fn new() -> Case {
+        Case { dir: tempfile::tempdir().expect("tempdir") }
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    fn write(&self, name: &str, text: &str) -> PathBuf {
+        let p = self.path(name);
+        std::fs::write(&p, text).expect("write");
+        p
+    }
+
+    fn run(&self, args: &[&str]) -> Output {
+        Command::new(BIN).args(args).current_dir(self.dir.path()).output().expect("run wavetrace")
+    }
+
+    /// Files in the case folder other than the inputs.
+    fn outputs(&self, inputs: &[&str]) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(self.dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| !inputs.contains(&n.as_str()))
+            .collect();
+        v.sort();
+        v
+    }
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Renders `scene` (after replacing `from` by `to`) and expects exit 2, a message with
+/// every one of `needles`, and no file written.
+fn bad_scene(from: &str, to: &str, needles: &[&str]) {
+    assert!(GOOD.contains(from), "fixture lacks {from:?}");
+    let case = Case::new();
+    case.write("scene.toml", &GOOD.replacen(from, to, 1));
+    let out = case.run(&["scene.toml", "-o", "out.png"]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "expected exit 2 for {to:?}; stderr: {err}");
+    for n in needles {
+        assert!(err.contains(n), "message for {to:?} lacks {n:?}: {err}");
+    }
+    assert!(case.outputs(&["scene.toml"]).is_empty(), "files left behind: {:?}", case.outputs(&["scene.toml"]));
+}
+
+#[test]
+fn good_scene_renders_and_writes_stats_json() {
+    let case = Case::new();
+    case.write("scene.toml", GOOD);
+    let out =
+        case.run(&["render", "scene.toml", "-o", "out.png", "--stats", "--stats-json", "s.json", "--threads", "2"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("Mrays/s") && stdout.contains("intersect"), "{stdout}");
+    let img = image_dims(&case.path("out.png"));
+    assert_eq!(img, (8, 6));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(case.path("s.json")).unwrap()).unwrap();
+    for key in ["width", "height", "seconds", "total_rays", "mrays_per_s", "rays", "stages"] {
+        assert!(json.get(key).is_some(), "stats JSON lacks {key}");
+    }
+    let rays = &json["rays"];
+    let sum = rays["camera"].as_u64().unwrap() + rays["shadow"].as_u64().unwrap() + rays["secondary"].as_u64().unwrap();
+    assert_eq!(sum, json["total_rays"].as_u64().unwrap(), "ray kinds must sum to the total");
+    assert_eq!(rays["camera"].as_u64().unwrap(), 8 * 6 * 2);
+    assert_eq!(json["stages"]["camera"]["rays_out"], rays["camera"]);
+    assert_eq!(json["stages"]["shadow"]["rays_in"], rays["shadow"]);
+    assert_eq!(json["stages"]["scatter"]["rays_out"], rays["secondary"]);
+    assert_eq!(case.outputs(&["scene.toml"]), vec!["out.png".to_string(), "s.json".to_string()]);
+}
+
+fn image_dims(p: &Path) -> (u32, u32) {
+    let img = image::open(p).expect("readable PNG");
+    (img.width(), img.height())
+}
+
+#[test]
+fn no_arguments_renders_the_default_scene_to_render_png() {
+    let case = Case::new();
+    let out = case.run(&[]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert_eq!(image_dims(&case.path("render.png")), (320, 240));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("Mrays/s"));
+    // Not a terminal: no progress bar, nothing on stderr.
+    assert!(out.stderr.is_empty(), "stderr: {}", stderr(&out));
+}
+
+#[test]
+fn exr_output_is_linear_float() {
+    let case = Case::new();
+    case.write("scene.toml", GOOD);
+    let out = case.run(&["scene.toml", "-o", "out.exr", "--quiet"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(out.stdout.is_empty(), "--quiet prints nothing");
+    let img = exr::prelude::read_first_rgba_layer_from_file(
+        case.path("out.exr"),
+        |res, _| vec![[0f32; 3]; res.width() * res.height()],
+        |px: &mut Vec<[f32; 3]>, pos, (r, g, b, _a): (f32, f32, f32, f32)| px[pos.y() * 8 + pos.x()] = [r, g, b],
+    )
+    .expect("readable EXR");
+    let px = &img.layer_data.channel_data.pixels;
+    assert_eq!(px.len(), 48);
+    assert!(px.iter().flatten().any(|&v| v > 0.0), "some light");
+}
+
+#[test]
+fn toml_syntax_error_names_line_and_column() {
+    bad_scene("radius = 1.0", "radius = = 1.0", &["scene.toml:30:10"]);
+}
+
+#[test]
+fn unknown_field() {
+    bad_scene("radius = 1.0", "radius = 1.0\nradus = 2.0", &["scene.toml:", "radus"]);
+}
+
+#[test]
+fn missing_field() {
+    bad_scene("radius = 1.0\n", "", &["scene.toml:", "radius"]);
+}
+
+#[test]
+fn missing_camera() {
+    bad_scene("[camera]\nposition = [0, 1, 5]\nlook_at = [0, 1, 0]\n", "", &["scene.toml", "camera"]);
+}
+
+#[test]
+fn unknown_material() {
+    bad_scene("material = \"glass\"", "material = \"gold\"", &["scene.toml:", "objects.0.material", "gold"]);
+}
+
+#[test]
+fn zero_and_negative_radius() {
+    bad_scene("radius = 1.0", "radius = 0.0", &["scene.toml:30:10", "objects.0.radius"]);
+    bad_scene("radius = 1.0", "radius = -2", &["scene.toml:30:10", "objects.0.radius"]);
+}
+
+#[test]
+fn ior_must_be_positive() {
+    bad_scene("ior = 1.5", "ior = 0", &["scene.toml:18:7", "materials.glass.ior"]);
+    bad_scene("ior = 1.5", "ior = -1.5", &["materials.glass.ior"]);
+}
+
+#[test]
+fn non_finite_numbers_anywhere() {
+    bad_scene("radius = 1.0", "radius = nan", &["scene.toml:30:10", "objects.0.radius", "finite"]);
+    bad_scene("position = [0, 1, 5]", "position = [0, inf, 5]", &["scene.toml:", "camera.position.1", "finite"]);
+    bad_scene("radiance = [10, 10, 10]", "radiance = [10, -inf, 10]", &["lights.0.radiance.1", "finite"]);
+    bad_scene("radius = 1.0", "radius = 1e300", &["objects.0.radius", "finite"]);
+}
+
+#[test]
+fn width_height_zero_or_absurd() {
+    bad_scene("width = 8", "width = 0", &["scene.toml:2:", "render.width"]);
+    bad_scene("height = 6", "height = 0", &["scene.toml:3:", "render.height"]);
+    bad_scene("width = 8\nheight = 6", "width = 4000000\nheight = 4000000", &["render.width", "GiB"]);
+    bad_scene("width = 8", "width = -8", &["scene.toml:2:"]);
+}
+
+#[test]
+fn zero_length_and_parallel_edges() {
+    bad_scene("edge_u = [4, 0, 0]", "edge_u = [0, 0, 0]", &["scene.toml:", "objects.1.edge_u", "zero-length"]);
+    bad_scene("edge_u = [1, 0, 0]", "edge_u = [0, 0, 0]", &["lights.0.edge_u", "zero-length"]);
+    bad_scene("edge_u = [4, 0, 0]", "edge_u = [0, 0, 3]", &["objects.1.edge_v", "parallel"]);
+}
+
+#[test]
+fn up_parallel_to_view_direction() {
+    bad_scene("look_at = [0, 1, 0]", "look_at = [0, 1, 0]\nup = [0, 0, -2]", &["camera.up", "parallel"]);
+    bad_scene("look_at = [0, 1, 0]", "look_at = [0, 1, 5]", &["camera.look_at"]);
+}
+
+#[test]
+fn unknown_mode_and_zero_samples() {
+    bad_scene("samples = 2\n[render.shadows]", "samples = 0\n[render.shadows]", &["render.aa.samples"]);
+    bad_scene("[render.aa]", "[render.aa]\nmode = \"fancy\"", &["render.aa.mode", "fancy"]);
+}
+
+#[test]
+fn missing_and_malformed_obj() {
+    let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"m.obj\"\nmaterial = \"white\"\n";
+    // Missing file.
+    bad_scene(
+        "[[objects]]\ntype = \"sphere\"",
+        &format!("{mesh}[[objects]]\ntype = \"sphere\""),
+        &["objects.0.file", "m.obj"],
+    );
+    // Malformed files.
+    for (obj, needle) in [
+        ("v 0 0 0\nv 1 0 0\nv x 1 0\nf 1 2 3\n", "vertex position"),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "vertex"),
+        ("v 0 0 0\nv 1 0 0\n", "no triangles"),
+        ("v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n", "non-finite"),
+    ] {
+        let case = Case::new();
+        case.write("m.obj", obj);
+        case.write("scene.toml", &format!("{GOOD}{mesh}"));
+        let out = case.run(&["scene.toml", "-o", "out.png"]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "{obj:?}: {err}");
+        assert!(err.contains("objects.2.file") && err.contains(needle), "{obj:?}: {err}");
+        assert_eq!(case.outputs(&["scene.toml", "m.obj"]), Vec::<String>::new());
+    }
+}
+
+#[test]
+fn mesh_loads_relative_to_the_scene_file() {
+    let case = Case::new();
+    std::fs::create_dir(case.path("sub")).unwrap();
+    std::fs::create_dir(case.path("sub/meshes")).unwrap();
+    std::fs::write(case.path("sub/meshes/t.obj"), "v -1 0 0\nv 1 0 0\nv 0 2 0\nv 0 2 0\nf 1 2 3\nf 2 3 4\n").unwrap();
+    let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"meshes/t.obj\"\nmaterial = \"white\"\n";
+    std::fs::write(case.path("sub/scene.toml"), format!("{GOOD}{mesh}")).unwrap();
+    let out = case.run(&["sub/scene.toml", "-o", "out.png", "--stats-json", "s.json"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(case.path("s.json")).unwrap()).unwrap();
+    assert_eq!(json["scene"]["triangles"], 1);
+    assert_eq!(json["scene"]["degenerate_triangles"], 1, "the zero-area triangle is skipped and counted");
+}
+
+#[test]
+fn bad_output_paths() {
+    let case = Case::new();
+    case.write("scene.toml", GOOD);
+    for (out, needle) in [("missing/out.png", "does not exist"), ("out.jpg", ".jpg"), ("out", "extension")] {
+        let o = case.run(&["scene.toml", "-o", out]);
+        assert_eq!(o.status.code(), Some(2), "{out}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{out}: {}", stderr(&o));
+    }
+    let o = case.run(&["scene.toml", "-o", "out.png", "--stats-json", "missing/s.json"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(case.outputs(&["scene.toml"]), Vec::<String>::new());
+}
+
+#[test]
+fn set_overrides_work_and_bad_ones_fail() {
+    let case = Case::new();
+    case.write("scene.toml", GOOD);
+    let o = case.run(&["scene.toml", "-o", "a.png", "--set", "render.width=5", "--set", "objects.0.radius=0.5"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(image_dims(&case.path("a.png")), (5, 6));
+    for (set, needle) in [
+        ("render.widht=5", "widht"),
+        ("render.width=abc", "invalid type"),
+        ("objects.0.radius=-1", "objects.0.radius"),
+        ("objects.9.radius=1", "out of range"),
+        ("render.width", "KEY=VALUE"),
+        ("camera.position=[0, nan, 1]", "finite"),
+    ] {
+        let o = case.run(&["scene.toml", "-o", "b.png", "--set", set]);
+        assert_eq!(o.status.code(), Some(2), "{set}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{set}: {}", stderr(&o));
+    }
+    assert!(!case.path("b.png").exists());
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let case = Case::new();
+    for args in [&["--bogus"][..], &["render", "--threads", "x"], &["--threads", "0"], &["missing.toml"]] {
+        let o = case.run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+    assert!(case.outputs(&[]).is_empty());
+}
+
+#[test]
+fn failed_write_keeps_the_earlier_file() {
+    let case = Case::new();
+    case.write("scene.toml", GOOD);
+    // A folder where the temporary file would be renamed to cannot be replaced.
+    std::fs::create_dir(case.path("out.png")).unwrap();
+    let o = case.run(&["scene.toml", "-o", "out.png"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(case.path("out.png").is_dir());
+    assert_eq!(case.outputs(&["scene.toml"]), vec!["out.png".to_string()]);
+}
