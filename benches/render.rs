@@ -1,1 +1,28 @@
-fn main() {}
+//! Full renders of the default and bunny scenes at reduced size, reported as rays per
+//! second (criterion `Throughput::Elements` = rays traced per render).
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use std::path::Path;
+use wavetrace::scene::{load, SceneSource};
+use wavetrace::{render, RenderOptions};
+
+fn bench_scene(c: &mut Criterion, name: &str, src: SceneSource) {
+    let sets: Vec<String> = ["render.width=160", "render.height=120"].map(String::from).to_vec();
+    let scene = load(&src, &sets).expect("scene loads");
+    let opts = RenderOptions { threads: Some(1), progress: None };
+    let rays = render(&scene, &opts).expect("render").stats.total_rays();
+    let mut g = c.benchmark_group("render");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(rays));
+    g.bench_function(format!("{name}/160x120/1-thread"), |b| b.iter(|| render(&scene, &opts).expect("render")));
+    g.finish();
+}
+
+fn renders(c: &mut Criterion) {
+    bench_scene(c, "default", SceneSource::default_scene());
+    let bunny = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bunny.toml");
+    bench_scene(c, "bunny", SceneSource::from_file(&bunny).expect("bunny scene"));
+}
+
+criterion_group!(benches, renders);
+criterion_main!(benches);

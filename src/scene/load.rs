@@ -194,7 +194,7 @@ fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)
         return Err(ctx.fail(&format!("{path}.edge_v"), "zero-length edge"));
     }
     let n = u.cross(v);
-    if !(n.length() > 1e-12 * u.length() * v.length()) || !n.is_finite() {
+    if n.length() <= 1e-12 * u.length() * v.length() || !n.is_finite() {
         return Err(ctx.fail(&format!("{path}.edge_v"), "edges are parallel: the parallelogram has zero area"));
     }
     Ok((u, v))
@@ -397,7 +397,8 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         };
         match o {
             ObjectDesc::Sphere { center, radius, material } => {
-                if !(*radius > 0.0) {
+                // Numbers are checked finite before this point, so `<=` catches every bad radius.
+                if *radius <= 0.0 {
                     return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
                 }
                 let material = lookup(material)?;
@@ -414,7 +415,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
             }
             ObjectDesc::Mesh { file, material, scale, rotate_y, translate } => {
                 let material = lookup(material)?;
-                if !(*scale > 0.0) {
+                if *scale <= 0.0 {
                     return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
                 }
                 let tris =

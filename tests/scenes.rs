@@ -1,0 +1,57 @@
+//! Every scene in scenes/ loads and renders (tiny), and each pays only for what it uses.
+
+mod support;
+
+use std::path::Path;
+use wavetrace::scene::{load, SceneSource};
+use wavetrace::{render, RenderOptions};
+
+fn tiny(name: &str) -> wavetrace::RenderOutput {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let src = SceneSource::from_file(&path).expect("readable");
+    let sets: Vec<String> = ["render.width=12", "render.height=9", "render.aa.samples=2", "render.shadows.samples=2"]
+        .map(String::from)
+        .to_vec();
+    let scene = load(&src, &sets).unwrap_or_else(|e| panic!("{name}: {e}"));
+    render(&scene, &RenderOptions { threads: Some(2), progress: None }).expect("render")
+}
+
+#[test]
+fn every_scene_renders_something() {
+    let mut names: Vec<String> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".toml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 5, "{names:?}");
+    for name in names {
+        let out = tiny(&name);
+        assert!(out.image.pixels.iter().all(|p| p.is_finite()), "{name}: non-finite pixel");
+        assert!(out.image.pixels.iter().any(|p| p.max_element() > 0.0), "{name}: black image");
+        assert_eq!(out.stats.total_rays(), out.stats.camera_rays + out.stats.shadow_rays + out.stats.secondary_rays);
+    }
+}
+
+#[test]
+fn scenes_pay_only_for_what_they_use() {
+    // No mirrors or dielectrics: nothing enters the scatter stage.
+    let pen = tiny("penumbra.toml");
+    assert_eq!(pen.stats.secondary_rays, 0);
+    assert_eq!(pen.stats.stage(wavetrace::stats::Stage::Scatter).rays_in, 0);
+    // Pinhole camera: exactly aa.samples camera rays per pixel.
+    assert_eq!(pen.stats.camera_rays, 12 * 9 * 2);
+    // The DOF scene opens the aperture: 16 lens samples per AA sample.
+    let dof = tiny("dof.toml");
+    assert_eq!(dof.stats.camera_rays, 12 * 9 * 2 * 16);
+    // The default scene has both a mirror and glass.
+    let def = tiny("default.toml");
+    assert!(def.stats.secondary_rays > 0);
+}
+
+#[test]
+fn embedded_default_is_the_file_in_scenes() {
+    let file = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/default.toml")).unwrap();
+    assert_eq!(file, wavetrace::DEFAULT_SCENE);
+    let _ = SceneSource::default_scene();
+}
