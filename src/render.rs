@@ -104,9 +104,14 @@ impl Worker {
         let t = self.lap(Stage::Shadow, self.shadow.len(), lit, t);
 
         self.next.clear();
-        scatter::scatter(scene, &self.rays, &self.hits, &self.specular, &mut self.next);
-        self.stats.secondary_rays += self.next.len() as u64;
-        let t = self.lap(Stage::Scatter, self.specular.len(), self.next.len(), t);
+        // A scene without used mirrors or dielectrics never enters the scatter stage.
+        let t = if scene.has_specular {
+            scatter::scatter(scene, &self.rays, &self.hits, &self.specular, &mut self.next);
+            self.stats.secondary_rays += self.next.len() as u64;
+            self.lap(Stage::Scatter, self.specular.len(), self.next.len(), t)
+        } else {
+            t
+        };
 
         film::accumulate(&self.film, tile, scene.settings.width, &mut self.sums);
         self.lap(Stage::Film, self.film.len(), self.film.len(), t);

@@ -14,6 +14,8 @@ pub mod dim {
     pub const LENS: u32 = 2;
     /// Position of a shadow sample on a quad light.
     pub const LIGHT: u32 = 3;
+    /// The key that names a camera path (and, hashed again, its branches).
+    pub const PATH: u32 = 4;
 }
 
 /// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").

@@ -110,13 +110,12 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
     check_finite(&value, "", &ctx)?;
     // Deserialize the file alone first, so its errors carry line and column.
     let mut file: SceneFile = toml::from_str(&src.text).map_err(toml_err)?;
-    if !sets.is_empty() {
-        for set in sets {
-            apply_set(&mut value, set)?;
-        }
+    // Apply overrides one at a time so an error names the --set that caused it.
+    for set in sets {
+        apply_set(&mut value, set)?;
         check_finite(&value, "", &ctx)?;
-        file = SceneFile::deserialize(value)
-            .map_err(|e| Error::input(format!("{}: after --set overrides: {}", src.name, e.message().trim())))?;
+        file = SceneFile::deserialize(value.clone())
+            .map_err(|e| Error::input(format!("{} (--set {set}): {}", src.name, e.message().trim())))?;
     }
     build(&file, &ctx)
 }
@@ -220,11 +219,15 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     if r.height == 0 {
         return Err(ctx.fail("render.height", "must be at least 1"));
     }
-    let need = r.width as u64 * r.height as u64 * BYTES_PER_PIXEL;
+    let pixels = r.width as u64 * r.height as u64;
+    let need = pixels * BYTES_PER_PIXEL;
     let have = available_memory();
+    // Blame the dimension a --set changed, if one did.
+    let dim_path =
+        if ctx.sets.iter().any(|s| s.starts_with("render.height=")) { "render.height" } else { "render.width" };
     if need > have / 2 {
         return Err(ctx.fail(
-            "render.width",
+            dim_path,
             format!(
                 "{}×{} pixels would need {:.1} GiB of memory; {:.1} GiB is available (at most half of it may be used)",
                 r.width,
@@ -233,6 +236,12 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
                 have as f64 / (1u64 << 30) as f64
             ),
         ));
+    }
+    // Pixel indices are u32 in the queues.
+    if pixels > u32::MAX as u64 {
+        return Err(
+            ctx.fail(dim_path, format!("{}×{} pixels: more than 2^32 pixels are not supported", r.width, r.height))
+        );
     }
     let aa_mode = match r.aa.mode.as_str() {
         "uniform" => AaMode::Uniform,

@@ -25,7 +25,7 @@ pub fn generate(scene: &Scene, tile: &Tile, samples: Range<u32>, rays: &mut RayQ
                 let (aa, lens) = (j / dof, j % dof);
                 let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, pixel_pattern);
                 let d = cam.pinhole_dir(film, s.width, s.height);
-                let key = hash(&[s.seed, pixel, j]);
+                let key = hash(&[s.seed, pixel, j, dim::PATH]);
                 if cam.aperture > 0.0 {
                     // Thin lens: every ray through the same film point meets on the focus plane.
                     let focus = cam.position + d * (cam.focus_distance / d.dot(cam.forward));

@@ -77,6 +77,9 @@ pub fn shade(
         let wo = -d;
         for (li, light) in scene.lights.iter().enumerate() {
             match *light {
+                // A dark light adds nothing: it costs no shadow rays either.
+                Light::Point { intensity, .. } | Light::Quad { radiance: intensity, .. } if intensity == Vec3::ZERO => {
+                }
                 Light::Point { position, intensity } => {
                     let to = position - o;
                     let dist2 = to.length_squared();
