@@ -105,8 +105,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
 
     let info = &scene.info;
     let report = Report::new(
-        out.image.width,
-        out.image.height,
+        &scene.settings,
         out.seconds,
         &out.stats,
         &out.per_thread,

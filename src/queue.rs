@@ -21,8 +21,9 @@ pub struct RayQueue {
     pub dy: Vec<f32>,
     /// Direction z.
     pub dz: Vec<f32>,
-    /// Global pixel index (y * width + x) the ray's radiance goes to.
-    pub pixel: Vec<u32>,
+    /// Accumulation slot the ray's radiance goes to (a pixel, a pixel corner or a
+    /// refinement estimate, depending on the pass that started the path).
+    pub slot: Vec<u32>,
     /// Path throughput red: the weight of this ray's radiance in the pixel estimate.
     pub wr: Vec<f32>,
     /// Path throughput green.
@@ -39,14 +40,14 @@ impl RayQueue {
     /// Appends a ray.
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    pub fn push(&mut self, o: Vec3, d: Vec3, pixel: u32, w: Vec3, depth: u32, key: u32) {
+    pub fn push(&mut self, o: Vec3, d: Vec3, slot: u32, w: Vec3, depth: u32, key: u32) {
         self.ox.push(o.x);
         self.oy.push(o.y);
         self.oz.push(o.z);
         self.dx.push(d.x);
         self.dy.push(d.y);
         self.dz.push(d.z);
-        self.pixel.push(pixel);
+        self.slot.push(slot);
         self.wr.push(w.x);
         self.wg.push(w.y);
         self.wb.push(w.z);
@@ -74,7 +75,7 @@ impl RayQueue {
         self.dx.clear();
         self.dy.clear();
         self.dz.clear();
-        self.pixel.clear();
+        self.slot.clear();
         self.wr.clear();
         self.wg.clear();
         self.wb.clear();
@@ -164,8 +165,8 @@ pub struct ShadowQueue {
     pub dz: Vec<f32>,
     /// Segment length: occluders beyond it do not count.
     pub tmax: Vec<f32>,
-    /// Global pixel index the contribution goes to.
-    pub pixel: Vec<u32>,
+    /// Accumulation slot the contribution goes to.
+    pub slot: Vec<u32>,
     /// Unoccluded contribution red (already weighted by path throughput and sample count).
     pub lr: Vec<f32>,
     /// Contribution green.
@@ -177,7 +178,7 @@ pub struct ShadowQueue {
 impl ShadowQueue {
     /// Appends a shadow ray.
     #[inline]
-    pub fn push(&mut self, o: Vec3, d: Vec3, tmax: f32, pixel: u32, l: Vec3) {
+    pub fn push(&mut self, o: Vec3, d: Vec3, tmax: f32, slot: u32, l: Vec3) {
         self.ox.push(o.x);
         self.oy.push(o.y);
         self.oz.push(o.z);
@@ -185,7 +186,7 @@ impl ShadowQueue {
         self.dy.push(d.y);
         self.dz.push(d.z);
         self.tmax.push(tmax);
-        self.pixel.push(pixel);
+        self.slot.push(slot);
         self.lr.push(l.x);
         self.lg.push(l.y);
         self.lb.push(l.z);
@@ -212,7 +213,7 @@ impl ShadowQueue {
         self.dy.clear();
         self.dz.clear();
         self.tmax.clear();
-        self.pixel.clear();
+        self.slot.clear();
         self.lr.clear();
         self.lg.clear();
         self.lb.clear();
@@ -241,8 +242,8 @@ impl ShadowQueue {
 /// mirrors, and unoccluded shadow contributions.
 #[derive(Default, Debug, Clone)]
 pub struct FilmQueue {
-    /// Global pixel index.
-    pub pixel: Vec<u32>,
+    /// Accumulation slot.
+    pub slot: Vec<u32>,
     /// Radiance red.
     pub r: Vec<f32>,
     /// Radiance green.
@@ -254,8 +255,8 @@ pub struct FilmQueue {
 impl FilmQueue {
     /// Appends a contribution.
     #[inline]
-    pub fn push(&mut self, pixel: u32, l: Vec3) {
-        self.pixel.push(pixel);
+    pub fn push(&mut self, slot: u32, l: Vec3) {
+        self.slot.push(slot);
         self.r.push(l.x);
         self.g.push(l.y);
         self.b.push(l.z);
@@ -264,20 +265,76 @@ impl FilmQueue {
     /// Number of contributions.
     #[inline]
     pub fn len(&self) -> usize {
-        self.pixel.len()
+        self.slot.len()
     }
 
     /// True when empty.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.pixel.is_empty()
+        self.slot.is_empty()
     }
 
     /// Removes all entries, keeping the capacity.
     pub fn clear(&mut self) {
-        self.pixel.clear();
+        self.slot.clear();
         self.r.clear();
         self.g.clear();
         self.b.clear();
+    }
+}
+
+/// Shading points waiting for the adaptive shadow test of one quad light (the shadow
+/// corner queue): each names a ray of the current wave (whose hit is the point) and a
+/// light, with the light's contribution if nothing blocked it.
+#[derive(Default, Debug, Clone)]
+pub struct ShadowPointQueue {
+    /// Index of the ray (and hit) in the current wave.
+    pub ray: Vec<u32>,
+    /// Index of the quad light.
+    pub light: Vec<u32>,
+    /// Unoccluded contribution red.
+    pub ur: Vec<f32>,
+    /// Unoccluded contribution green.
+    pub ug: Vec<f32>,
+    /// Unoccluded contribution blue.
+    pub ub: Vec<f32>,
+}
+
+impl ShadowPointQueue {
+    /// Appends a point.
+    #[inline]
+    pub fn push(&mut self, ray: u32, light: u32, unoccluded: Vec3) {
+        self.ray.push(ray);
+        self.light.push(light);
+        self.ur.push(unoccluded.x);
+        self.ug.push(unoccluded.y);
+        self.ub.push(unoccluded.z);
+    }
+
+    /// Number of points.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.ray.len()
+    }
+
+    /// True when empty.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.ray.is_empty()
+    }
+
+    /// Removes all points, keeping the capacity.
+    pub fn clear(&mut self) {
+        self.ray.clear();
+        self.light.clear();
+        self.ur.clear();
+        self.ug.clear();
+        self.ub.clear();
+    }
+
+    /// Unoccluded contribution of point `i`.
+    #[inline]
+    pub fn unoccluded(&self, i: usize) -> Vec3 {
+        Vec3::new(self.ur[i], self.ug[i], self.ub[i])
     }
 }

@@ -1,22 +1,28 @@
-//! The driver: splits the image into tiles, and for each tile runs the stages wave
-//! by wave until no ray is left. Workers own their queues and reuse them.
+//! The driver: splits the image into tiles, and for each tile runs the stages wave by
+//! wave until no ray is left. Workers own their queues and reuse them.
+//!
+//! Uniform AA is one pass per tile. Adaptive AA (paper §2.1) is a corner-grid pass over
+//! the whole image (when corners are shared), then per tile a centre pass, the corner
+//! decision, and one pass of the refinement queue per level.
 
 use glam::Vec3;
+use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
-use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue};
-use crate::scene::Scene;
-use crate::stages::{camera, film, intersect, scatter, shade, shadow, Tile};
+use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
+use crate::scene::{AaMode, Scene, ShadowMode};
+use crate::stages::refine::{self, RefineState};
+use crate::stages::{camera, film, intersect, penumbra, scatter, shade, shadow, shadow_corner, Tile};
 use crate::stats::{Stage, Stats};
 use crate::{Error, Result};
 
 /// Tile edge in pixels: small enough to balance load, large enough for coherent waves.
 pub const TILE: u32 = 16;
-/// Camera rays started per wave; a tile's samples are split into batches of this size,
-/// which bounds queue memory whatever the sample counts.
-pub const WAVE_RAYS: usize = 4096;
+/// Camera rays started per wave; a pass is split into batches of this size, which
+/// bounds queue memory whatever the sample counts.
+pub const WAVE_RAYS: u64 = 4096;
 
 /// How to render.
 #[derive(Clone, Debug, Default)]
@@ -38,11 +44,27 @@ pub struct Image {
     pub pixels: Vec<Vec3>,
 }
 
+/// Where the rays went, per pixel: the data behind the heatmaps.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Heat {
+    /// Rays of every kind whose radiance went to the pixel (a shared corner's rays are
+    /// split evenly between the pixels that share it).
+    pub rays: Vec<f32>,
+    /// Last adaptive refinement level cast in the pixel; 0 when never refined.
+    pub level: Vec<u8>,
+    /// Shading points × quad lights that entered the shadow-corner queue.
+    pub points: Vec<f32>,
+    /// Of those, the ones that entered the penumbra queue.
+    pub penumbra: Vec<f32>,
+}
+
 /// What a render produces.
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
     /// The image.
     pub image: Image,
+    /// Where the rays went.
+    pub heat: Heat,
     /// Counters merged over threads.
     pub stats: Stats,
     /// Counters per thread.
@@ -51,69 +73,160 @@ pub struct RenderOutput {
     pub seconds: f64,
 }
 
-/// One worker's reusable queues.
+/// The kind of camera ray a pass starts, for the stats.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Camera,
+    Corner,
+    Refine,
+}
+
+/// Per-slot counters of one pass (the heatmap data before slots are mapped to pixels).
+#[derive(Default)]
+struct SlotHeat {
+    rays: Vec<f32>,
+    points: Vec<f32>,
+    penumbra: Vec<f32>,
+}
+
+impl SlotHeat {
+    fn reset(&mut self, n: usize) {
+        for v in [&mut self.rays, &mut self.points, &mut self.penumbra] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+    }
+}
+
+/// One worker's reusable queues and buffers.
 #[derive(Default)]
 struct Worker {
     rays: RayQueue,
     next: RayQueue,
     hits: HitQueue,
     shadow: ShadowQueue,
+    points: ShadowPointQueue,
+    penumbra: Vec<u32>,
+    penumbra_rays: ShadowQueue,
     specular: Vec<u32>,
     film: FilmQueue,
+    /// Accumulated radiance per slot of the current pass.
     sums: Vec<Vec3>,
+    slot_heat: SlotHeat,
+    /// Tile results: final radiance and heat per tile pixel.
+    out: Vec<Vec3>,
+    heat: Heat,
+    /// Adaptive AA buffers.
+    centre: Vec<Vec3>,
+    corner_mean: Vec<Vec3>,
+    refine: RefineState,
+    queue: Vec<u32>,
     stats: Stats,
 }
 
 impl Worker {
-    /// Renders one tile into `self.sums`.
-    fn render_tile(&mut self, scene: &Scene, tile: &Tile) {
-        let s = &scene.settings;
+    /// Starts a pass with `slots` accumulation slots.
+    fn begin_pass(&mut self, slots: usize) {
         self.sums.clear();
-        self.sums.resize(tile.pixels(), Vec3::ZERO);
-        let spp = s.aa_samples * s.dof_samples;
-        let batch = (WAVE_RAYS / tile.pixels()).max(1) as u32;
-        let mut j0 = 0;
-        while j0 < spp {
-            let j1 = j0.saturating_add(batch).min(spp);
-            let t = Instant::now();
-            self.rays.clear();
-            camera::generate(scene, tile, j0..j1, &mut self.rays);
-            self.stats.record(Stage::Camera, 0, self.rays.len(), t.elapsed().as_secs_f64());
-            self.stats.camera_rays += self.rays.len() as u64;
-            while !self.rays.is_empty() {
-                self.wave(scene, tile);
-            }
-            j0 = j1;
-        }
-        self.stats.tiles += 1;
+        self.sums.resize(slots, Vec3::ZERO);
+        self.slot_heat.reset(slots);
     }
 
-    /// One wave: intersect the current rays, shade, trace shadows, scatter, accumulate.
-    fn wave(&mut self, scene: &Scene, tile: &Tile) {
+    /// Runs `total` camera samples of a pass through the pipeline in waves of at most
+    /// WAVE_RAYS camera rays; `generate` writes the rays of a range of sample indices.
+    fn run(&mut self, scene: &Scene, total: u64, kind: Kind, generate: impl Fn(Range<u64>, &mut RayQueue)) {
+        let mut k0 = 0;
+        while k0 < total {
+            let k1 = (k0 + WAVE_RAYS).min(total);
+            let t = Instant::now();
+            self.rays.clear();
+            generate(k0..k1, &mut self.rays);
+            let n = self.rays.len() as u64;
+            self.stats.record(Stage::Camera, 0, n as usize, t.elapsed().as_secs_f64());
+            match kind {
+                Kind::Camera => self.stats.camera_rays += n,
+                Kind::Corner => self.stats.aa_corner_rays += n,
+                Kind::Refine => self.stats.aa_refine_rays += n,
+            }
+            while !self.rays.is_empty() {
+                self.wave(scene);
+            }
+            k0 = k1;
+        }
+    }
+
+    /// One wave: intersect the current rays, shade, resolve shadows, scatter, accumulate.
+    fn wave(&mut self, scene: &Scene) {
         let n = self.rays.len();
+        for &s in &self.rays.slot {
+            self.slot_heat.rays[s as usize] += 1.0;
+        }
         let t = Instant::now();
         intersect::intersect(scene, &self.rays, &mut self.hits);
         let t = self.lap(Stage::Intersect, n, n, t);
 
-        shade::shade(scene, &self.rays, &self.hits, &mut self.shadow, &mut self.specular, &mut self.film);
-        let shaded_out = self.shadow.len() + self.specular.len() + self.film.len();
+        let uniform_equivalent = shade::shade(
+            scene,
+            &self.rays,
+            &self.hits,
+            &mut self.shadow,
+            &mut self.points,
+            &mut self.specular,
+            &mut self.film,
+        );
+        let shaded_out = self.shadow.len() + self.points.len() + self.specular.len() + self.film.len();
         let t = self.lap(Stage::Shade, n, shaded_out, t);
 
         let lit = shadow::occlusion(scene, &self.shadow, &mut self.film);
         self.stats.shadow_rays += self.shadow.len() as u64;
-        let t = self.lap(Stage::Shadow, self.shadow.len(), lit, t);
+        for &s in &self.shadow.slot {
+            self.slot_heat.rays[s as usize] += 1.0;
+        }
+        let mut t = self.lap(Stage::Shadow, self.shadow.len(), lit, t);
+
+        if let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode {
+            let cast = shadow_corner::shadow_corners(
+                scene,
+                probe,
+                &self.rays,
+                &self.hits,
+                &self.points,
+                &mut self.film,
+                &mut self.penumbra,
+            );
+            self.stats.shadow_corner_rays += cast as u64;
+            self.stats.shadow_points += self.points.len() as u64;
+            self.stats.penumbra_points += self.penumbra.len() as u64;
+            self.stats.shadow_uniform_rays += uniform_equivalent;
+            let per_point = probe.rays() as f32;
+            for &r in &self.points.ray {
+                let s = self.rays.slot[r as usize] as usize;
+                self.slot_heat.points[s] += 1.0;
+                self.slot_heat.rays[s] += per_point;
+            }
+            for &k in &self.penumbra {
+                self.slot_heat.penumbra[self.rays.slot[self.points.ray[k as usize] as usize] as usize] += 1.0;
+            }
+            t = self.lap(Stage::ShadowCorner, self.points.len(), self.penumbra.len(), t);
+
+            penumbra::penumbra(scene, &self.rays, &self.hits, &self.points, &self.penumbra, &mut self.penumbra_rays);
+            let lit = shadow::occlusion(scene, &self.penumbra_rays, &mut self.film);
+            self.stats.penumbra_rays += self.penumbra_rays.len() as u64;
+            for &s in &self.penumbra_rays.slot {
+                self.slot_heat.rays[s as usize] += 1.0;
+            }
+            t = self.lap(Stage::Penumbra, self.penumbra.len(), lit, t);
+        }
 
         self.next.clear();
         // A scene without used mirrors or dielectrics never enters the scatter stage.
-        let t = if scene.has_specular {
+        if scene.has_specular {
             scatter::scatter(scene, &self.rays, &self.hits, &self.specular, &mut self.next);
             self.stats.secondary_rays += self.next.len() as u64;
-            self.lap(Stage::Scatter, self.specular.len(), self.next.len(), t)
-        } else {
-            t
-        };
+            t = self.lap(Stage::Scatter, self.specular.len(), self.next.len(), t);
+        }
 
-        film::accumulate(&self.film, tile, scene.settings.width, &mut self.sums);
+        film::accumulate(&self.film, &mut self.sums);
         self.lap(Stage::Film, self.film.len(), self.film.len(), t);
         std::mem::swap(&mut self.rays, &mut self.next);
     }
@@ -123,9 +236,99 @@ impl Worker {
         self.stats.record(stage, rays_in, rays_out, (now - since).as_secs_f64());
         now
     }
+
+    /// Starts the tile's results: radiance and heat per tile pixel.
+    fn begin_tile(&mut self, n: usize) {
+        self.out.clear();
+        self.out.resize(n, Vec3::ZERO);
+        let h = &mut self.heat;
+        for v in [&mut h.rays, &mut h.points, &mut h.penumbra] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        h.level.clear();
+        h.level.resize(n, 0);
+    }
+
+    /// Adds the pass's slot heat to the tile pixels; slot s belongs to pixel s / group.
+    fn collect_heat(&mut self, group: usize) {
+        for s in 0..self.slot_heat.rays.len() {
+            let p = s / group;
+            self.heat.rays[p] += self.slot_heat.rays[s];
+            self.heat.points[p] += self.slot_heat.points[s];
+            self.heat.penumbra[p] += self.slot_heat.penumbra[s];
+        }
+    }
+
+    /// Uniform AA: every pixel gets aa_samples × dof_samples camera rays.
+    fn uniform_tile(&mut self, scene: &Scene, tile: &Tile) {
+        let spp = scene.settings.aa_samples as u64 * scene.settings.dof_samples as u64;
+        self.begin_pass(tile.pixels());
+        self.run(scene, tile.pixels() as u64 * spp, Kind::Camera, |ks, rays| camera::generate(scene, tile, ks, rays));
+        self.out.copy_from_slice(&self.sums);
+        self.collect_heat(1);
+    }
+
+    /// Adaptive AA on one tile; `grid` is the shared corner grid, if corners are shared.
+    fn adaptive_tile(&mut self, scene: &Scene, tile: &Tile, grid: Option<&[Vec3]>, eps: f32, max_level: u32) {
+        let s = &scene.settings;
+        let (np, dof) = (tile.pixels(), s.dof_samples as u64);
+        let tw = (tile.x1 - tile.x0) as usize;
+
+        self.begin_pass(np);
+        self.run(scene, np as u64 * dof, Kind::Camera, |ks, rays| camera::generate_centres(scene, tile, ks, rays));
+        self.centre.clone_from(&self.sums);
+        self.collect_heat(1);
+
+        self.corner_mean.clear();
+        match grid {
+            Some(grid) => {
+                let gw = s.width as usize + 1;
+                for p in 0..np {
+                    let (x, y) = (tile.x0 as usize + p % tw, tile.y0 as usize + p / tw);
+                    let c = |dx: usize, dy: usize| grid[(y + dy) * gw + x + dx];
+                    self.corner_mean.push((c(0, 0) + c(1, 0) + c(0, 1) + c(1, 1)) * 0.25);
+                }
+            }
+            None => {
+                self.begin_pass(4 * np);
+                self.run(scene, 4 * np as u64 * dof, Kind::Corner, |ks, rays| {
+                    camera::generate_pixel_corners(scene, tile, ks, rays)
+                });
+                self.corner_mean.extend(self.sums.chunks_exact(4).map(|c| (c[0] + c[1] + c[2] + c[3]) * 0.25));
+                self.collect_heat(4);
+            }
+        }
+
+        let t = Instant::now();
+        refine::start(eps, &self.centre, &self.corner_mean, &mut self.refine, &mut self.queue, &mut self.out);
+        self.stats.record(Stage::Refine, np, self.queue.len(), t.elapsed().as_secs_f64());
+        self.stats.aa_pixels += np as u64;
+        self.stats.aa_refined_pixels += self.queue.len() as u64;
+        self.stats.aa_uniform_rays += np as u64 * (1u64 << max_level) * dof;
+
+        for level in 2..=max_level {
+            if self.queue.is_empty() {
+                break;
+            }
+            let queue = std::mem::take(&mut self.queue);
+            self.begin_pass(np);
+            let total = queue.len() as u64 * (1u64 << level) * dof;
+            self.run(scene, total, Kind::Refine, |ks, rays| {
+                camera::generate_refine(scene, tile, &queue, level, ks, rays)
+            });
+            self.queue = queue;
+            self.collect_heat(1);
+            let t = Instant::now();
+            let before = self.queue.len();
+            refine::step(eps, level, &self.sums, &mut self.refine, &mut self.queue, &mut self.out);
+            self.stats.record(Stage::Refine, before, self.queue.len(), t.elapsed().as_secs_f64());
+        }
+        self.heat.level.copy_from_slice(&self.refine.level);
+    }
 }
 
-/// The tiles of a `width`×`height` image, row-major. The tiling never depends on the
+/// The tiles of a `width`×`height` raster, row-major. The tiling never depends on the
 /// thread count, and each tile sums its samples in a fixed order, so the image is
 /// bit-identical for any number of threads.
 pub fn tiles(width: u32, height: u32) -> Vec<Tile> {
@@ -136,6 +339,39 @@ pub fn tiles(width: u32, height: u32) -> Vec<Tile> {
         }
     }
     out
+}
+
+/// Runs `work` on every tile in parallel, each worker thread reusing one [`Worker`];
+/// `store` copies a finished tile's results out. Returns per-thread stats.
+fn for_tiles(
+    pool: &rayon::ThreadPool,
+    tiles: &[Tile],
+    progress: Option<&indicatif::ProgressBar>,
+    work: impl Fn(&mut Worker, &Tile) + Sync,
+    store: impl Fn(&Worker, &Tile) + Sync,
+) -> Vec<Stats> {
+    let next = AtomicUsize::new(0);
+    pool.broadcast(|_| {
+        let mut w = Worker::default();
+        while let Some(tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
+            work(&mut w, tile);
+            w.stats.tiles += 1;
+            store(&w, tile);
+            if let Some(pb) = progress {
+                pb.inc(1);
+            }
+        }
+        w.stats
+    })
+}
+
+/// Copies a tile's rows from `src` (tile-local, row-major) into `dst` (raster of width `width`).
+fn copy_tile<T: Copy>(dst: &mut [T], width: u32, tile: &Tile, src: &[T]) {
+    let tw = (tile.x1 - tile.x0) as usize;
+    for (row, y) in (tile.y0..tile.y1).enumerate() {
+        let at = (y * width + tile.x0) as usize;
+        dst[at..at + tw].copy_from_slice(&src[row * tw..(row + 1) * tw]);
+    }
 }
 
 /// Renders `scene`.
@@ -149,35 +385,107 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
         .num_threads(threads)
         .build()
         .map_err(|e| Error::Internal(format!("cannot start {threads} threads: {e}")))?;
-    let tiles = tiles(s.width, s.height);
+    let (w, h) = (s.width, s.height);
+    let n = (w * h) as usize;
+    let pixel_tiles = tiles(w, h);
+    let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
+    let grid_tiles = if shared_grid { tiles(w + 1, h + 1) } else { Vec::new() };
     if let Some(pb) = &opts.progress {
-        pb.set_length(tiles.len() as u64);
+        pb.set_length((pixel_tiles.len() + grid_tiles.len()) as u64);
     }
-    let image = Mutex::new(vec![Vec3::ZERO; (s.width * s.height) as usize]);
-    let next = AtomicUsize::new(0);
     let start = Instant::now();
-    let per_thread: Vec<Stats> = pool.broadcast(|_| {
-        let mut w = Worker::default();
-        loop {
-            let i = next.fetch_add(1, Ordering::Relaxed);
-            let Some(tile) = tiles.get(i) else { break };
-            w.render_tile(scene, tile);
-            let tw = (tile.x1 - tile.x0) as usize;
-            let mut img = image.lock().unwrap_or_else(|e| e.into_inner());
-            for (row, y) in (tile.y0..tile.y1).enumerate() {
-                let at = (y * s.width + tile.x0) as usize;
-                img[at..at + tw].copy_from_slice(&w.sums[row * tw..(row + 1) * tw]);
+
+    // Adaptive AA with shared corners: trace the (W+1)×(H+1) corner grid once.
+    let grid =
+        Mutex::new((vec![Vec3::ZERO; grid_tiles.len().min(1) * ((w + 1) * (h + 1)) as usize], SlotHeat::default()));
+    if shared_grid {
+        grid.lock().unwrap_or_else(|e| e.into_inner()).1.reset(((w + 1) * (h + 1)) as usize);
+    }
+    let mut per_thread = for_tiles(
+        &pool,
+        &grid_tiles,
+        opts.progress.as_ref(),
+        |wk, tile| {
+            let dof = s.dof_samples as u64;
+            wk.begin_pass(tile.pixels());
+            wk.run(scene, tile.pixels() as u64 * dof, Kind::Corner, |ks, rays| {
+                camera::generate_corner_grid(scene, tile, ks, rays)
+            });
+        },
+        |wk, tile| {
+            let mut g = grid.lock().unwrap_or_else(|e| e.into_inner());
+            let (radiance, heat) = &mut *g;
+            copy_tile(radiance, w + 1, tile, &wk.sums);
+            copy_tile(&mut heat.rays, w + 1, tile, &wk.slot_heat.rays);
+            copy_tile(&mut heat.points, w + 1, tile, &wk.slot_heat.points);
+            copy_tile(&mut heat.penumbra, w + 1, tile, &wk.slot_heat.penumbra);
+        },
+    );
+    let (grid, grid_heat) = grid.into_inner().unwrap_or_else(|e| e.into_inner());
+
+    let result = Mutex::new((vec![Vec3::ZERO; n], Heat::default()));
+    {
+        let mut r = result.lock().unwrap_or_else(|e| e.into_inner());
+        let heat = &mut r.1;
+        heat.rays.resize(n, 0.0);
+        heat.points.resize(n, 0.0);
+        heat.penumbra.resize(n, 0.0);
+        heat.level.resize(n, 0);
+    }
+    let main = for_tiles(
+        &pool,
+        &pixel_tiles,
+        opts.progress.as_ref(),
+        |wk, tile| {
+            wk.begin_tile(tile.pixels());
+            match s.aa_mode {
+                AaMode::Uniform => wk.uniform_tile(scene, tile),
+                AaMode::Adaptive { eps, max_level, .. } => {
+                    wk.adaptive_tile(scene, tile, shared_grid.then_some(&grid[..]), eps, max_level)
+                }
             }
-            drop(img);
-            if let Some(pb) = &opts.progress {
-                pb.inc(1);
+        },
+        |wk, tile| {
+            let mut r = result.lock().unwrap_or_else(|e| e.into_inner());
+            let (img, heat) = &mut *r;
+            copy_tile(img, w, tile, &wk.out);
+            copy_tile(&mut heat.rays, w, tile, &wk.heat.rays);
+            copy_tile(&mut heat.points, w, tile, &wk.heat.points);
+            copy_tile(&mut heat.penumbra, w, tile, &wk.heat.penumbra);
+            copy_tile(&mut heat.level, w, tile, &wk.heat.level);
+        },
+    );
+    let seconds = start.elapsed().as_secs_f64();
+    let (pixels, mut heat) = result.into_inner().unwrap_or_else(|e| e.into_inner());
+
+    // A shared corner's rays belong equally to the pixels around it.
+    if shared_grid {
+        for cy in 0..=h {
+            for cx in 0..=w {
+                let ci = (cy * (w + 1) + cx) as usize;
+                let xs = cx.saturating_sub(1)..cx.min(w - 1) + 1;
+                let ys = cy.saturating_sub(1)..cy.min(h - 1) + 1;
+                let share = 1.0 / (xs.len() * ys.len()) as f32;
+                for y in ys {
+                    for x in xs.clone() {
+                        let p = (y * w + x) as usize;
+                        heat.rays[p] += grid_heat.rays[ci] * share;
+                        heat.points[p] += grid_heat.points[ci] * share;
+                        heat.penumbra[p] += grid_heat.penumbra[ci] * share;
+                    }
+                }
             }
         }
-        w.stats
-    });
-    let seconds = start.elapsed().as_secs_f64();
+    }
+
+    if per_thread.is_empty() {
+        per_thread = main;
+    } else {
+        for (a, b) in per_thread.iter_mut().zip(&main) {
+            a.merge(b);
+        }
+    }
     let mut stats = Stats::default();
     per_thread.iter().for_each(|t| stats.merge(t));
-    let pixels = image.into_inner().unwrap_or_else(|e| e.into_inner());
-    Ok(RenderOutput { image: Image { width: s.width, height: s.height, pixels }, stats, per_thread, seconds })
+    Ok(RenderOutput { image: Image { width: w, height: h, pixels }, heat, stats, per_thread, seconds })
 }

@@ -16,6 +16,14 @@ pub mod dim {
     pub const LIGHT: u32 = 3;
     /// The key that names a camera path (and, hashed again, its branches).
     pub const PATH: u32 = 4;
+    /// Adaptive AA: paths through pixel corners.
+    pub const CORNER: u32 = 5;
+    /// Adaptive AA: paths through pixel centres.
+    pub const CENTRE: u32 = 6;
+    /// Adaptive AA: refinement sample positions.
+    pub const REFINE: u32 = 7;
+    /// Adaptive shadows: jittered probe positions on a quad light.
+    pub const PROBE: u32 = 8;
 }
 
 /// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").

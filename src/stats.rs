@@ -18,8 +18,14 @@ pub enum Stage {
     Shadow,
     /// Reflection/refraction ray generation at mirrors and dielectrics.
     Scatter,
-    /// Adding radiance to the tile's pixels.
+    /// Adding radiance to the pass's accumulation slots.
     Film,
+    /// Adaptive shadows: probe rays to a quad light's corners per shading point.
+    ShadowCorner,
+    /// Adaptive shadows: stratified shadow rays for points in the penumbra.
+    Penumbra,
+    /// Adaptive AA: the decisions that fill the refinement queue.
+    Refine,
 }
 
 impl Stage {
@@ -36,6 +42,9 @@ impl Stage {
             Stage::Shadow => "shadow",
             Stage::Scatter => "scatter",
             Stage::Film => "film",
+            Stage::ShadowCorner => "shadow_corner",
+            Stage::Penumbra => "penumbra",
+            Stage::Refine => "refine",
         }
     }
 }
@@ -55,15 +64,36 @@ pub struct StageCounters {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Stats {
     /// Per-stage counters, indexed by `Stage as usize`.
-    pub stages: [StageCounters; 6],
-    /// Camera rays traced.
+    pub stages: [StageCounters; 9],
+    /// Camera rays: uniform-mode samples, or adaptive pixel centres.
     pub camera_rays: u64,
-    /// Shadow rays traced.
+    /// Adaptive AA: rays through pixel corners.
+    pub aa_corner_rays: u64,
+    /// Adaptive AA: refinement rays.
+    pub aa_refine_rays: u64,
+    /// Shadow rays of point lights, and of quad lights in uniform mode.
     pub shadow_rays: u64,
+    /// Adaptive shadows: probe rays of the shadow-corner test.
+    pub shadow_corner_rays: u64,
+    /// Adaptive shadows: stratified rays of penumbra points.
+    pub penumbra_rays: u64,
     /// Reflection and refraction rays traced.
     pub secondary_rays: u64,
-    /// Tiles rendered.
+    /// Tiles rendered (pixel tiles and corner-grid tiles).
     pub tiles: u64,
+    /// Adaptive AA: pixels decided.
+    pub aa_pixels: u64,
+    /// Adaptive AA: pixels that entered the refinement queue.
+    pub aa_refined_pixels: u64,
+    /// Adaptive AA: camera rays uniform mode would cast for the same pixels at
+    /// 2^max_level samples each.
+    pub aa_uniform_rays: u64,
+    /// Adaptive shadows: (point, quad light) pairs that entered the shadow-corner queue.
+    pub shadow_points: u64,
+    /// Adaptive shadows: of those, the ones that entered the penumbra queue.
+    pub penumbra_points: u64,
+    /// Adaptive shadows: shadow rays uniform mode would cast for the same points.
+    pub shadow_uniform_rays: u64,
 }
 
 impl Stats {
@@ -84,14 +114,37 @@ impl Stats {
             a.seconds += b.seconds;
         }
         self.camera_rays += o.camera_rays;
+        self.aa_corner_rays += o.aa_corner_rays;
+        self.aa_refine_rays += o.aa_refine_rays;
         self.shadow_rays += o.shadow_rays;
+        self.shadow_corner_rays += o.shadow_corner_rays;
+        self.penumbra_rays += o.penumbra_rays;
         self.secondary_rays += o.secondary_rays;
         self.tiles += o.tiles;
+        self.aa_pixels += o.aa_pixels;
+        self.aa_refined_pixels += o.aa_refined_pixels;
+        self.aa_uniform_rays += o.aa_uniform_rays;
+        self.shadow_points += o.shadow_points;
+        self.penumbra_points += o.penumbra_points;
+        self.shadow_uniform_rays += o.shadow_uniform_rays;
+    }
+
+    /// Rays by kind, with their names in the report. The kinds are disjoint.
+    pub fn kinds(&self) -> [(&'static str, u64); 7] {
+        [
+            ("camera", self.camera_rays),
+            ("aa_corner", self.aa_corner_rays),
+            ("aa_refine", self.aa_refine_rays),
+            ("shadow", self.shadow_rays),
+            ("shadow_corner", self.shadow_corner_rays),
+            ("penumbra", self.penumbra_rays),
+            ("secondary", self.secondary_rays),
+        ]
     }
 
     /// All rays traced: the kinds are disjoint, so this is their sum.
     pub fn total_rays(&self) -> u64 {
-        self.camera_rays + self.shadow_rays + self.secondary_rays
+        self.kinds().iter().map(|k| k.1).sum()
     }
 
     /// Counters of one stage.
@@ -117,14 +170,43 @@ pub struct Report {
     pub total_rays: u64,
     /// total_rays / seconds / 1e6.
     pub mrays_per_s: f64,
-    /// Rays by kind: camera, shadow, secondary.
+    /// Rays by kind (disjoint; they sum to total_rays).
     pub rays: BTreeMap<&'static str, u64>,
+    /// Adaptive queues: what entered them, what they cast, what uniform would have cast.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive_aa: Option<QueueReport>,
+    /// The shadow-corner and penumbra queues, when shadows are adaptive.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive_shadows: Option<QueueReport>,
     /// Per-stage counters, seconds summed over threads.
     pub stages: BTreeMap<&'static str, StageCounters>,
     /// Facts about the scene.
     pub scene: SceneReport,
     /// Per-thread ray totals and busy seconds, in thread order.
     pub per_thread: Vec<ThreadReport>,
+}
+
+/// What an adaptive queue did, against uniform mode with the same settings.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct QueueReport {
+    /// Items decided (pixels, or shading point × quad light pairs).
+    pub entered: u64,
+    /// Items that needed more rays (refined pixels, penumbra points).
+    pub refined: u64,
+    /// Rays the adaptive method cast (AA: centre + corner + refinement camera rays;
+    /// shadows: corner probes + penumbra rays).
+    pub rays: u64,
+    /// Rays uniform mode would have cast for the same items (AA: 2^max_level camera
+    /// rays per pixel; shadows: `samples` per point, counting only samples that face).
+    pub uniform_rays: u64,
+    /// uniform_rays - rays (negative when adaptive cost more).
+    pub saved: i64,
+}
+
+impl QueueReport {
+    fn new(entered: u64, refined: u64, rays: u64, uniform_rays: u64) -> QueueReport {
+        QueueReport { entered, refined, rays, uniform_rays, saved: uniform_rays as i64 - rays as i64 }
+    }
 }
 
 /// Scene facts in the report.
@@ -156,14 +238,16 @@ pub struct ThreadReport {
 impl Report {
     /// Builds the report from merged and per-thread stats.
     pub fn new(
-        width: u32,
-        height: u32,
+        settings: &crate::scene::Settings,
         seconds: f64,
         total: &Stats,
         per_thread: &[Stats],
         scene: SceneReport,
     ) -> Report {
+        use crate::scene::{AaMode, ShadowMode};
+        let (width, height) = (settings.width, settings.height);
         let total_rays = total.total_rays();
+        let t = total;
         Report {
             version: 1,
             width,
@@ -172,11 +256,15 @@ impl Report {
             seconds,
             total_rays,
             mrays_per_s: if seconds > 0.0 { total_rays as f64 / seconds / 1e6 } else { 0.0 },
-            rays: BTreeMap::from([
-                ("camera", total.camera_rays),
-                ("shadow", total.shadow_rays),
-                ("secondary", total.secondary_rays),
-            ]),
+            rays: total.kinds().into_iter().collect(),
+            adaptive_aa: matches!(settings.aa_mode, AaMode::Adaptive { .. }).then(|| {
+                let rays = t.camera_rays + t.aa_corner_rays + t.aa_refine_rays;
+                QueueReport::new(t.aa_pixels, t.aa_refined_pixels, rays, t.aa_uniform_rays)
+            }),
+            adaptive_shadows: matches!(settings.shadow_mode, ShadowMode::Adaptive(_)).then(|| {
+                let rays = t.shadow_corner_rays + t.penumbra_rays;
+                QueueReport::new(t.shadow_points, t.penumbra_points, rays, t.shadow_uniform_rays)
+            }),
             stages: Stage::ALL.iter().map(|&s| (s.name(), *total.stage(s))).collect(),
             scene,
             per_thread: per_thread
@@ -192,14 +280,13 @@ impl Report {
 
     /// The short summary printed after every render.
     pub fn summary(&self) -> String {
+        let kinds: Vec<String> = self.rays.iter().filter(|(_, &n)| n > 0).map(|(k, n)| format!("{k} {n}")).collect();
         format!(
-            "{}x{}: {} rays (camera {}, shadow {}, secondary {}) in {:.3} s on {} threads = {:.2} Mrays/s",
+            "{}x{}: {} rays ({}) in {:.3} s on {} threads = {:.2} Mrays/s",
             self.width,
             self.height,
             self.total_rays,
-            self.rays["camera"],
-            self.rays["shadow"],
-            self.rays["secondary"],
+            kinds.join(", "),
             self.seconds,
             self.threads,
             self.mrays_per_s
@@ -214,7 +301,20 @@ impl Report {
             s += &format!("{:<10} {:>14} {:>14} {:>10.3}\n", st.name(), c.rays_in, c.rays_out, c.seconds);
         }
         for (kind, n) in &self.rays {
-            s += &format!("rays {:<9} {:>14}\n", kind, n);
+            s += &format!("rays {:<13} {:>10}\n", kind, n);
+        }
+        for (name, q) in [("adaptive aa", &self.adaptive_aa), ("adaptive shadows", &self.adaptive_shadows)] {
+            if let Some(q) = q {
+                s += &format!(
+                    "{name}: {} entered, {} refined, {} rays cast vs {} uniform ({} saved, {:.1}%)\n",
+                    q.entered,
+                    q.refined,
+                    q.rays,
+                    q.uniform_rays,
+                    q.saved,
+                    100.0 * q.saved as f64 / q.uniform_rays.max(1) as f64
+                );
+            }
         }
         s += &format!(
             "total {:>22} rays, {:.3} s wall, {:.2} Mrays/s, {} threads\n",

@@ -5,7 +5,7 @@ mod support;
 
 use glam::Vec3;
 use support::scene;
-use wavetrace::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
+use wavetrace::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
 use wavetrace::stages::{intersect, scatter, shade};
 use wavetrace::Scene;
 
@@ -16,7 +16,7 @@ fn step(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue) {
     let mut hits = HitQueue::default();
     let (mut shadow, mut spec, mut film) = (ShadowQueue::default(), Vec::new(), FilmQueue::default());
     intersect::intersect(scene, rays, &mut hits);
-    shade::shade(scene, rays, &hits, &mut shadow, &mut spec, &mut film);
+    shade::shade(scene, rays, &hits, &mut shadow, &mut ShadowPointQueue::default(), &mut spec, &mut film);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next);
     (next, hits)

@@ -65,15 +65,21 @@ impl Default for RenderDesc {
 #[derive(Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct AaDesc {
-    /// Sampling mode (default "uniform").
+    /// Sampling mode: "uniform" or "adaptive" (default "uniform").
     pub mode: String,
-    /// Stratified samples per pixel (default 16).
+    /// Uniform: stratified samples per pixel (default 16).
     pub samples: u32,
+    /// Adaptive: refine while display colours differ by more than this (default 0.01).
+    pub eps: f32,
+    /// Adaptive: last refinement level; level i casts 2^i rays (default 6: up to 64).
+    pub max_level: u32,
+    /// Adaptive: trace the pixel-corner grid once and share it (default true).
+    pub share_corners: bool,
 }
 
 impl Default for AaDesc {
     fn default() -> Self {
-        AaDesc { mode: "uniform".into(), samples: 16 }
+        AaDesc { mode: "uniform".into(), samples: 16, eps: 0.01, max_level: 6, share_corners: true }
     }
 }
 
@@ -81,15 +87,19 @@ impl Default for AaDesc {
 #[derive(Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct ShadowsDesc {
-    /// Sampling mode (default "uniform").
+    /// Sampling mode: "uniform" or "adaptive" (default "uniform").
     pub mode: String,
-    /// Shadow rays per quad light per shading point (default 16).
+    /// Shadow rays per quad light per shading point (uniform), or per penumbra point
+    /// (adaptive) (default 16).
     pub samples: u32,
+    /// Adaptive: the rays of the shadow-corner test: "corners", "corners+center" or
+    /// "jittered" (default "corners").
+    pub probe: String,
 }
 
 impl Default for ShadowsDesc {
     fn default() -> Self {
-        ShadowsDesc { mode: "uniform".into(), samples: 16 }
+        ShadowsDesc { mode: "uniform".into(), samples: 16, probe: "corners".into() }
     }
 }
 

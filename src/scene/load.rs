@@ -7,12 +7,16 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::format::*;
-use super::{AaMode, Camera, Light, Material, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
+use super::{AaMode, Camera, Light, Material, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
 use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::{Error, Result};
 
-/// Bytes each pixel costs while rendering and writing (film sum plus output buffers).
-pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4;
+/// Highest adaptive refinement level: 2^16 samples per pixel.
+pub const MAX_LEVEL: u32 = 16;
+
+/// Bytes each pixel costs while rendering and writing: film sum, output buffers, the
+/// shared corner grid and the per-pixel heat counters.
+pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4 + 12 + 16;
 
 /// Where a scene's text came from: mesh paths are relative to `dir`.
 #[derive(Clone, Debug)]
@@ -246,19 +250,38 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     let aa_mode = match r.aa.mode.as_str() {
         "uniform" => AaMode::Uniform,
         "adaptive" => {
-            return Err(ctx.fail("render.aa.mode", "\"adaptive\" is not available in this version; use \"uniform\""))
+            if r.aa.eps < 0.0 {
+                return Err(ctx.fail("render.aa.eps", "must be >= 0"));
+            }
+            if !(2..=MAX_LEVEL).contains(&r.aa.max_level) {
+                return Err(ctx.fail("render.aa.max_level", format!("{} is not in 2..={MAX_LEVEL}", r.aa.max_level)));
+            }
+            AaMode::Adaptive { eps: r.aa.eps, max_level: r.aa.max_level, share_corners: r.aa.share_corners }
         }
-        other => return Err(ctx.fail("render.aa.mode", format!("unknown mode \"{other}\" (expected \"uniform\")"))),
+        other => {
+            return Err(
+                ctx.fail("render.aa.mode", format!("unknown mode \"{other}\" (expected \"uniform\" or \"adaptive\")"))
+            )
+        }
     };
     let shadow_mode = match r.shadows.mode.as_str() {
         "uniform" => ShadowMode::Uniform,
-        "adaptive" => {
-            return Err(
-                ctx.fail("render.shadows.mode", "\"adaptive\" is not available in this version; use \"uniform\"")
-            )
-        }
+        "adaptive" => ShadowMode::Adaptive(match r.shadows.probe.as_str() {
+            "corners" => Probe::Corners,
+            "corners+center" => Probe::CornersCenter,
+            "jittered" => Probe::Jittered,
+            other => {
+                return Err(ctx.fail(
+                    "render.shadows.probe",
+                    format!("unknown probe \"{other}\" (expected \"corners\", \"corners+center\" or \"jittered\")"),
+                ))
+            }
+        }),
         other => {
-            return Err(ctx.fail("render.shadows.mode", format!("unknown mode \"{other}\" (expected \"uniform\")")))
+            return Err(ctx.fail(
+                "render.shadows.mode",
+                format!("unknown mode \"{other}\" (expected \"uniform\" or \"adaptive\")"),
+            ))
         }
     };
     for (path, n) in [
@@ -271,8 +294,12 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         }
     }
     let dof_samples = if cam.aperture > 0.0 { r.dof.samples } else { 1 };
-    if r.aa.samples as u64 * dof_samples as u64 > u32::MAX as u64 {
-        return Err(ctx.fail("render.dof.samples", "render.aa.samples × render.dof.samples exceeds 2^32"));
+    let per_pixel = match aa_mode {
+        AaMode::Uniform => r.aa.samples as u64,
+        AaMode::Adaptive { max_level, .. } => 1u64 << max_level,
+    };
+    if per_pixel * dof_samples as u64 > u32::MAX as u64 {
+        return Err(ctx.fail("render.dof.samples", "samples per pixel × render.dof.samples exceeds 2^32"));
     }
     Ok(Settings {
         width: r.width,

@@ -15,10 +15,20 @@ pub use load::{load, SceneSource};
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
 
 /// How anti-aliasing samples are placed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AaMode {
     /// `samples` stratified samples in every pixel.
     Uniform,
+    /// The paper's corner method (§2.1): centre and corners, then 2^i stratified rays per
+    /// level while the estimate still moves by more than `eps` in display values.
+    Adaptive {
+        /// Display-value tolerance (max over R, G, B of sRGB values clamped to [0, 1]).
+        eps: f32,
+        /// Last level; level i casts 2^i rays.
+        max_level: u32,
+        /// Trace the (W+1)×(H+1) corner grid once instead of 4 corners per pixel.
+        share_corners: bool,
+    },
 }
 
 /// How shadow rays towards quad lights are placed.
@@ -26,6 +36,30 @@ pub enum AaMode {
 pub enum ShadowMode {
     /// `samples` stratified rays per quad light per shading point.
     Uniform,
+    /// The paper's shadow-corner test (§2.2): probe rays first, `samples` rays only for
+    /// points in the penumbra.
+    Adaptive(Probe),
+}
+
+/// The rays of the adaptive shadow test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Probe {
+    /// The paper's four rays to the light's corners.
+    Corners,
+    /// The four corners and the light's centre: catches an occluder over the middle.
+    CornersCenter,
+    /// One ray to a jittered point in each quarter of the light, new per shading point.
+    Jittered,
+}
+
+impl Probe {
+    /// Rays per shading point.
+    pub fn rays(self) -> u32 {
+        match self {
+            Probe::Corners | Probe::Jittered => 4,
+            Probe::CornersCenter => 5,
+        }
+    }
 }
 
 /// Sampling settings, validated.
@@ -41,7 +75,7 @@ pub struct Settings {
     pub seed: u32,
     /// Anti-aliasing mode.
     pub aa_mode: AaMode,
-    /// Anti-aliasing samples per pixel.
+    /// Anti-aliasing samples per pixel (uniform mode).
     pub aa_samples: u32,
     /// Shadow sampling mode.
     pub shadow_mode: ShadowMode,

@@ -6,9 +6,12 @@
 pub mod camera;
 pub mod film;
 pub mod intersect;
+pub mod penumbra;
+pub mod refine;
 pub mod scatter;
 pub mod shade;
 pub mod shadow;
+pub mod shadow_corner;
 
 /// A rectangle of pixels `[x0, x1) × [y0, y1)` rendered by one worker.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

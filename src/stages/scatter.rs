@@ -79,11 +79,11 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &[u32]
         let (d, w) = (rays.dir(i), rays.weight(i));
         let x = rays.origin(i) + hits.t[i] * d;
         let ng = prim.shape.normal(x).normalize();
-        let (pixel, depth, key) = (rays.pixel[i], rays.depth[i] + 1, rays.key[i]);
+        let (slot, depth, key) = (rays.slot[i], rays.depth[i] + 1, rays.key[i]);
         match scene.materials[prim.material as usize] {
             Material::Mirror { color } => {
                 let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-                next.push(offset_ray_origin(x, n), reflect(d, n), pixel, w * color, depth, hash(&[key, 1]));
+                next.push(offset_ray_origin(x, n), reflect(d, n), slot, w * color, depth, hash(&[key, 1]));
             }
             Material::Dielectric { ior, ratio, tint } => {
                 let side = interface(d, ng, ior);
@@ -95,11 +95,11 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &[u32]
                     (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(n), side.eta),
                 };
                 if c > 0.0 {
-                    next.push(offset_ray_origin(x, n), reflect(d, n), pixel, w * c, depth, hash(&[key, 1]));
+                    next.push(offset_ray_origin(x, n), reflect(d, n), slot, w * c, depth, hash(&[key, 1]));
                 }
                 if let Some(t) = refracted {
                     if c < 1.0 {
-                        next.push(offset_ray_origin(x, -n), t, pixel, w * tint * (1.0 - c), depth, hash(&[key, 2]));
+                        next.push(offset_ray_origin(x, -n), t, slot, w * tint * (1.0 - c), depth, hash(&[key, 2]));
                     }
                 }
             }

@@ -1,16 +1,17 @@
 //! Shading: reads the ray and hit queues; sends escaped rays and visible emitters to
-//! the film queue, diffuse hits' direct lighting to the shadow queue (one ray per
-//! point light, `shadows.samples` stratified rays per quad light), and mirror or
-//! dielectric hits to the specular list for the scatter stage.
+//! the film queue, mirror or dielectric hits to the specular list for the scatter
+//! stage, and diffuse hits' direct lighting to the shadow queue (one ray per point
+//! light; per quad light `shadows.samples` stratified rays in uniform mode, or one entry
+//! in the shadow-corner queue in adaptive mode).
 
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::NO_LIGHT;
-use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
+use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
 use crate::sampling::{cmj, dim, hash};
-use crate::scene::{Light, Material, Scene};
+use crate::scene::{Light, Material, Scene, ShadowMode};
 
 /// Shadow rays stop this fraction short of the light, so a surface the light lies on
 /// (a lamp flush with a ceiling) does not shadow it.
@@ -29,90 +30,162 @@ pub fn diffuse_brdf(color: Vec3, specular: Vec3, shininess: f32, n: Vec3, wi: Ve
     f
 }
 
-/// Shades every ray of `rays` at its hit in `hits`.
+/// A diffuse shading point: what direct lighting needs, computed in one place for the
+/// shade, shadow-corner and penumbra stages so they agree bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    /// Ray origin for shadow rays: the hit point offset off the surface.
+    pub o: Vec3,
+    /// Unit normal on the side the ray arrived from.
+    pub n: Vec3,
+    /// Unit direction back along the incoming ray.
+    pub wo: Vec3,
+    /// Albedo.
+    pub color: Vec3,
+    /// Phong reflectance.
+    pub specular: Vec3,
+    /// Phong exponent.
+    pub shininess: f32,
+    /// Path throughput of the incoming ray.
+    pub w: Vec3,
+    /// Accumulation slot of the incoming ray.
+    pub slot: u32,
+    /// Path key of the incoming ray.
+    pub key: u32,
+}
+
+/// The diffuse surface that ray `i` hit, or `None` if it hit something else.
+#[inline]
+pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
+    let prim = scene.accel.prims.get(hits.prim[i] as usize)?;
+    if prim.light != NO_LIGHT {
+        return None;
+    }
+    let Material::Diffuse { color, specular, shininess } = scene.materials[prim.material as usize] else {
+        return None;
+    };
+    let d = rays.dir(i);
+    let x = rays.origin(i) + hits.t[i] * d;
+    let ng = prim.shape.normal(x).normalize();
+    // Diffuse surfaces are two-sided: light the side the ray arrived on.
+    let n = if ng.dot(d) < 0.0 { ng } else { -ng };
+    Some(Surface {
+        o: offset_ray_origin(x, n),
+        n,
+        wo: -d,
+        color,
+        specular,
+        shininess,
+        w: rays.weight(i),
+        slot: rays.slot[i],
+        key: rays.key[i],
+    })
+}
+
+/// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
+/// (both cosines positive), calling `f(direction, distance, contribution)`. Contributions
+/// are already divided by the sample count, so unoccluded ones sum to the estimate.
+#[inline]
+pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(Vec3, f32, Vec3)) {
+    let Light::Quad { corner, u, v, normal, area, radiance } = scene.lights[li] else { return };
+    let count = scene.settings.shadow_samples;
+    let pattern = hash(&[surf.key, li as u32, dim::LIGHT]);
+    let scale = area / count as f32;
+    for j in 0..count {
+        let uv = cmj(j, count, pattern);
+        let to = corner + uv.x * u + uv.y * v - surf.o;
+        let dist2 = to.length_squared();
+        let dist = dist2.sqrt();
+        let wi = to / dist;
+        let cos_x = surf.n.dot(wi);
+        let cos_y = -normal.dot(wi);
+        if cos_x <= 0.0 || cos_y <= 0.0 {
+            continue;
+        }
+        let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
+        f(wi, dist, surf.w * brdf * radiance * (cos_x * cos_y * scale / dist2));
+    }
+}
+
+/// Shades every ray of `rays` at its hit in `hits`. Returns the number of shadow rays
+/// uniform mode would have cast for the points put in the shadow-corner queue.
 pub fn shade(
     scene: &Scene,
     rays: &RayQueue,
     hits: &HitQueue,
     shadow: &mut ShadowQueue,
+    points: &mut ShadowPointQueue,
     specular: &mut Vec<u32>,
     film: &mut FilmQueue,
-) {
+) -> u64 {
     shadow.clear();
+    points.clear();
     specular.clear();
     film.clear();
-    let s = &scene.settings;
+    let adaptive = matches!(scene.settings.shadow_mode, ShadowMode::Adaptive(_));
+    let mut uniform_equivalent = 0u64;
     for i in 0..rays.len() {
-        let (d, w, pixel) = (rays.dir(i), rays.weight(i), rays.pixel[i]);
         if hits.prim[i] == MISS {
             if scene.background != Vec3::ZERO {
-                film.push(pixel, w * scene.background);
+                film.push(rays.slot[i], rays.weight(i) * scene.background);
             }
             continue;
         }
-        let prim = &scene.accel.prims[hits.prim[i] as usize];
-        let x = rays.origin(i) + hits.t[i] * d;
-        let ng = prim.shape.normal(x).normalize();
-        if prim.light != NO_LIGHT {
-            // One-sided emitter: radiance on the front, black from behind.
-            if let Light::Quad { radiance, .. } = scene.lights[prim.light as usize] {
-                if ng.dot(d) < 0.0 {
-                    film.push(pixel, w * radiance);
+        let Some(surf) = diffuse_surface(scene, rays, hits, i) else {
+            let prim = &scene.accel.prims[hits.prim[i] as usize];
+            if prim.light != NO_LIGHT {
+                // One-sided emitter: radiance on the front, black from behind.
+                if let Light::Quad { radiance, normal, .. } = scene.lights[prim.light as usize] {
+                    if normal.dot(rays.dir(i)) < 0.0 {
+                        film.push(rays.slot[i], rays.weight(i) * radiance);
+                    }
                 }
+            } else if rays.depth[i] < scene.settings.max_depth {
+                specular.push(i as u32);
             }
             continue;
-        }
-        let (color, spec, shininess) = match scene.materials[prim.material as usize] {
-            Material::Diffuse { color, specular, shininess } => (color, specular, shininess),
-            _ => {
-                if rays.depth[i] < s.max_depth {
-                    specular.push(i as u32);
-                }
-                continue;
-            }
         };
-        // Diffuse surfaces are two-sided: light the side the ray arrived on.
-        let n = if ng.dot(d) < 0.0 { ng } else { -ng };
-        let o = offset_ray_origin(x, n);
-        let wo = -d;
         for (li, light) in scene.lights.iter().enumerate() {
             match *light {
                 // A dark light adds nothing: it costs no shadow rays either.
                 Light::Point { intensity, .. } | Light::Quad { radiance: intensity, .. } if intensity == Vec3::ZERO => {
                 }
                 Light::Point { position, intensity } => {
-                    let to = position - o;
+                    let to = position - surf.o;
                     let dist2 = to.length_squared();
                     let dist = dist2.sqrt();
                     let wi = to / dist;
-                    let cos = n.dot(wi);
+                    let cos = surf.n.dot(wi);
                     if cos <= 0.0 || dist2 == 0.0 {
                         continue;
                     }
-                    let f = diffuse_brdf(color, spec, shininess, n, wi, wo);
-                    shadow.push(o, wi, dist * SHADOW_TMAX_SCALE, pixel, w * f * intensity * (cos / dist2));
+                    let f = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
+                    shadow.push(
+                        surf.o,
+                        wi,
+                        dist * SHADOW_TMAX_SCALE,
+                        surf.slot,
+                        surf.w * f * intensity * (cos / dist2),
+                    );
                 }
-                Light::Quad { corner, u, v, normal, area, radiance } => {
-                    let count = s.shadow_samples;
-                    let pattern = hash(&[rays.key[i], li as u32, dim::LIGHT]);
-                    let scale = area / count as f32;
-                    for j in 0..count {
-                        let uv = cmj(j, count, pattern);
-                        let to = corner + uv.x * u + uv.y * v - o;
-                        let dist2 = to.length_squared();
-                        let dist = dist2.sqrt();
-                        let wi = to / dist;
-                        let cos_x = n.dot(wi);
-                        let cos_y = -normal.dot(wi);
-                        if cos_x <= 0.0 || cos_y <= 0.0 {
-                            continue;
-                        }
-                        let f = diffuse_brdf(color, spec, shininess, n, wi, wo);
-                        let l = w * f * radiance * (cos_x * cos_y * scale / dist2);
-                        shadow.push(o, wi, dist * SHADOW_TMAX_SCALE, pixel, l);
+                Light::Quad { .. } if adaptive => {
+                    // The unoccluded estimate uses the same samples the penumbra stage
+                    // would trace, with no occlusion test: it costs no rays.
+                    let (mut sum, mut n) = (Vec3::ZERO, 0u64);
+                    quad_light_samples(scene, &surf, li, |_, _, l| {
+                        sum += l;
+                        n += 1;
+                    });
+                    if n > 0 {
+                        points.push(i as u32, li as u32, sum);
+                        uniform_equivalent += n;
                     }
                 }
+                Light::Quad { .. } => quad_light_samples(scene, &surf, li, |wi, dist, l| {
+                    shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l)
+                }),
             }
         }
     }
+    uniform_equivalent
 }

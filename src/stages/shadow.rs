@@ -10,7 +10,7 @@ pub fn occlusion(scene: &Scene, shadow: &ShadowQueue, film: &mut FilmQueue) -> u
     let mut lit = 0;
     for i in 0..shadow.len() {
         if !scene.accel.occluded(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i]) {
-            film.push(shadow.pixel[i], shadow.radiance(i));
+            film.push(shadow.slot[i], shadow.radiance(i));
             lit += 1;
         }
     }

@@ -1,0 +1,62 @@
+//! The shadow-corner test (paper §2.2): a few any-hit probe rays from each queued
+//! shading point to a quad light. If all reach the light the point is lit (its
+//! unoccluded contribution goes to the film); if none does it is dark; otherwise it
+//! goes to the penumbra queue.
+
+use glam::Vec3;
+
+use super::shade::{diffuse_surface, SHADOW_TMAX_SCALE};
+use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue};
+use crate::sampling::{dim, hash, to_unit};
+use crate::scene::{Light, Probe, Scene};
+
+/// The probe targets on quad light `li` for a shading point with path key `key`.
+#[inline]
+pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> ([Vec3; 5], usize) {
+    let Light::Quad { corner, u, v, .. } = scene.lights[li] else { return ([Vec3::ZERO; 5], 0) };
+    let at = |a: f32, b: f32| corner + a * u + b * v;
+    match probe {
+        Probe::Corners => ([at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0), Vec3::ZERO], 4),
+        Probe::CornersCenter => ([at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0), at(0.5, 0.5)], 5),
+        Probe::Jittered => {
+            let h = |q: u32, d: u32| to_unit(hash(&[key, li as u32, q, d, dim::PROBE]));
+            let q = |i: u32| at(0.5 * ((i & 1) as f32 + h(i, 0)), 0.5 * ((i >> 1) as f32 + h(i, 1)));
+            ([q(0), q(1), q(2), q(3), Vec3::ZERO], 4)
+        }
+    }
+}
+
+/// Tests every queued point; lit points add their unoccluded contribution to `film`,
+/// penumbra points are appended to `penumbra` (as indices into `points`). Returns the
+/// number of probe rays cast.
+pub fn shadow_corners(
+    scene: &Scene,
+    probe: Probe,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    points: &ShadowPointQueue,
+    film: &mut FilmQueue,
+    penumbra: &mut Vec<u32>,
+) -> usize {
+    penumbra.clear();
+    let mut cast = 0;
+    for k in 0..points.len() {
+        let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
+        let (targets, n) = probe_targets(scene, probe, points.light[k] as usize, surf.key);
+        let mut visible = 0;
+        for target in &targets[..n] {
+            let to = *target - surf.o;
+            let dist = to.length();
+            if !scene.accel.occluded(surf.o, to / dist, 0.0, dist * SHADOW_TMAX_SCALE) {
+                visible += 1;
+            }
+        }
+        cast += n;
+        if visible == n {
+            film.push(surf.slot, points.unoccluded(k));
+        } else if visible > 0 {
+            penumbra.push(k as u32);
+        }
+    }
+    cast
+}
