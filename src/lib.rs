@@ -8,6 +8,7 @@
 
 pub mod error;
 pub mod geometry;
+pub mod heatmap;
 pub mod output;
 pub mod queue;
 pub mod render;

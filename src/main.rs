@@ -5,7 +5,8 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use wavetrace::output::{check_folder, check_image_path, write_image, write_text};
+use wavetrace::heatmap::{self, HeatmapKind};
+use wavetrace::output::{check_folder, check_image_path, check_png_path, write_image, write_png, write_text};
 use wavetrace::scene::{load, SceneSource};
 use wavetrace::stats::{Report, SceneReport};
 use wavetrace::{render, Error, RenderOptions, Result};
@@ -49,6 +50,10 @@ struct RenderArgs {
     /// Write the statistics as JSON to this path.
     #[arg(long, value_name = "PATH")]
     stats_json: Option<PathBuf>,
+    /// Write a debug image: aa=PATH (refined pixels green), penumbra=PATH (penumbra
+    /// points blue) or rays=PATH (rays per pixel with a legend). PNG. Repeatable.
+    #[arg(long = "heatmap", value_name = "KIND=PATH")]
+    heatmaps: Vec<String>,
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
@@ -71,6 +76,18 @@ fn run_render(args: RenderArgs) -> Result<()> {
     check_image_path(&args.output)?;
     if let Some(p) = &args.stats_json {
         check_folder(p)?;
+    }
+    let mut heatmaps = Vec::new();
+    for spec in &args.heatmaps {
+        let (kind, path) = spec.split_once('=').ok_or_else(|| {
+            Error::input(format!("--heatmap `{spec}`: expected KIND=PATH (KIND: aa, penumbra, rays)"))
+        })?;
+        let kind = HeatmapKind::parse(kind).ok_or_else(|| {
+            Error::input(format!("--heatmap `{spec}`: unknown kind `{kind}` (expected aa, penumbra or rays)"))
+        })?;
+        let path = PathBuf::from(path);
+        check_png_path(&path)?;
+        heatmaps.push((kind, path));
     }
     if args.threads == Some(0) {
         return Err(Error::input("--threads must be at least 1"));
@@ -102,6 +119,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
         pb.finish_and_clear();
     }
     write_image(&args.output, &out.image)?;
+    for (kind, path) in &heatmaps {
+        let pic = heatmap::draw(*kind, &out.image, &out.heat);
+        write_png(path, pic.width, pic.height, &pic.rgb)?;
+    }
 
     let info = &scene.info;
     let report = Report::new(

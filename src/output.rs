@@ -75,15 +75,7 @@ pub fn to_srgb8(image: &Image) -> Vec<u8> {
 pub fn write_image(path: &Path, image: &Image) -> Result<()> {
     let format = check_image_path(path)?;
     atomic_write(path, |tmp| match format {
-        Format::Png => image::save_buffer_with_format(
-            tmp,
-            &to_srgb8(image),
-            image.width,
-            image.height,
-            image::ExtendedColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| e.to_string()),
+        Format::Png => save_png(tmp, image.width, image.height, &to_srgb8(image)),
         Format::Exr => {
             let w = image.width as usize;
             let px = |x: usize, y: usize| {
@@ -93,6 +85,25 @@ pub fn write_image(path: &Path, image: &Image) -> Result<()> {
             exr::prelude::write_rgb_file(tmp, w, image.height as usize, px).map_err(|e| e.to_string())
         }
     })
+}
+
+fn save_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> std::result::Result<(), String> {
+    image::save_buffer_with_format(path, rgb, width, height, image::ExtendedColorType::Rgb8, image::ImageFormat::Png)
+        .map_err(|e| e.to_string())
+}
+
+/// Checks a path for a PNG-only output (heatmaps).
+pub fn check_png_path(path: &Path) -> Result<()> {
+    match check_image_path(path)? {
+        Format::Png => Ok(()),
+        Format::Exr => Err(Error::output(path, "heatmaps are PNG only (use a .png extension)")),
+    }
+}
+
+/// Writes 8-bit RGB bytes to a PNG atomically.
+pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    check_png_path(path)?;
+    atomic_write(path, |tmp| save_png(tmp, width, height, rgb))
 }
 
 /// Writes text to `path` atomically.
