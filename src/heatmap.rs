@@ -109,7 +109,7 @@ fn log_t(v: f32, lo: f32, hi: f32) -> f32 {
 const LEGEND: u32 = 22;
 
 fn rays_map(w: u32, h: u32, rays: &[f32]) -> Picture {
-    let lo = rays.iter().copied().filter(|&r| r > 0.0).fold(f32::INFINITY, f32::min).min(f32::MAX).max(1e-3);
+    let lo = rays.iter().copied().filter(|&r| r > 0.0).fold(f32::INFINITY, f32::min).clamp(1e-3, f32::MAX);
     let hi = rays.iter().copied().fold(0.0f32, f32::max).max(lo);
     let mut px: Vec<[f32; 3]> =
         rays.iter().map(|&r| if r > 0.0 { scale(log_t(r, lo, hi)) } else { [0.0; 3] }).collect();
