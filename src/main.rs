@@ -26,6 +26,19 @@ struct Cli {
 enum Command {
     /// Render a scene to an image (the default command).
     Render(RenderArgs),
+    /// Compare an image with a reference: RMSE, relative MSE and PSNR (linear values).
+    Compare(CompareArgs),
+}
+
+#[derive(Args, Debug)]
+struct CompareArgs {
+    /// The image to judge (PNG or EXR).
+    test: PathBuf,
+    /// The reference image (PNG or EXR), same size.
+    reference: PathBuf,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args, Debug, Default)]
@@ -61,14 +74,28 @@ struct RenderArgs {
 
 fn main() {
     let cli = Cli::parse();
-    let args = match cli.command {
-        Some(Command::Render(a)) => a,
-        None => cli.render,
+    let result = match cli.command {
+        Some(Command::Render(a)) => run_render(a),
+        Some(Command::Compare(a)) => run_compare(a),
+        None => run_render(cli.render),
     };
-    if let Err(e) = run_render(args) {
+    if let Err(e) = result {
         eprintln!("error: {e}");
         std::process::exit(e.exit_code());
     }
+}
+
+fn run_compare(args: CompareArgs) -> Result<()> {
+    let test = wavetrace::compare::load_linear(&args.test)?;
+    let reference = wavetrace::compare::load_linear(&args.reference)?;
+    let m = wavetrace::compare::metrics(&test, &reference)
+        .map_err(|e| Error::input(format!("`{}` vs `{}`: {e}", args.test.display(), args.reference.display())))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&m).map_err(|e| Error::Internal(e.to_string()))?);
+    } else {
+        println!("rmse {:.6}\nrel_mse {:.6}\npsnr {:.3} dB", m.rmse, m.rel_mse, m.psnr);
+    }
+    Ok(())
 }
 
 fn run_render(args: RenderArgs) -> Result<()> {

@@ -200,8 +200,11 @@ fn penumbra_scene(sets: &[&str]) -> wavetrace::RenderOutput {
 
 #[test]
 fn adaptive_shadows_trace_the_uniform_rays_where_the_corners_disagree() {
-    let uniform = penumbra_scene(&[]);
-    let adaptive = penumbra_scene(&["render.shadows.mode=adaptive"]);
+    // A Phong highlight makes lit points use the sampled (not the analytic) unoccluded
+    // value, so lit and penumbra points alike must reproduce uniform mode.
+    let phong = ["materials.white.specular=[0.1, 0.1, 0.1]", "materials.white.shininess=8"];
+    let uniform = penumbra_scene(&phong);
+    let adaptive = penumbra_scene(&[phong[0], phong[1], "render.shadows.mode=adaptive"]);
     // Penumbra points trace exactly the uniform rays; lit points add the same samples
     // unoccluded. Only points where the corner test is fooled may differ, and with
     // occluders this large there are none: the images agree up to summation order.
@@ -218,6 +221,14 @@ fn adaptive_shadows_trace_the_uniform_rays_where_the_corners_disagree() {
     });
     assert!(s.shadow_corner_rays + s.penumbra_rays < uniform.stats.shadow_rays, "adaptive must cast fewer shadow rays");
     assert_eq!(s.shadow_uniform_rays, uniform.stats.shadow_rays, "the uniform-equivalent count is exact");
+    // Lambert: lit points use the exact polygon irradiance, so adaptive is closer to a
+    // converged reference than uniform with the same sample count.
+    let reference = penumbra_scene(&["render.shadows.samples=1024"]);
+    let lambert_uniform = penumbra_scene(&[]);
+    let lambert_adaptive = penumbra_scene(&["render.shadows.mode=adaptive"]);
+    let (eu, ea) = (rmse(&lambert_uniform.image, &reference.image), rmse(&lambert_adaptive.image, &reference.image));
+    assert!(ea < eu, "adaptive RMSE {ea} vs uniform {eu}");
+    assert_eq!(lambert_adaptive.stats.shadow_uniform_rays, lambert_uniform.stats.shadow_rays);
 }
 
 #[test]

@@ -32,11 +32,16 @@ edge_v = [0, 0, 100]
 material = "white"
 "#;
 
-fn measure(lights: &str, p: Vec3, shadow_samples: u32) -> Vec3 {
+fn measure_mode(lights: &str, p: Vec3, shadow_samples: u32, mode: &str) -> Vec3 {
     let text = format!("{}{PLANE}{lights}", probe_camera(p + Vec3::new(0.0, 3.0, 4.0), p));
     let samples = format!("render.shadows.samples={shadow_samples}");
-    let out = render_text(&text, &["render.width=1", "render.height=1", "render.aa.samples=1", &samples], 1);
+    let mode = format!("render.shadows.mode={mode}");
+    let out = render_text(&text, &["render.width=1", "render.height=1", "render.aa.samples=1", &samples, &mode], 1);
     only_pixel(&out)
+}
+
+fn measure(lights: &str, p: Vec3, shadow_samples: u32) -> Vec3 {
+    measure_mode(lights, p, shadow_samples, "uniform")
 }
 
 #[test]
@@ -56,7 +61,27 @@ fn quad_light_matches_analytic_polygon_irradiance() {
         let rel = (got.x - expected).abs() / expected;
         assert!(rel < 5e-3, "at {p}: rendered {} vs analytic {expected} (rel {rel})", got.x);
         assert!(got.x == got.y && got.y == got.z, "grey light on grey plane must stay grey");
+        // Adaptive shadows on a lit Lambert point use the closed form itself: 4 samples suffice.
+        let exact = measure_mode(&light, p, 4, "adaptive");
+        let rel = (exact.x - expected).abs() / expected;
+        assert!(rel < 1e-4, "adaptive at {p}: {} vs analytic {expected} (rel {rel})", exact.x);
     }
+}
+
+#[test]
+fn analytic_irradiance_clips_at_the_horizon() {
+    // A light standing vertically on the plane's horizon: half of it is below any point
+    // on the plane beside it... here, a quad crossing the tangent plane of the point.
+    let (o, n) = (Vec3::ZERO, Vec3::Y);
+    let (c, u, v) = (Vec3::new(-0.5, -1.0, -2.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0));
+    let clipped = wavetrace::stages::shade::quad_irradiance(o, n, c, u, v);
+    let upper =
+        wavetrace::stages::shade::quad_irradiance(o, n, Vec3::new(-0.5, 0.0, -2.0), u, Vec3::new(0.0, 1.0, 0.0));
+    assert!((clipped - upper).abs() < 1e-6 * upper, "{clipped} vs {upper}");
+    let verts =
+        [Vec3::new(-0.5, 0.0, -2.0), Vec3::new(0.5, 0.0, -2.0), Vec3::new(0.5, 1.0, -2.0), Vec3::new(-0.5, 1.0, -2.0)];
+    let reference = polygon_irradiance(o, n, &verts, 1.0);
+    assert!((upper - reference).abs() < 1e-4 * reference, "{upper} vs {reference}");
 }
 
 #[test]

@@ -107,6 +107,39 @@ pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
     }
 }
 
+/// Irradiance at `o` (unit normal `n`) from a parallelogram of unit radiance with
+/// corners `c, c+u, c+u+v, c+v`, by Lambert's polygon formula
+/// E = ½ Σ θ_k (n · γ_k), with the polygon first clipped to the hemisphere above `o`.
+/// Angles come from atan2, which keeps its precision for small, distant lights.
+pub fn quad_irradiance(o: Vec3, n: Vec3, c: Vec3, u: Vec3, v: Vec3) -> f32 {
+    let quad = [c - o, c + u - o, c + u + v - o, c + v - o];
+    // Sutherland–Hodgman against the tangent plane: at most 5 vertices remain.
+    let mut poly = [Vec3::ZERO; 5];
+    let mut len = 0;
+    for k in 0..4 {
+        let (a, b) = (quad[k], quad[(k + 1) % 4]);
+        let (da, db) = (n.dot(a), n.dot(b));
+        if da > 0.0 {
+            poly[len] = a;
+            len += 1;
+        }
+        if (da > 0.0) != (db > 0.0) {
+            poly[len] = a + (b - a) * (da / (da - db));
+            len += 1;
+        }
+    }
+    let mut sum = 0.0;
+    for k in 0..len {
+        let (a, b) = (poly[k].normalize(), poly[(k + 1) % len].normalize());
+        let cross = a.cross(b);
+        let sin = cross.length();
+        if sin > 0.0 {
+            sum += sin.atan2(a.dot(b)) * n.dot(cross / sin);
+        }
+    }
+    0.5 * sum.abs()
+}
+
 /// Shades every ray of `rays` at its hit in `hits`. Returns the number of shadow rays
 /// uniform mode would have cast for the points put in the shadow-corner queue.
 pub fn shade(
@@ -168,18 +201,34 @@ pub fn shade(
                         surf.w * f * intensity * (cos / dist2),
                     );
                 }
-                Light::Quad { .. } if adaptive => {
-                    // The unoccluded estimate uses the same samples the penumbra stage
-                    // would trace, with no occlusion test: it costs no rays.
-                    let (mut sum, mut n) = (Vec3::ZERO, 0u64);
-                    quad_light_samples(scene, &surf, li, |_, _, l| {
-                        sum += l;
-                        n += 1;
-                    });
-                    if n > 0 {
-                        points.push(i as u32, li as u32, sum);
-                        uniform_equivalent += n;
+                Light::Quad { corner, u, v, normal, radiance, .. } if adaptive => {
+                    // The unoccluded contribution costs no rays: exact for Lambert
+                    // (the polygon irradiance), else the penumbra stage's own samples
+                    // without occlusion tests. Uniform mode would cast one ray per
+                    // sample facing both ways; count those for the stats.
+                    if normal.dot(surf.o - corner) <= 0.0 {
+                        continue; // behind the one-sided emitter
                     }
+                    let (mut sum, mut n) = (Vec3::ZERO, 0u64);
+                    let corners = [corner, corner + u, corner + v, corner + u + v];
+                    let above = corners.iter().all(|&p| surf.n.dot(p - surf.o) > 0.0);
+                    if surf.specular == Vec3::ZERO && above {
+                        n = scene.settings.shadow_samples as u64;
+                    } else {
+                        quad_light_samples(scene, &surf, li, |_, _, l| {
+                            sum += l;
+                            n += 1;
+                        });
+                    }
+                    if n == 0 {
+                        continue;
+                    }
+                    if surf.specular == Vec3::ZERO {
+                        let e = quad_irradiance(surf.o, surf.n, corner, u, v);
+                        sum = surf.w * surf.color * FRAC_1_PI * radiance * e;
+                    }
+                    points.push(i as u32, li as u32, sum);
+                    uniform_equivalent += n;
                 }
                 Light::Quad { .. } => quad_light_samples(scene, &surf, li, |wi, dist, l| {
                     shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l)

@@ -1,0 +1,118 @@
+//! Image comparison: RMSE, relative MSE and PSNR on linear values (what
+//! `wavetrace compare` prints), and reading PNG or EXR images as linear RGB.
+
+use glam::Vec3;
+use serde::Serialize;
+use std::path::Path;
+
+use crate::render::Image;
+use crate::{Error, Result};
+
+/// The inverse of the sRGB transfer function.
+#[inline]
+pub fn srgb_decode(v: f32) -> f32 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Reads a PNG (decoded from sRGB) or an EXR (already linear) as linear RGB.
+pub fn load_linear(path: &Path) -> Result<Image> {
+    let bad = |msg: String| Error::input(format!("image `{}`: {msg}", path.display()));
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("png") => {
+            let img = image::open(path).map_err(|e| bad(e.to_string()))?.to_rgb8();
+            let (width, height) = img.dimensions();
+            let pixels = img.pixels().map(|p| Vec3::from_array(p.0.map(|c| srgb_decode(c as f32 / 255.0)))).collect();
+            Ok(Image { width, height, pixels })
+        }
+        Some("exr") => {
+            let read = exr::prelude::read_first_rgba_layer_from_file(
+                path,
+                |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()]),
+                |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b)
+                },
+            )
+            .map_err(|e| bad(e.to_string()))?;
+            let size = read.layer_data.size;
+            let (_, pixels) = read.layer_data.channel_data.pixels;
+            Ok(Image { width: size.width() as u32, height: size.height() as u32, pixels })
+        }
+        _ => Err(bad("unknown extension (expected .png or .exr)".into())),
+    }
+}
+
+/// Differences between a test image and a reference.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Metrics {
+    /// Root-mean-square difference over all pixels and channels, linear values.
+    pub rmse: f64,
+    /// Mean over pixels and channels of (test - ref)² / (ref² + 0.01), linear values.
+    pub rel_mse: f64,
+    /// 10·log10(1 / MSE), linear values with peak 1; infinite for identical images.
+    pub psnr: f64,
+}
+
+/// Compares `test` against `reference`; they must have the same size.
+pub fn metrics(test: &Image, reference: &Image) -> Result<Metrics> {
+    if (test.width, test.height) != (reference.width, reference.height) {
+        return Err(Error::input(format!(
+            "images differ in size: {}×{} vs {}×{}",
+            test.width, test.height, reference.width, reference.height
+        )));
+    }
+    let (mut se, mut rel) = (0.0f64, 0.0f64);
+    for (t, r) in test.pixels.iter().zip(&reference.pixels) {
+        for c in 0..3 {
+            let (t, r) = (t[c] as f64, r[c] as f64);
+            se += (t - r) * (t - r);
+            rel += (t - r) * (t - r) / (r * r + 0.01);
+        }
+    }
+    let n = (3 * test.pixels.len()).max(1) as f64;
+    let mse = se / n;
+    Ok(Metrics { rmse: mse.sqrt(), rel_mse: rel / n, psnr: 10.0 * (1.0 / mse).log10() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn img(px: &[f32]) -> Image {
+        Image { width: px.len() as u32, height: 1, pixels: px.iter().map(|&v| Vec3::splat(v)).collect() }
+    }
+
+    #[test]
+    fn identical_images_have_zero_error() {
+        let m = metrics(&img(&[0.1, 0.5, 2.0]), &img(&[0.1, 0.5, 2.0])).unwrap();
+        assert_eq!(m.rmse, 0.0);
+        assert_eq!(m.rel_mse, 0.0);
+        assert!(m.psnr.is_infinite());
+    }
+
+    #[test]
+    fn known_values() {
+        // Differences 0.1 and 0.3 on every channel: MSE = (0.01 + 0.09) / 2 = 0.05.
+        let m = metrics(&img(&[0.6, 0.3]), &img(&[0.5, 0.0])).unwrap();
+        assert!((m.rmse - 0.05f64.sqrt()).abs() < 1e-6);
+        assert!((m.psnr - 10.0 * 20.0f64.log10()).abs() < 1e-4);
+        let rel = (0.01 / (0.25 + 0.01) + 0.09 / 0.01) / 2.0;
+        assert!((m.rel_mse - rel).abs() < 1e-5);
+    }
+
+    #[test]
+    fn size_mismatch_is_an_error() {
+        assert!(metrics(&img(&[0.0]), &img(&[0.0, 0.0])).is_err());
+    }
+
+    #[test]
+    fn srgb_round_trip() {
+        for v in [0.0f32, 0.001, 0.2, 0.5, 1.0] {
+            assert!((srgb_decode(crate::output::srgb_encode(v)) - v).abs() < 1e-5);
+        }
+    }
+}
