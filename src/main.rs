@@ -85,15 +85,21 @@ fn main() {
     }
 }
 
+/// Prints a line to stdout; a closed pipe (`| head`) is not an error worth a panic.
+fn say(text: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{text}");
+}
+
 fn run_compare(args: CompareArgs) -> Result<()> {
     let test = wavetrace::compare::load_linear(&args.test)?;
     let reference = wavetrace::compare::load_linear(&args.reference)?;
     let m = wavetrace::compare::metrics(&test, &reference)
         .map_err(|e| Error::input(format!("`{}` vs `{}`: {e}", args.test.display(), args.reference.display())))?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&m).map_err(|e| Error::Internal(e.to_string()))?);
+        say(&serde_json::to_string_pretty(&m).map_err(|e| Error::Internal(e.to_string()))?);
     } else {
-        println!("rmse {:.6}\nrel_mse {:.6}\npsnr {:.3} dB", m.rmse, m.rel_mse, m.psnr);
+        say(&format!("rmse {:.6}\nrel_mse {:.6}\npsnr {:.3} dB", m.rmse, m.rel_mse, m.psnr));
     }
     Ok(())
 }
@@ -171,9 +177,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
     }
     if !args.quiet {
         if args.stats {
-            println!("{}", report.table());
+            say(&report.table());
         }
-        println!("{} -> {}", report.summary(), args.output.display());
+        say(&format!("{} -> {}", report.summary(), args.output.display()));
     }
     Ok(())
 }

@@ -270,7 +270,8 @@ impl Worker {
     }
 
     /// Adaptive AA on one tile; `grid` is the shared corner grid, if corners are shared.
-    fn adaptive_tile(&mut self, scene: &Scene, tile: &Tile, grid: Option<&[Vec3]>, eps: f32, max_level: u32) {
+    fn adaptive_tile(&mut self, scene: &Scene, tile: &Tile, grid: Option<&[Vec3]>, eps: f32, levels: (u32, u32)) {
+        let (min_level, max_level) = levels;
         let s = &scene.settings;
         let (np, dof) = (tile.pixels(), s.dof_samples as u64);
         let tw = (tile.x1 - tile.x0) as usize;
@@ -321,7 +322,8 @@ impl Worker {
             self.collect_heat(1);
             let t = Instant::now();
             let before = self.queue.len();
-            refine::step(eps, level, &self.sums, &mut self.refine, &mut self.queue, &mut self.out);
+            let may_stop = level >= min_level;
+            refine::step(eps, level, may_stop, &self.sums, &mut self.refine, &mut self.queue, &mut self.out);
             self.stats.record(Stage::Refine, before, self.queue.len(), t.elapsed().as_secs_f64());
         }
         self.heat.level.copy_from_slice(&self.refine.level);
@@ -440,8 +442,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
             wk.begin_tile(tile.pixels());
             match s.aa_mode {
                 AaMode::Uniform => wk.uniform_tile(scene, tile),
-                AaMode::Adaptive { eps, max_level, .. } => {
-                    wk.adaptive_tile(scene, tile, shared_grid.then_some(&grid[..]), eps, max_level)
+                AaMode::Adaptive { eps, min_level, max_level, .. } => {
+                    wk.adaptive_tile(scene, tile, shared_grid.then_some(&grid[..]), eps, (min_level, max_level))
                 }
             }
         },

@@ -4,6 +4,7 @@ mod support;
 
 use std::path::Path;
 use wavetrace::scene::{load, SceneSource};
+use wavetrace::stats::Stage;
 use wavetrace::{render, RenderOptions};
 
 fn tiny(name: &str) -> wavetrace::RenderOutput {
@@ -29,7 +30,13 @@ fn every_scene_renders_something() {
         let out = tiny(&name);
         assert!(out.image.pixels.iter().all(|p| p.is_finite()), "{name}: non-finite pixel");
         assert!(out.image.pixels.iter().any(|p| p.max_element() > 0.0), "{name}: black image");
-        assert_eq!(out.stats.total_rays(), out.stats.camera_rays + out.stats.shadow_rays + out.stats.secondary_rays);
+        // Counters from the stages agree with the counts by kind.
+        let s = &out.stats;
+        let traced = s.camera_rays + s.aa_corner_rays + s.aa_refine_rays + s.secondary_rays;
+        assert_eq!(s.stage(Stage::Intersect).rays_in, traced, "{name}");
+        assert_eq!(s.stage(Stage::Shadow).rays_in, s.shadow_rays, "{name}");
+        assert_eq!(s.stage(Stage::ShadowCorner).rays_in, s.shadow_points, "{name}");
+        assert_eq!(s.stage(Stage::Penumbra).rays_in, s.penumbra_points, "{name}");
     }
 }
 

@@ -71,6 +71,10 @@ pub struct AaDesc {
     pub samples: u32,
     /// Adaptive: refine while display colours differ by more than this (default 0.01).
     pub eps: f32,
+    /// Adaptive: first level at which refinement may stop; the levels before it are
+    /// always cast (default 4: at least 4+8+16 samples in a refined pixel; 2 is the
+    /// paper's literal rule, level 2 compared with the corner mean).
+    pub min_level: u32,
     /// Adaptive: last refinement level; level i casts 2^i rays (default 6: up to 64).
     pub max_level: u32,
     /// Adaptive: trace the pixel-corner grid once and share it (default true).
@@ -79,7 +83,7 @@ pub struct AaDesc {
 
 impl Default for AaDesc {
     fn default() -> Self {
-        AaDesc { mode: "uniform".into(), samples: 16, eps: 0.01, max_level: 6, share_corners: true }
+        AaDesc { mode: "uniform".into(), samples: 16, eps: 0.01, min_level: 4, max_level: 6, share_corners: true }
     }
 }
 

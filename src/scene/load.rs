@@ -256,7 +256,15 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
             if !(2..=MAX_LEVEL).contains(&r.aa.max_level) {
                 return Err(ctx.fail("render.aa.max_level", format!("{} is not in 2..={MAX_LEVEL}", r.aa.max_level)));
             }
-            AaMode::Adaptive { eps: r.aa.eps, max_level: r.aa.max_level, share_corners: r.aa.share_corners }
+            if !(2..=r.aa.max_level).contains(&r.aa.min_level) {
+                return Err(ctx.fail("render.aa.min_level", format!("{} is not in 2..=max_level", r.aa.min_level)));
+            }
+            AaMode::Adaptive {
+                eps: r.aa.eps,
+                min_level: r.aa.min_level,
+                max_level: r.aa.max_level,
+                share_corners: r.aa.share_corners,
+            }
         }
         other => {
             return Err(

@@ -24,6 +24,8 @@ pub enum AaMode {
     Adaptive {
         /// Display-value tolerance (max over R, G, B of sRGB values clamped to [0, 1]).
         eps: f32,
+        /// First level whose agreement with the previous estimate may stop refinement.
+        min_level: u32,
         /// Last level; level i casts 2^i rays.
         max_level: u32,
         /// Trace the (W+1)×(H+1) corner grid once instead of 4 corners per pixel.

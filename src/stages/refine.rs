@@ -66,9 +66,18 @@ pub fn start(
 }
 
 /// The decision after level `level`: `estimates[p]` holds the level's mean for each
-/// queued pixel p. Every queued pixel's samples are added to its value in `out`; pixels
-/// whose estimate agrees with the previous one within `eps` leave `queue`.
-pub fn step(eps: f32, level: u32, estimates: &[Vec3], state: &mut RefineState, queue: &mut Vec<u32>, out: &mut [Vec3]) {
+/// queued pixel p. Every queued pixel's samples are added to its value in `out`; when
+/// `may_stop`, pixels whose estimate agrees with the previous one within `eps` leave
+/// `queue`.
+pub fn step(
+    eps: f32,
+    level: u32,
+    may_stop: bool,
+    estimates: &[Vec3],
+    state: &mut RefineState,
+    queue: &mut Vec<u32>,
+    out: &mut [Vec3],
+) {
     let n = 1u32 << level;
     queue.retain(|&p| {
         let p = p as usize;
@@ -77,7 +86,7 @@ pub fn step(eps: f32, level: u32, estimates: &[Vec3], state: &mut RefineState, q
         state.count[p] += n;
         state.level[p] = level as u8;
         out[p] = state.sum[p] / state.count[p] as f32;
-        let settled = display_diff(e, state.prev[p]) <= eps;
+        let settled = may_stop && display_diff(e, state.prev[p]) <= eps;
         state.prev[p] = e;
         !settled
     });
@@ -103,9 +112,9 @@ mod tests {
         assert_eq!(q, vec![1], "only the pixel whose centre differs");
         assert!((out[0] - Vec3::splat(0.001 / 3.0)).length() < 1e-7);
         // Level 2 differs from the corner mean (0): stays. Level 3 agrees with level 2: leaves.
-        step(0.05, 2, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
+        step(0.05, 2, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
         assert_eq!(q, vec![1]);
-        step(0.05, 3, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
+        step(0.05, 3, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
         assert!(q.is_empty());
         assert_eq!(st.count[1], 12);
         assert_eq!(st.level[1], 3);
