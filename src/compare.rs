@@ -1,5 +1,6 @@
-//! Image comparison: RMSE, relative MSE and PSNR on linear values (what
-//! `wavetrace compare` prints), and reading PNG or EXR images as linear RGB.
+//! Image comparison: RMSE, relative MSE and PSNR on linear values, and the mean
+//! LDR-FLIP error on clamped sRGB values (what `wavetrace compare` prints), and reading
+//! PNG or EXR images as linear RGB.
 
 use glam::Vec3;
 use serde::Serialize;
@@ -55,6 +56,9 @@ pub struct Metrics {
     pub rel_mse: f64,
     /// 10·log10(1 / MSE), linear values with peak 1; infinite for identical images.
     pub psnr: f64,
+    /// Mean LDR-FLIP error (NVIDIA, Andersson et al. 2020) at FLIP's default 67 pixels
+    /// per degree, both images clamped to [0, 1] and sRGB-encoded first.
+    pub flip: f64,
 }
 
 /// Compares `test` against `reference`; they must have the same size.
@@ -75,7 +79,12 @@ pub fn metrics(test: &Image, reference: &Image) -> Result<Metrics> {
     }
     let n = (3 * test.pixels.len()).max(1) as f64;
     let mse = se / n;
-    Ok(Metrics { rmse: mse.sqrt(), rel_mse: rel / n, psnr: 10.0 * (1.0 / mse).log10() })
+    let ldr = |img: &Image| -> Vec<[f32; 3]> {
+        img.pixels.iter().map(|p| p.to_array().map(crate::output::srgb_encode)).collect()
+    };
+    let (w, h) = (test.width as usize, test.height as usize);
+    let flip = crate::flip::mean_flip(&ldr(reference), &ldr(test), w, h, crate::flip::ppd_default()) as f64;
+    Ok(Metrics { rmse: mse.sqrt(), rel_mse: rel / n, psnr: 10.0 * (1.0 / mse).log10(), flip })
 }
 
 #[cfg(test)]
@@ -92,6 +101,18 @@ mod tests {
         assert_eq!(m.rmse, 0.0);
         assert_eq!(m.rel_mse, 0.0);
         assert!(m.psnr.is_infinite());
+        assert_eq!(m.flip, 0.0);
+    }
+
+    #[test]
+    fn flip_of_black_against_white() {
+        // FLIP's colour term alone (no edges): 0.967388 per pixel, from NVIDIA's code.
+        let black = Image { width: 8, height: 8, pixels: vec![Vec3::ZERO; 64] };
+        let white = Image { width: 8, height: 8, pixels: vec![Vec3::ONE; 64] };
+        assert!((metrics(&black, &white).unwrap().flip - 0.967388).abs() < 1e-4);
+        // HDR values clamp: 5.0 reads as white.
+        let bright = Image { width: 8, height: 8, pixels: vec![Vec3::splat(5.0); 64] };
+        assert_eq!(metrics(&bright, &white).unwrap().flip, 0.0);
     }
 
     #[test]

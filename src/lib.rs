@@ -8,6 +8,7 @@
 
 pub mod compare;
 pub mod error;
+pub mod flip;
 pub mod geometry;
 pub mod heatmap;
 pub mod output;

@@ -26,7 +26,7 @@ struct Cli {
 enum Command {
     /// Render a scene to an image (the default command).
     Render(RenderArgs),
-    /// Compare an image with a reference: RMSE, relative MSE and PSNR (linear values).
+    /// Compare an image with a reference: RMSE, relative MSE, PSNR (linear) and mean LDR-FLIP.
     Compare(CompareArgs),
 }
 
@@ -99,7 +99,7 @@ fn run_compare(args: CompareArgs) -> Result<()> {
     if args.json {
         say(&serde_json::to_string_pretty(&m).map_err(|e| Error::Internal(e.to_string()))?);
     } else {
-        say(&format!("rmse {:.6}\nrel_mse {:.6}\npsnr {:.3} dB", m.rmse, m.rel_mse, m.psnr));
+        say(&format!("rmse {:.6}\nrel_mse {:.6}\npsnr {:.3} dB\nflip {:.6}", m.rmse, m.rel_mse, m.psnr, m.flip));
     }
     Ok(())
 }

@@ -90,8 +90,9 @@ fn permute(mut i: u32, len: u32, pattern: u32) -> u32 {
 
 /// Sample `s` of `n` of a correlated multi-jittered 2D pattern in [0,1)^2 (Kensler 2013).
 ///
-/// The `n` samples of one pattern are stratified in both 1D projections and, when `n`
-/// is m*k with m = round(sqrt n), in an m×k grid too. Any `n >= 1` is allowed.
+/// The `n` samples of one pattern fall in distinct cells of an m×k grid (m = round(√n),
+/// k = ⌈n/m⌉); when n = m·k they are also stratified in both 1D projections. Any n ≥ 1
+/// is allowed, and every cell is equally likely to be used, so estimates stay unbiased.
 pub fn cmj(s: u32, n: u32, pattern: u32) -> Vec2 {
     debug_assert!(s < n);
     if n == 1 {
@@ -99,7 +100,10 @@ pub fn cmj(s: u32, n: u32, pattern: u32) -> Vec2 {
     }
     let m = ((n as f32).sqrt().round() as u32).max(1);
     let k = n.div_ceil(m);
-    let s = permute(s, n, pattern.wrapping_mul(0x5163_3e2d));
+    // Permute over all m·k cells, not just the first n: when n < m·k the n samples then
+    // fill a random subset of the grid instead of always leaving the last row short,
+    // which would bias every estimate.
+    let s = permute(s, m * k, pattern.wrapping_mul(0x5163_3e2d));
     let sx = permute(s % m, m, pattern.wrapping_mul(0x68bc_21eb));
     let sy = permute(s / m, k, pattern.wrapping_mul(0x02e5_be93));
     let jx = to_unit(hash(&[s, pattern.wrapping_mul(0x967a_889b)]));
@@ -161,6 +165,26 @@ mod tests {
                 assert!(xs.iter().all(|&c| c == 1), "n {n}: x strata {xs:?}");
                 assert!(ys.iter().all(|&c| c == 1), "n {n}: y strata {ys:?}");
             }
+        }
+    }
+
+    #[test]
+    fn cmj_is_unbiased_when_n_is_not_a_grid() {
+        // n = 8 uses 8 of 9 cells: averaged over patterns, every region gets its share.
+        for n in [2u32, 8, 32, 128] {
+            let mut lower = 0u32;
+            let patterns = 2000;
+            for p in 0..patterns {
+                lower += (0..n).filter(|&s| cmj(s, n, mix(p)).y < 0.5).count() as u32;
+            }
+            let frac = lower as f64 / (n * patterns) as f64;
+            assert!((frac - 0.5).abs() < 0.01, "n {n}: {frac} of samples in the lower half");
+            let last_row = (0..patterns).map(|p| (0..n).filter(|&s| cmj(s, n, mix(p)).y > 0.9).count()).sum::<usize>();
+            let expect = 0.1 * (n * patterns) as f64;
+            assert!(
+                (last_row as f64 - expect).abs() < 0.05 * expect,
+                "n {n}: top tenth holds {last_row}, expected {expect}"
+            );
         }
     }
 

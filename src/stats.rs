@@ -30,8 +30,17 @@ pub enum Stage {
 
 impl Stage {
     /// All stages in pipeline order.
-    pub const ALL: [Stage; 6] =
-        [Stage::Camera, Stage::Intersect, Stage::Shade, Stage::Shadow, Stage::Scatter, Stage::Film];
+    pub const ALL: [Stage; 9] = [
+        Stage::Camera,
+        Stage::Intersect,
+        Stage::Shade,
+        Stage::Shadow,
+        Stage::ShadowCorner,
+        Stage::Penumbra,
+        Stage::Scatter,
+        Stage::Film,
+        Stage::Refine,
+    ];
 
     /// Name used in tables and JSON.
     pub fn name(self) -> &'static str {
@@ -295,10 +304,10 @@ impl Report {
 
     /// The per-stage table of `--stats`.
     pub fn table(&self) -> String {
-        let mut s = format!("{:<10} {:>14} {:>14} {:>10}\n", "stage", "rays in", "rays out", "seconds");
+        let mut s = format!("{:<14} {:>14} {:>14} {:>10}\n", "stage", "rays in", "rays out", "seconds");
         for st in Stage::ALL {
             let c = &self.stages[st.name()];
-            s += &format!("{:<10} {:>14} {:>14} {:>10.3}\n", st.name(), c.rays_in, c.rays_out, c.seconds);
+            s += &format!("{:<14} {:>14} {:>14} {:>10.3}\n", st.name(), c.rays_in, c.rays_out, c.seconds);
         }
         for (kind, n) in &self.rays {
             s += &format!("rays {:<13} {:>10}\n", kind, n);

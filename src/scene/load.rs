@@ -15,8 +15,8 @@ use crate::{Error, Result};
 pub const MAX_LEVEL: u32 = 16;
 
 /// Bytes each pixel costs while rendering and writing: film sum, output buffers, the
-/// shared corner grid and the per-pixel heat counters.
-pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4 + 12 + 16;
+/// shared corner grid with its heat counters, and the per-pixel heat counters.
+pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4 + 24 + 16;
 
 /// Where a scene's text came from: mesh paths are relative to `dir`.
 #[derive(Clone, Debug)]
@@ -257,7 +257,16 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
                 return Err(ctx.fail("render.aa.max_level", format!("{} is not in 2..={MAX_LEVEL}", r.aa.max_level)));
             }
             if !(2..=r.aa.max_level).contains(&r.aa.min_level) {
-                return Err(ctx.fail("render.aa.min_level", format!("{} is not in 2..=max_level", r.aa.min_level)));
+                // Blame the one a --set changed, if either was.
+                let path = if ctx.sets.iter().any(|s| s.starts_with("render.aa.max_level=")) {
+                    "render.aa.max_level"
+                } else {
+                    "render.aa.min_level"
+                };
+                return Err(ctx.fail(
+                    path,
+                    format!("min_level ({}) must be in 2..=max_level ({})", r.aa.min_level, r.aa.max_level),
+                ));
             }
             AaMode::Adaptive {
                 eps: r.aa.eps,
@@ -272,19 +281,20 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
             )
         }
     };
+    let probe = match r.shadows.probe.as_str() {
+        "corners" => Probe::Corners,
+        "corners+center" => Probe::CornersCenter,
+        "jittered" => Probe::Jittered,
+        other => {
+            return Err(ctx.fail(
+                "render.shadows.probe",
+                format!("unknown probe \"{other}\" (expected \"corners\", \"corners+center\" or \"jittered\")"),
+            ))
+        }
+    };
     let shadow_mode = match r.shadows.mode.as_str() {
         "uniform" => ShadowMode::Uniform,
-        "adaptive" => ShadowMode::Adaptive(match r.shadows.probe.as_str() {
-            "corners" => Probe::Corners,
-            "corners+center" => Probe::CornersCenter,
-            "jittered" => Probe::Jittered,
-            other => {
-                return Err(ctx.fail(
-                    "render.shadows.probe",
-                    format!("unknown probe \"{other}\" (expected \"corners\", \"corners+center\" or \"jittered\")"),
-                ))
-            }
-        }),
+        "adaptive" => ShadowMode::Adaptive(probe),
         other => {
             return Err(ctx.fail(
                 "render.shadows.mode",
