@@ -50,7 +50,7 @@ fn flat_lit_scene_casts_only_the_minimum() {
     assert_eq!(s.shadow_points, 24 * 16 + 25 * 17, "every camera hit is tested");
     assert_eq!(s.penumbra_points, 0, "no occluder: nothing in the penumbra");
     assert_eq!(s.penumbra_rays, 0);
-    assert_eq!(s.shadow_corner_rays, 4 * s.shadow_points);
+    assert_eq!(s.shadow_corner_rays, 9 * s.shadow_points, "the default probe is the 3×3 grid");
     assert!(out.heat.level.iter().all(|&l| l == 0));
 }
 
@@ -325,6 +325,7 @@ fn corner_test_is_fooled_by_a_small_occluder_and_the_options_catch_it() {
     let (corners, _) = fooled("corners");
     let (center, stats_center) = fooled("corners+center");
     let (jittered, _) = fooled("jittered");
+    let (grid, stats_grid) = fooled("3x3");
     // The sphere's soft shadow covers most of the view, and four corner rays see it
     // almost nowhere: the plain test is fooled in most pixels.
     assert!(corners > 800, "the plain corner test should miss the occluder's soft shadow: {corners} of 1600");
@@ -332,5 +333,7 @@ fn corner_test_is_fooled_by_a_small_occluder_and_the_options_catch_it() {
     // sphere; jittered probes catch a random share of the rest.
     assert!(center < corners, "a fifth ray to the centre catches some: {center} vs {corners}");
     assert!(jittered < corners, "jittered probes catch some: {jittered} vs {corners}");
+    assert!(grid < corners, "the 3×3 grid catches some: {grid} vs {corners}");
+    assert_eq!(stats_grid.shadow_corner_rays, 9 * stats_grid.shadow_points);
     assert_eq!(stats_center.shadow_corner_rays, 5 * stats_center.shadow_points);
 }

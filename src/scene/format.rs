@@ -96,14 +96,15 @@ pub struct ShadowsDesc {
     /// Shadow rays per quad light per shading point (uniform), or per penumbra point
     /// (adaptive) (default 16).
     pub samples: u32,
-    /// Adaptive: the rays of the shadow-corner test: "corners", "corners+center" or
-    /// "jittered" (default "corners").
+    /// Adaptive: the rays of the shadow-corner test: "corners" (the paper's four),
+    /// "corners+center", "jittered" or "3x3" (default "3x3": corners, edge midpoints and
+    /// centre, which the measurements in docs/adaptive.md favour).
     pub probe: String,
 }
 
 impl Default for ShadowsDesc {
     fn default() -> Self {
-        ShadowsDesc { mode: "uniform".into(), samples: 16, probe: "corners".into() }
+        ShadowsDesc { mode: "uniform".into(), samples: 16, probe: "3x3".into() }
     }
 }
 

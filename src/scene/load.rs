@@ -285,10 +285,13 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         "corners" => Probe::Corners,
         "corners+center" => Probe::CornersCenter,
         "jittered" => Probe::Jittered,
+        "3x3" => Probe::Grid3,
         other => {
             return Err(ctx.fail(
                 "render.shadows.probe",
-                format!("unknown probe \"{other}\" (expected \"corners\", \"corners+center\" or \"jittered\")"),
+                format!(
+                    "unknown probe \"{other}\" (expected \"corners\", \"corners+center\", \"jittered\" or \"3x3\")"
+                ),
             ))
         }
     };

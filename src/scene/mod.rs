@@ -52,6 +52,9 @@ pub enum Probe {
     CornersCenter,
     /// One ray to a jittered point in each quarter of the light, new per shading point.
     Jittered,
+    /// A 3×3 grid: corners, edge midpoints and centre. Catches occluders that cover the
+    /// middle of an edge, which the corners straddle.
+    Grid3,
 }
 
 impl Probe {
@@ -60,6 +63,7 @@ impl Probe {
         match self {
             Probe::Corners | Probe::Jittered => 4,
             Probe::CornersCenter => 5,
+            Probe::Grid3 => 9,
         }
     }
 }

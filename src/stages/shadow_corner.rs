@@ -10,20 +10,30 @@ use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue};
 use crate::sampling::{dim, hash, to_unit};
 use crate::scene::{Light, Probe, Scene};
 
-/// The probe targets on quad light `li` for a shading point with path key `key`.
+/// The probe targets on quad light `li` for a shading point with path key `key`; the
+/// first `probe.rays()` entries are used.
 #[inline]
-pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> ([Vec3; 5], usize) {
-    let Light::Quad { corner, u, v, .. } = scene.lights[li] else { return ([Vec3::ZERO; 5], 0) };
+pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3; 9] {
+    let mut t = [Vec3::ZERO; 9];
+    let Light::Quad { corner, u, v, .. } = scene.lights[li] else { return t };
     let at = |a: f32, b: f32| corner + a * u + b * v;
     match probe {
-        Probe::Corners => ([at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0), Vec3::ZERO], 4),
-        Probe::CornersCenter => ([at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0), at(0.5, 0.5)], 5),
+        Probe::Corners | Probe::CornersCenter => {
+            t[..5].copy_from_slice(&[at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0), at(0.5, 0.5)]);
+        }
         Probe::Jittered => {
             let h = |q: u32, d: u32| to_unit(hash(&[key, li as u32, q, d, dim::PROBE]));
-            let q = |i: u32| at(0.5 * ((i & 1) as f32 + h(i, 0)), 0.5 * ((i >> 1) as f32 + h(i, 1)));
-            ([q(0), q(1), q(2), q(3), Vec3::ZERO], 4)
+            for i in 0..4u32 {
+                t[i as usize] = at(0.5 * ((i & 1) as f32 + h(i, 0)), 0.5 * ((i >> 1) as f32 + h(i, 1)));
+            }
+        }
+        Probe::Grid3 => {
+            for (i, p) in t.iter_mut().enumerate() {
+                *p = at(0.5 * (i % 3) as f32, 0.5 * (i / 3) as f32);
+            }
         }
     }
+    t
 }
 
 /// Tests every queued point; lit points add their unoccluded contribution to `film`,
@@ -42,7 +52,8 @@ pub fn shadow_corners(
     let mut cast = 0;
     for k in 0..points.len() {
         let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
-        let (targets, n) = probe_targets(scene, probe, points.light[k] as usize, surf.key);
+        let targets = probe_targets(scene, probe, points.light[k] as usize, surf.key);
+        let n = probe.rays() as usize;
         let mut visible = 0;
         for target in &targets[..n] {
             let to = *target - surf.o;
