@@ -9,7 +9,7 @@ use wavetrace::{render, RenderOptions};
 fn bench_scene(c: &mut Criterion, name: &str, src: SceneSource) {
     let sets: Vec<String> = ["render.width=160", "render.height=120"].map(String::from).to_vec();
     let scene = load(&src, &sets).expect("scene loads");
-    let opts = RenderOptions { threads: Some(1), progress: None };
+    let opts = RenderOptions { threads: Some(1), ..Default::default() };
     let rays = render(&scene, &opts).expect("render").stats.total_rays();
     let mut g = c.benchmark_group("render");
     g.sample_size(10);

@@ -67,6 +67,13 @@ struct RenderArgs {
     /// points blue) or rays=PATH (rays per pixel with a legend). PNG. Repeatable.
     #[arg(long = "heatmap", value_name = "KIND=PATH")]
     heatmaps: Vec<String>,
+    /// Write a Chrome trace-event JSON (chrome://tracing, Perfetto): one span per stage
+    /// per wave per thread.
+    #[arg(long, value_name = "PATH")]
+    trace: Option<PathBuf>,
+    /// Leave out the BVH node/primitive counters (to measure their overhead).
+    #[arg(long, hide = true)]
+    no_counters: bool,
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
@@ -107,7 +114,7 @@ fn run_compare(args: CompareArgs) -> Result<()> {
 fn run_render(args: RenderArgs) -> Result<()> {
     // Every output is checked before any work, so bad paths cost nothing.
     check_image_path(&args.output)?;
-    if let Some(p) = &args.stats_json {
+    for p in args.stats_json.iter().chain(args.trace.iter()) {
         check_folder(p)?;
     }
     let mut heatmaps = Vec::new();
@@ -141,13 +148,19 @@ fn run_render(args: RenderArgs) -> Result<()> {
         let pb = indicatif::ProgressBar::new(0);
         pb.set_style(
             indicatif::ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles, ETA {eta}",
+                "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles, {msg}, ETA {eta}",
             )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         pb
     });
-    let out = render(&scene, &RenderOptions { threads: args.threads, progress: progress.clone() })?;
+    let opts = RenderOptions {
+        threads: args.threads,
+        progress: progress.clone(),
+        no_counters: args.no_counters,
+        trace: args.trace.is_some(),
+    };
+    let out = render(&scene, &opts)?;
     if let Some(pb) = progress {
         pb.finish_and_clear();
     }
@@ -171,6 +184,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
             load_seconds,
         },
     );
+    if let Some(p) = &args.trace {
+        write_text(p, &wavetrace::stats::chrome_trace(&out.spans))?;
+    }
     if let Some(p) = &args.stats_json {
         let json = serde_json::to_string_pretty(&report).map_err(|e| Error::Internal(e.to_string()))?;
         write_text(p, &(json + "\n"))?;

@@ -11,6 +11,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
+use crate::geometry::Traversal;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
 use crate::scene::{AaMode, Scene, ShadowMode};
 use crate::stages::refine::{self, RefineState};
@@ -29,8 +30,23 @@ pub const WAVE_RAYS: u64 = 4096;
 pub struct RenderOptions {
     /// Worker threads; `None` uses every core.
     pub threads: Option<usize>,
-    /// A progress bar to advance once per tile.
+    /// A progress bar to advance once per tile (its message shows Mrays/s).
     pub progress: Option<indicatif::ProgressBar>,
+    /// Leave out the BVH node and primitive counters (for measuring their overhead).
+    pub no_counters: bool,
+    /// Record one span per stage call per thread for a Chrome trace.
+    pub trace: bool,
+}
+
+/// One stage call on one thread, for the Chrome trace.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    /// The stage.
+    pub stage: Stage,
+    /// Start, microseconds since the render began.
+    pub start_us: f64,
+    /// Duration in microseconds.
+    pub dur_us: f64,
 }
 
 /// A linear RGB image.
@@ -71,6 +87,8 @@ pub struct RenderOutput {
     pub per_thread: Vec<Stats>,
     /// Wall-clock seconds.
     pub seconds: f64,
+    /// Stage spans per thread, when `RenderOptions::trace`.
+    pub spans: Vec<Vec<Span>>,
 }
 
 /// The kind of camera ray a pass starts, for the stats.
@@ -122,6 +140,12 @@ struct Worker {
     refine: RefineState,
     queue: Vec<u32>,
     stats: Stats,
+    /// Traversal work of the stage being run.
+    work: Traversal,
+    count: bool,
+    /// Stage spans, when tracing: `Some(render start)`.
+    trace: Option<Instant>,
+    spans: Vec<Span>,
 }
 
 impl Worker {
@@ -142,7 +166,7 @@ impl Worker {
             self.rays.clear();
             generate(k0..k1, &mut self.rays);
             let n = self.rays.len() as u64;
-            self.stats.record(Stage::Camera, 0, n as usize, t.elapsed().as_secs_f64());
+            self.lap(Stage::Camera, 0, n as usize, t);
             match kind {
                 Kind::Camera => self.stats.camera_rays += n,
                 Kind::Corner => self.stats.aa_corner_rays += n,
@@ -161,8 +185,9 @@ impl Worker {
         for &s in &self.rays.slot {
             self.slot_heat.rays[s as usize] += 1.0;
         }
+        self.peak_rays(n);
         let t = Instant::now();
-        intersect::intersect(scene, &self.rays, &mut self.hits);
+        intersect::intersect(scene, &self.rays, &mut self.hits, &mut self.work, self.count);
         let t = self.lap(Stage::Intersect, n, n, t);
 
         let uniform_equivalent = shade::shade(
@@ -175,9 +200,13 @@ impl Worker {
             &mut self.film,
         );
         let shaded_out = self.shadow.len() + self.points.len() + self.specular.len() + self.film.len();
+        let p = &mut self.stats.peak;
+        p.shadow = p.shadow.max(self.shadow.len() as u64);
+        p.shadow_points = p.shadow_points.max(self.points.len() as u64);
+        p.specular = p.specular.max(self.specular.len() as u64);
         let t = self.lap(Stage::Shade, n, shaded_out, t);
 
-        let lit = shadow::occlusion(scene, &self.shadow, &mut self.film);
+        let lit = shadow::occlusion(scene, &self.shadow, &mut self.film, &mut self.work, self.count);
         self.stats.shadow_rays += self.shadow.len() as u64;
         for &s in &self.shadow.slot {
             self.slot_heat.rays[s as usize] += 1.0;
@@ -193,6 +222,8 @@ impl Worker {
                 &self.points,
                 &mut self.film,
                 &mut self.penumbra,
+                &mut self.work,
+                self.count,
             );
             self.stats.shadow_corner_rays += cast as u64;
             self.stats.shadow_points += self.points.len() as u64;
@@ -210,7 +241,9 @@ impl Worker {
             t = self.lap(Stage::ShadowCorner, self.points.len(), self.penumbra.len(), t);
 
             penumbra::penumbra(scene, &self.rays, &self.hits, &self.points, &self.penumbra, &mut self.penumbra_rays);
-            let lit = shadow::occlusion(scene, &self.penumbra_rays, &mut self.film);
+            let lit = shadow::occlusion(scene, &self.penumbra_rays, &mut self.film, &mut self.work, self.count);
+            let p = &mut self.stats.peak;
+            p.penumbra_rays = p.penumbra_rays.max(self.penumbra_rays.len() as u64);
             self.stats.penumbra_rays += self.penumbra_rays.len() as u64;
             for &s in &self.penumbra_rays.slot {
                 self.slot_heat.rays[s as usize] += 1.0;
@@ -226,15 +259,46 @@ impl Worker {
             t = self.lap(Stage::Scatter, self.specular.len(), self.next.len(), t);
         }
 
+        self.stats.peak.film = self.stats.peak.film.max(self.film.len() as u64);
         film::accumulate(&self.film, &mut self.sums);
         self.lap(Stage::Film, self.film.len(), self.film.len(), t);
         std::mem::swap(&mut self.rays, &mut self.next);
     }
 
+    /// Ends a stage call begun at `since`: records its counts, time and traversal work,
+    /// and its span when tracing.
     fn lap(&mut self, stage: Stage, rays_in: usize, rays_out: usize, since: Instant) -> Instant {
         let now = Instant::now();
         self.stats.record(stage, rays_in, rays_out, (now - since).as_secs_f64());
+        let c = &mut self.stats.stages[stage as usize];
+        c.nodes += self.work.nodes;
+        c.prims += self.work.prims;
+        self.work = Traversal::default();
+        if let Some(t0) = self.trace {
+            let start_us = (since - t0).as_secs_f64() * 1e6;
+            self.spans.push(Span { stage, start_us, dur_us: (now - since).as_secs_f64() * 1e6 });
+        }
         now
+    }
+
+    fn peak_rays(&mut self, n: usize) {
+        self.stats.peak.rays = self.stats.peak.rays.max(n as u64);
+    }
+
+    /// Bytes held by the worker's queues and buffers (capacities).
+    fn bytes(&self) -> u64 {
+        let v3 = std::mem::size_of::<Vec3>();
+        let sh = |q: &ShadowQueue| 11 * 4 * q.ox.capacity();
+        let b = self.rays.bytes()
+            + self.next.bytes()
+            + 8 * self.hits.t.capacity()
+            + sh(&self.shadow)
+            + sh(&self.penumbra_rays)
+            + 20 * self.points.ray.capacity()
+            + 4 * (self.penumbra.capacity() + self.specular.capacity() + self.queue.capacity())
+            + 16 * self.film.slot.capacity()
+            + v3 * (self.sums.capacity() + self.out.capacity() + self.centre.capacity() + self.corner_mean.capacity());
+        b as u64
     }
 
     /// Starts the tile's results: radiance and heat per tile pixel.
@@ -303,7 +367,7 @@ impl Worker {
 
         let t = Instant::now();
         refine::start(eps, &self.centre, &self.corner_mean, &mut self.refine, &mut self.queue, &mut self.out);
-        self.stats.record(Stage::Refine, np, self.queue.len(), t.elapsed().as_secs_f64());
+        self.lap(Stage::Refine, np, self.queue.len(), t);
         self.stats.aa_pixels += np as u64;
         self.stats.aa_refined_pixels += self.queue.len() as u64;
         self.stats.aa_uniform_rays += np as u64 * (1u64 << max_level) * dof;
@@ -324,7 +388,7 @@ impl Worker {
             let before = self.queue.len();
             let may_stop = level >= min_level;
             refine::step(eps, level, may_stop, &self.sums, &mut self.refine, &mut self.queue, &mut self.out);
-            self.stats.record(Stage::Refine, before, self.queue.len(), t.elapsed().as_secs_f64());
+            self.lap(Stage::Refine, before, self.queue.len(), t);
         }
         self.heat.level.copy_from_slice(&self.refine.level);
     }
@@ -348,23 +412,37 @@ pub fn tiles(width: u32, height: u32) -> Vec<Tile> {
 fn for_tiles(
     pool: &rayon::ThreadPool,
     tiles: &[Tile],
-    progress: Option<&indicatif::ProgressBar>,
+    ctx: &Pass,
     work: impl Fn(&mut Worker, &Tile) + Sync,
     store: impl Fn(&Worker, &Tile) + Sync,
-) -> Vec<Stats> {
+) -> Vec<(Stats, Vec<Span>)> {
     let next = AtomicUsize::new(0);
     pool.broadcast(|_| {
-        let mut w = Worker::default();
+        let mut w =
+            Worker { count: !ctx.opts.no_counters, trace: ctx.opts.trace.then_some(ctx.start), ..Default::default() };
         while let Some(tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
+            let before = w.stats.total_rays();
             work(&mut w, tile);
             w.stats.tiles += 1;
             store(&w, tile);
-            if let Some(pb) = progress {
+            let done =
+                ctx.rays.fetch_add(w.stats.total_rays() - before, Ordering::Relaxed) + w.stats.total_rays() - before;
+            if let Some(pb) = &ctx.opts.progress {
                 pb.inc(1);
+                let secs = ctx.start.elapsed().as_secs_f64().max(1e-9);
+                pb.set_message(format!("{:.1} Mrays/s", done as f64 / secs / 1e6));
             }
         }
-        w.stats
+        w.stats.queue_bytes = w.bytes();
+        (w.stats, w.spans)
     })
+}
+
+/// What every tile pass of one render shares: options, start time, rays so far.
+struct Pass<'a> {
+    opts: &'a RenderOptions,
+    start: Instant,
+    rays: std::sync::atomic::AtomicU64,
 }
 
 /// Copies a tile's rows from `src` (tile-local, row-major) into `dst` (raster of width `width`).
@@ -396,6 +474,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
         pb.set_length((pixel_tiles.len() + grid_tiles.len()) as u64);
     }
     let start = Instant::now();
+    let ctx = Pass { opts, start, rays: std::sync::atomic::AtomicU64::new(0) };
 
     // Adaptive AA with shared corners: trace the (W+1)×(H+1) corner grid once.
     let grid =
@@ -406,7 +485,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let mut per_thread = for_tiles(
         &pool,
         &grid_tiles,
-        opts.progress.as_ref(),
+        &ctx,
         |wk, tile| {
             let dof = s.dof_samples as u64;
             wk.begin_pass(tile.pixels());
@@ -437,7 +516,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let main = for_tiles(
         &pool,
         &pixel_tiles,
-        opts.progress.as_ref(),
+        &ctx,
         |wk, tile| {
             wk.begin_tile(tile.pixels());
             match s.aa_mode {
@@ -480,14 +559,20 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
         }
     }
 
+    // Thread i of the grid pass and thread i of the pixel pass are the same pool thread.
     if per_thread.is_empty() {
         per_thread = main;
     } else {
-        for (a, b) in per_thread.iter_mut().zip(&main) {
-            a.merge(b);
+        for (a, b) in per_thread.iter_mut().zip(main) {
+            // The two passes' workers live one after the other: peak bytes, not the sum.
+            let bytes = a.0.queue_bytes.max(b.0.queue_bytes);
+            a.0.merge(&b.0);
+            a.0.queue_bytes = bytes;
+            a.1.extend(b.1);
         }
     }
     let mut stats = Stats::default();
-    per_thread.iter().for_each(|t| stats.merge(t));
-    Ok(RenderOutput { image: Image { width: w, height: h, pixels }, heat, stats, per_thread, seconds })
+    per_thread.iter().for_each(|t| stats.merge(&t.0));
+    let (per_thread, spans) = per_thread.into_iter().unzip();
+    Ok(RenderOutput { image: Image { width: w, height: h, pixels }, heat, stats, per_thread, seconds, spans })
 }

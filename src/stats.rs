@@ -67,6 +67,10 @@ pub struct StageCounters {
     pub rays_out: u64,
     /// Seconds spent in the stage, summed over threads.
     pub seconds: f64,
+    /// BVH nodes whose box was tested by the stage's traversals (0 when not counted).
+    pub nodes: u64,
+    /// Primitive intersection tests run by the stage's traversals.
+    pub prims: u64,
 }
 
 /// Counters of one worker, or of the whole render once merged.
@@ -103,6 +107,39 @@ pub struct Stats {
     pub penumbra_points: u64,
     /// Adaptive shadows: shadow rays uniform mode would cast for the same points.
     pub shadow_uniform_rays: u64,
+    /// Longest each queue got, in entries (merged: the maximum over workers).
+    pub peak: QueuePeaks,
+    /// Bytes the worker's queues and buffers held at the end (merged: the sum over
+    /// workers, which hold them at the same time).
+    pub queue_bytes: u64,
+}
+
+/// The longest each queue got.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct QueuePeaks {
+    /// Rays of one wave (camera or secondary).
+    pub rays: u64,
+    /// Shadow rays (point lights, uniform quad lights).
+    pub shadow: u64,
+    /// Shadow-corner queue entries.
+    pub shadow_points: u64,
+    /// Penumbra rays.
+    pub penumbra_rays: u64,
+    /// Specular hits handed to scatter.
+    pub specular: u64,
+    /// Film contributions of one wave.
+    pub film: u64,
+}
+
+impl QueuePeaks {
+    fn merge(&mut self, o: &QueuePeaks) {
+        self.rays = self.rays.max(o.rays);
+        self.shadow = self.shadow.max(o.shadow);
+        self.shadow_points = self.shadow_points.max(o.shadow_points);
+        self.penumbra_rays = self.penumbra_rays.max(o.penumbra_rays);
+        self.specular = self.specular.max(o.specular);
+        self.film = self.film.max(o.film);
+    }
 }
 
 impl Stats {
@@ -121,7 +158,11 @@ impl Stats {
             a.rays_in += b.rays_in;
             a.rays_out += b.rays_out;
             a.seconds += b.seconds;
+            a.nodes += b.nodes;
+            a.prims += b.prims;
         }
+        self.peak.merge(&o.peak);
+        self.queue_bytes += o.queue_bytes;
         self.camera_rays += o.camera_rays;
         self.aa_corner_rays += o.aa_corner_rays;
         self.aa_refine_rays += o.aa_refine_rays;
@@ -189,6 +230,13 @@ pub struct Report {
     pub adaptive_shadows: Option<QueueReport>,
     /// Per-stage counters, seconds summed over threads.
     pub stages: BTreeMap<&'static str, StageCounters>,
+    /// Per ray BVH work of the stages that trace rays (absent when counters were off).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub traversal: BTreeMap<&'static str, TraversalReport>,
+    /// Longest each queue got (entries; maximum over threads).
+    pub peak_queue: QueuePeaks,
+    /// Bytes held by all workers' queues and buffers at the end.
+    pub queue_bytes: u64,
     /// Facts about the scene.
     pub scene: SceneReport,
     /// Per-thread ray totals and busy seconds, in thread order.
@@ -242,6 +290,17 @@ pub struct ThreadReport {
     pub tiles: u64,
     /// Seconds spent in stages.
     pub busy_seconds: f64,
+    /// This thread's per-stage counters.
+    pub stages: BTreeMap<&'static str, StageCounters>,
+}
+
+/// Traversal cost of a stage that traces rays, per ray.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct TraversalReport {
+    /// BVH nodes tested per ray.
+    pub nodes_per_ray: f64,
+    /// Primitive intersection tests per ray.
+    pub prims_per_ray: f64,
 }
 
 impl Report {
@@ -275,6 +334,28 @@ impl Report {
                 QueueReport::new(t.shadow_points, t.penumbra_points, rays, t.shadow_uniform_rays)
             }),
             stages: Stage::ALL.iter().map(|&s| (s.name(), *total.stage(s))).collect(),
+            traversal: [Stage::Intersect, Stage::Shadow, Stage::ShadowCorner, Stage::Penumbra]
+                .iter()
+                .filter_map(|&st| {
+                    let c = total.stage(st);
+                    // Rays traced by the stage: its input, except shadow-corner and
+                    // penumbra, whose inputs are points.
+                    let rays = match st {
+                        Stage::ShadowCorner => total.shadow_corner_rays,
+                        Stage::Penumbra => total.penumbra_rays,
+                        _ => c.rays_in,
+                    };
+                    (c.nodes > 0 && rays > 0).then(|| {
+                        let r = rays as f64;
+                        (
+                            st.name(),
+                            TraversalReport { nodes_per_ray: c.nodes as f64 / r, prims_per_ray: c.prims as f64 / r },
+                        )
+                    })
+                })
+                .collect(),
+            peak_queue: total.peak,
+            queue_bytes: total.queue_bytes,
             scene,
             per_thread: per_thread
                 .iter()
@@ -282,6 +363,7 @@ impl Report {
                     rays: t.total_rays(),
                     tiles: t.tiles,
                     busy_seconds: t.stages.iter().map(|c| c.seconds).sum(),
+                    stages: Stage::ALL.iter().map(|&s| (s.name(), *t.stage(s))).collect(),
                 })
                 .collect(),
         }
@@ -304,10 +386,24 @@ impl Report {
 
     /// The per-stage table of `--stats`.
     pub fn table(&self) -> String {
-        let mut s = format!("{:<14} {:>14} {:>14} {:>10}\n", "stage", "rays in", "rays out", "seconds");
+        let mut s = format!(
+            "{:<14} {:>14} {:>14} {:>10} {:>10} {:>10}\n",
+            "stage", "rays in", "rays out", "seconds", "nodes/ray", "prims/ray"
+        );
         for st in Stage::ALL {
             let c = &self.stages[st.name()];
-            s += &format!("{:<14} {:>14} {:>14} {:>10.3}\n", st.name(), c.rays_in, c.rays_out, c.seconds);
+            let (n, p) = self.traversal.get(st.name()).map_or((String::new(), String::new()), |t| {
+                (format!("{:.1}", t.nodes_per_ray), format!("{:.1}", t.prims_per_ray))
+            });
+            s += &format!(
+                "{:<14} {:>14} {:>14} {:>10.3} {:>10} {:>10}\n",
+                st.name(),
+                c.rays_in,
+                c.rays_out,
+                c.seconds,
+                n,
+                p
+            );
         }
         for (kind, n) in &self.rays {
             s += &format!("rays {:<13} {:>10}\n", kind, n);
@@ -329,6 +425,17 @@ impl Report {
             "total {:>22} rays, {:.3} s wall, {:.2} Mrays/s, {} threads\n",
             self.total_rays, self.seconds, self.mrays_per_s, self.threads
         );
+        let q = &self.peak_queue;
+        s += &format!(
+            "peak queues: rays {}, shadow {}, shadow points {}, penumbra rays {}, specular {}, film {}; {:.1} MiB held\n",
+            q.rays,
+            q.shadow,
+            q.shadow_points,
+            q.penumbra_rays,
+            q.specular,
+            q.film,
+            self.queue_bytes as f64 / (1 << 20) as f64
+        );
         s += &format!(
             "scene: {} primitives ({} triangles, {} degenerate skipped), BVH {:.3} s, load {:.3} s",
             self.scene.primitives,
@@ -339,4 +446,22 @@ impl Report {
         );
         s
     }
+}
+
+/// A Chrome trace-event JSON document (chrome://tracing, Perfetto) with one complete
+/// ("X") event per stage span; thread ids are worker indices.
+pub fn chrome_trace(spans: &[Vec<crate::render::Span>]) -> String {
+    let events: Vec<serde_json::Value> = spans
+        .iter()
+        .enumerate()
+        .flat_map(|(tid, list)| {
+            list.iter().map(move |sp| {
+                serde_json::json!({
+                    "name": sp.stage.name(), "cat": "stage", "ph": "X",
+                    "ts": sp.start_us, "dur": sp.dur_us, "pid": 1, "tid": tid,
+                })
+            })
+        })
+        .collect();
+    serde_json::json!({ "traceEvents": events, "displayTimeUnit": "ms" }).to_string()
 }

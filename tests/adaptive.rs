@@ -144,7 +144,7 @@ fn a_vertical_edge_refines_only_the_pixels_on_it() {
     let half_w = cam.tan_half_fov * cam.aspect * 5.0;
     let col = ((0.3 + half_w) / (2.0 * half_w) * 32.0) as usize;
     assert!(col > 0 && col < 31);
-    let out = render(&scene, &RenderOptions { threads: Some(2), progress: None }).unwrap();
+    let out = render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).unwrap();
     for y in 0..8 {
         for x in 0..32 {
             let refined = out.heat.level[y * 32 + x] > 0;

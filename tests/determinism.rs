@@ -8,7 +8,7 @@ use wavetrace::{render, RenderOptions};
 
 fn render_default(threads: usize, sets: &[String]) -> wavetrace::RenderOutput {
     let scene = load(&SceneSource::default_scene(), sets).expect("default scene loads");
-    render(&scene, &RenderOptions { threads: Some(threads), progress: None }).expect("render")
+    render(&scene, &RenderOptions { threads: Some(threads), ..Default::default() }).expect("render")
 }
 
 #[test]

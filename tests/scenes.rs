@@ -14,7 +14,7 @@ fn tiny(name: &str) -> wavetrace::RenderOutput {
         .map(String::from)
         .to_vec();
     let scene = load(&src, &sets).unwrap_or_else(|e| panic!("{name}: {e}"));
-    render(&scene, &RenderOptions { threads: Some(2), progress: None }).expect("render")
+    render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).expect("render")
 }
 
 #[test]

@@ -1,5 +1,6 @@
-//! The acceleration structure: an obvhs `Bvh2` over all primitives, traversed one
-//! ray at a time with obvhs's custom-primitive traversal.
+//! The acceleration structure: an obvhs `Bvh2` over all primitives (obvhs builds it),
+//! traversed one ray at a time by our own stack traversal of its nodes, which counts
+//! nodes and primitives tested for the profiling stats.
 
 use glam::Vec3;
 use obvhs::bvh2::Bvh2;
@@ -9,11 +10,26 @@ use std::time::{Duration, Instant};
 
 use super::shapes::{Primitive, NO_LIGHT};
 
+/// Traversal work counters: what one or more traversals cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Traversal {
+    /// BVH nodes whose bounding box was tested.
+    pub nodes: u64,
+    /// Primitives whose intersection test ran.
+    pub prims: u64,
+}
+
+/// Deepest tree the fixed-size traversal stack handles; deeper trees (never seen from
+/// obvhs's builders on real meshes) fall back to obvhs's own traversal.
+const STACK: usize = 128;
+
 /// Primitives reordered to the BVH's leaf order, with the BVH over them.
 pub struct Accel {
     /// Primitives, in BVH order: a traversal's primitive id indexes this directly.
     pub prims: Vec<Primitive>,
     bvh: Option<Bvh2>,
+    /// Depth of the tree (root = 1), which bounds the traversal stack.
+    depth: usize,
     /// Seconds the BVH build took.
     pub build_seconds: f64,
 }
@@ -23,45 +39,151 @@ impl Accel {
     pub fn build(prims: Vec<Primitive>) -> Accel {
         let start = Instant::now();
         if prims.is_empty() {
-            return Accel { prims, bvh: None, build_seconds: 0.0 };
+            return Accel { prims, bvh: None, depth: 0, build_seconds: 0.0 };
         }
         let mut core = Duration::default();
         let bvh = obvhs::bvh2::builder::build_bvh2(&prims, BvhBuildParams::medium_build(), &mut core);
         // Reorder once so traversal needs no primitive_indices indirection.
         let prims: Vec<Primitive> = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
-        Accel { prims, bvh: Some(bvh), build_seconds: start.elapsed().as_secs_f64() }
+        let depth = bvh.depth(0);
+        Accel { prims, bvh: Some(bvh), depth, build_seconds: start.elapsed().as_secs_f64() }
     }
 
-    /// Closest hit along the ray within `(tmin, tmax)`: `(t, primitive index)`, or `None`.
-    #[inline]
-    pub fn closest(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, u32)> {
-        let bvh = self.bvh.as_ref()?;
-        let ray = Ray::new(o.into(), d.into(), tmin, tmax);
-        let mut hit = RayHit::none();
-        let prims = &self.prims;
-        if bvh.ray_traverse(ray, &mut hit, |r, id| {
-            prims[id].shape.intersect(r.origin.into(), r.direction.into(), r.tmin, r.tmax)
-        }) {
-            Some((hit.t, hit.primitive_id))
-        } else {
-            None
+    /// Stack-based traversal of the obvhs `Bvh2` nodes (children adjacent, nearer child
+    /// first), counting work when `COUNT`. `leaf` tests a leaf's primitives, may shrink
+    /// `ray.tmax`, and returns false to stop (any-hit).
+    #[inline(always)]
+    fn traverse<const COUNT: bool>(
+        &self,
+        bvh: &Bvh2,
+        mut ray: Ray,
+        c: &mut Traversal,
+        mut leaf: impl FnMut(&mut Ray, std::ops::Range<usize>, &mut Traversal) -> bool,
+    ) {
+        let nodes = &bvh.nodes;
+        let root = &nodes[0];
+        if COUNT {
+            c.nodes += 1;
+        }
+        if root.aabb().intersect_ray(&ray) >= ray.tmax {
+            return;
+        }
+        if root.is_leaf() {
+            let first = root.first_index as usize;
+            leaf(&mut ray, first..first + root.prim_count as usize, c);
+            return;
+        }
+        let mut stack = [0u32; STACK];
+        let mut sp = 0;
+        let mut current = root.first_index as usize;
+        loop {
+            let (mut near, mut far) = (&nodes[current], &nodes[current + 1]);
+            let (mut t_near, mut t_far) = (near.aabb().intersect_ray(&ray), far.aabb().intersect_ray(&ray));
+            if COUNT {
+                c.nodes += 2;
+            }
+            if t_near > t_far {
+                std::mem::swap(&mut near, &mut far);
+                std::mem::swap(&mut t_near, &mut t_far);
+            }
+            let mut descend = [false; 2];
+            for (k, (node, t)) in [(near, t_near), (far, t_far)].into_iter().enumerate() {
+                if t >= ray.tmax {
+                    continue;
+                }
+                if node.is_leaf() {
+                    let first = node.first_index as usize;
+                    if !leaf(&mut ray, first..first + node.prim_count as usize, c) {
+                        return;
+                    }
+                } else {
+                    descend[k] = true;
+                }
+            }
+            current = match descend {
+                [true, true] => {
+                    stack[sp] = far.first_index;
+                    sp += 1;
+                    near.first_index as usize
+                }
+                [true, false] => near.first_index as usize,
+                [false, true] => far.first_index as usize,
+                [false, false] => {
+                    if sp == 0 {
+                        return;
+                    }
+                    sp -= 1;
+                    stack[sp] as usize
+                }
+            };
         }
     }
 
-    /// True when some non-emitting primitive blocks the segment `(tmin, tmax)` of the ray.
-    /// Stops at the first blocker found. Area lights never block shadow rays.
+    /// Closest hit along the ray within `(tmin, tmax)`: `(t, primitive index)`, or `None`.
+    /// Counts its work in `c` when `COUNT`.
     #[inline]
-    pub fn occluded(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
+    pub fn closest<const COUNT: bool>(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+        c: &mut Traversal,
+    ) -> Option<(f32, u32)> {
+        let bvh = self.bvh.as_ref()?;
+        let ray = Ray::new(o.into(), d.into(), tmin, tmax);
+        let prims = &self.prims;
+        let mut best = (f32::INFINITY, u32::MAX);
+        if self.depth >= STACK {
+            let mut hit = RayHit::none();
+            return bvh
+                .ray_traverse(ray, &mut hit, |r, id| {
+                    prims[id].shape.intersect(r.origin.into(), r.direction.into(), r.tmin, r.tmax)
+                })
+                .then_some((hit.t, hit.primitive_id));
+        }
+        self.traverse::<COUNT>(bvh, ray, c, |r, range, c| {
+            if COUNT {
+                c.prims += range.len() as u64;
+            }
+            for id in range {
+                let t = prims[id].shape.intersect(o, d, r.tmin, r.tmax);
+                if t < r.tmax {
+                    r.tmax = t;
+                    best = (t, id as u32);
+                }
+            }
+            true
+        });
+        (best.1 != u32::MAX).then_some(best)
+    }
+
+    /// True when some non-emitting primitive blocks the segment `(tmin, tmax)` of the ray.
+    /// Stops at the first blocker found. Area lights never block shadow rays. Counts its
+    /// work in `c` when `COUNT`.
+    #[inline]
+    pub fn occluded<const COUNT: bool>(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, c: &mut Traversal) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let ray = Ray::new(o.into(), d.into(), tmin, tmax);
         let prims = &self.prims;
-        !bvh.ray_traverse_miss(ray, |r, id| {
-            let p = &prims[id];
-            if p.light != NO_LIGHT {
-                return f32::INFINITY;
+        let blocks = |p: &Primitive, r: &Ray| p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax;
+        if self.depth >= STACK {
+            return !bvh.ray_traverse_miss(ray, |r, id| if blocks(&prims[id], r) { 0.0 } else { f32::INFINITY });
+        }
+        let mut hit = false;
+        self.traverse::<COUNT>(bvh, ray, c, |r, range, c| {
+            for id in range {
+                if COUNT {
+                    c.prims += 1;
+                }
+                if blocks(&prims[id], r) {
+                    hit = true;
+                    return false;
+                }
             }
-            p.shape.intersect(r.origin.into(), r.direction.into(), r.tmin, r.tmax)
-        })
+            true
+        });
+        hit
     }
 }
 
@@ -78,19 +200,21 @@ mod tests {
     fn closest_and_occluded_agree_with_brute_force() {
         let prims: Vec<Primitive> = (0..50).map(|i| sphere(i as f32 * 2.0, NO_LIGHT)).collect();
         let accel = Accel::build(prims.clone());
+        let mut c = Traversal::default();
         for i in 0..50 {
             let o = Vec3::new(i as f32 * 2.0 + 0.1, 5.0, 0.05);
-            let hit = accel.closest(o, Vec3::NEG_Y, 0.0, f32::INFINITY).expect("hit");
+            let hit = accel.closest::<true>(o, Vec3::NEG_Y, 0.0, f32::INFINITY, &mut c).expect("hit");
             let brute = prims
                 .iter()
                 .map(|p| p.shape.intersect(o, Vec3::NEG_Y, 0.0, f32::INFINITY))
                 .fold(f32::INFINITY, f32::min);
             assert_eq!(hit.0, brute);
-            assert!(accel.occluded(o, Vec3::NEG_Y, 0.0, 10.0));
-            assert!(!accel.occluded(o, Vec3::NEG_Y, 0.0, 4.0), "tmax stops before the sphere");
+            assert!(accel.occluded::<true>(o, Vec3::NEG_Y, 0.0, 10.0, &mut c));
+            assert!(!accel.occluded::<true>(o, Vec3::NEG_Y, 0.0, 4.0, &mut c), "tmax stops before the sphere");
         }
+        assert!(c.nodes > 0 && c.prims > 0, "work is counted: {c:?}");
         // Along the row: the first sphere is closest.
-        let hit = accel.closest(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, 0.0, f32::INFINITY).unwrap();
+        let hit = accel.closest::<true>(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, 0.0, f32::INFINITY, &mut c).unwrap();
         assert!((hit.1 as usize) < accel.prims.len());
         assert!((hit.0 - 4.5).abs() < 1e-5);
     }
@@ -98,10 +222,11 @@ mod tests {
     #[test]
     fn lights_do_not_occlude_and_empty_scene_misses() {
         let accel = Accel::build(vec![sphere(0.0, 0)]);
-        assert!(accel.closest(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 0.0, f32::INFINITY).is_some());
-        assert!(!accel.occluded(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 0.0, 10.0));
+        let mut c = Traversal::default();
+        assert!(accel.closest::<true>(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 0.0, f32::INFINITY, &mut c).is_some());
+        assert!(!accel.occluded::<true>(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y, 0.0, 10.0, &mut c));
         let empty = Accel::build(Vec::new());
-        assert!(empty.closest(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY).is_none());
-        assert!(!empty.occluded(Vec3::ZERO, Vec3::X, 0.0, 1.0));
+        assert!(empty.closest::<true>(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY, &mut c).is_none());
+        assert!(!empty.occluded::<true>(Vec3::ZERO, Vec3::X, 0.0, 1.0, &mut c));
     }
 }

@@ -4,5 +4,5 @@ pub mod bvh;
 pub mod offset;
 pub mod shapes;
 
-pub use bvh::Accel;
+pub use bvh::{Accel, Traversal};
 pub use shapes::{Primitive, Shape, NO_LIGHT};

@@ -6,6 +6,7 @@
 use glam::Vec3;
 
 use super::shade::{diffuse_surface, SHADOW_TMAX_SCALE};
+use crate::geometry::Traversal;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue};
 use crate::sampling::{dim, hash, to_unit};
 use crate::scene::{Light, Probe, Scene};
@@ -38,7 +39,8 @@ pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3;
 
 /// Tests every queued point; lit points add their unoccluded contribution to `film`,
 /// penumbra points are appended to `penumbra` (as indices into `points`). Returns the
-/// number of probe rays cast.
+/// number of probe rays cast. Traversal work is counted in `work` when `count`.
+#[allow(clippy::too_many_arguments)]
 pub fn shadow_corners(
     scene: &Scene,
     probe: Probe,
@@ -47,6 +49,8 @@ pub fn shadow_corners(
     points: &ShadowPointQueue,
     film: &mut FilmQueue,
     penumbra: &mut Vec<u32>,
+    work: &mut Traversal,
+    count: bool,
 ) -> usize {
     penumbra.clear();
     let mut cast = 0;
@@ -58,7 +62,13 @@ pub fn shadow_corners(
         for target in &targets[..n] {
             let to = *target - surf.o;
             let dist = to.length();
-            if !scene.accel.occluded(surf.o, to / dist, 0.0, dist * SHADOW_TMAX_SCALE) {
+            let (o, d, tmax) = (surf.o, to / dist, dist * SHADOW_TMAX_SCALE);
+            let blocked = if count {
+                scene.accel.occluded::<true>(o, d, 0.0, tmax, work)
+            } else {
+                scene.accel.occluded::<false>(o, d, 0.0, tmax, work)
+            };
+            if !blocked {
                 visible += 1;
             }
         }

@@ -16,7 +16,7 @@ pub fn scene(text: &str, sets: &[&str]) -> Scene {
 
 /// Renders scene text with overrides on `threads` threads.
 pub fn render_text(text: &str, sets: &[&str], threads: usize) -> RenderOutput {
-    render(&scene(text, sets), &RenderOptions { threads: Some(threads), progress: None }).expect("render")
+    render(&scene(text, sets), &RenderOptions { threads: Some(threads), ..Default::default() }).expect("render")
 }
 
 /// Root-mean-square difference over all pixels and channels.
