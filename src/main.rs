@@ -3,6 +3,8 @@
 use clap::{Args, Parser, Subcommand};
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 use wavetrace::heatmap::{self, HeatmapKind};
@@ -83,12 +85,16 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Some(Command::Render(a)) => run_render(a),
-        Some(Command::Compare(a)) => run_compare(a),
+        Some(Command::Compare(a)) => run_compare(a).map(|_| 0),
         None => run_render(cli.render),
     };
-    if let Err(e) = result {
-        eprintln!("error: {e}");
-        std::process::exit(e.exit_code());
+    match result {
+        Ok(0) => {}
+        Ok(code) => std::process::exit(code),
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(e.exit_code());
+        }
     }
 }
 
@@ -111,7 +117,25 @@ fn run_compare(args: CompareArgs) -> Result<()> {
     Ok(())
 }
 
-fn run_render(args: RenderArgs) -> Result<()> {
+/// The exit status of a render stopped by Ctrl-C (128 + SIGINT), as shells report it.
+const EXIT_INTERRUPTED: i32 = 130;
+
+/// Installs the Ctrl-C handler: the first press asks the render to stop after the tiles
+/// in progress (what is finished is then written), a second press exits at once.
+fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let seen = flag.clone();
+    // Without a handler (already installed in this process) Ctrl-C keeps its default.
+    let _ = ctrlc::set_handler(move || {
+        if seen.swap(true, Ordering::SeqCst) {
+            std::process::exit(EXIT_INTERRUPTED);
+        }
+    });
+    flag
+}
+
+/// Renders; returns the exit status (0, or 130 when Ctrl-C cut the render short).
+fn run_render(args: RenderArgs) -> Result<i32> {
     // Every output is checked before any work, so bad paths cost nothing.
     check_image_path(&args.output)?;
     for p in args.stats_json.iter().chain(args.trace.iter()) {
@@ -159,6 +183,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
         progress: progress.clone(),
         no_counters: args.no_counters,
         trace: args.trace.is_some(),
+        cancel: Some(cancel_on_ctrl_c()),
     };
     let out = render(&scene, &opts)?;
     if let Some(pb) = progress {
@@ -182,8 +207,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
             degenerate_triangles: info.degenerate_triangles,
             bvh_seconds: info.bvh_seconds,
             load_seconds,
+            outside_paths: info.outside_paths.clone(),
         },
     );
+    let report = wavetrace::stats::Report { partial: out.partial, ..report };
     if let Some(p) = &args.trace {
         write_text(p, &wavetrace::stats::chrome_trace(&out.spans))?;
     }
@@ -197,5 +224,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
         }
         say(&format!("{} -> {}", report.summary(), args.output.display()));
     }
-    Ok(())
+    if out.partial {
+        eprintln!("interrupted: wrote the {} finished tiles to {}", out.stats.tiles, args.output.display());
+        return Ok(EXIT_INTERRUPTED);
+    }
+    Ok(0)
 }

@@ -36,6 +36,9 @@ pub struct RenderOptions {
     pub no_counters: bool,
     /// Record one span per stage call per thread for a Chrome trace.
     pub trace: bool,
+    /// Set from elsewhere (a Ctrl-C handler) to stop: tiles already finished are kept,
+    /// the one in progress is dropped, and the output is marked partial.
+    pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 /// One stage call on one thread, for the Chrome trace.
@@ -89,6 +92,9 @@ pub struct RenderOutput {
     pub seconds: f64,
     /// Stage spans per thread, when `RenderOptions::trace`.
     pub spans: Vec<Vec<Span>>,
+    /// True when the render was cancelled before every tile was finished: unfinished
+    /// tiles are black.
+    pub partial: bool,
 }
 
 /// The kind of camera ray a pass starts, for the stats.
@@ -146,6 +152,9 @@ struct Worker {
     /// Stage spans, when tracing: `Some(render start)`.
     trace: Option<Instant>,
     spans: Vec<Span>,
+    /// The render's cancel flag, and whether this worker saw it mid-tile.
+    cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    aborted: bool,
 }
 
 impl Worker {
@@ -161,6 +170,10 @@ impl Worker {
     fn run(&mut self, scene: &Scene, total: u64, kind: Kind, generate: impl Fn(Range<u64>, &mut RayQueue)) {
         let mut k0 = 0;
         while k0 < total {
+            if self.cancelled() {
+                self.aborted = true;
+                return;
+            }
             let k1 = (k0 + WAVE_RAYS).min(total);
             let t = Instant::now();
             self.rays.clear();
@@ -260,8 +273,9 @@ impl Worker {
         }
 
         self.stats.peak.film = self.stats.peak.film.max(self.film.len() as u64);
-        film::accumulate(&self.film, &mut self.sums);
-        self.lap(Stage::Film, self.film.len(), self.film.len(), t);
+        let dropped = film::accumulate(&self.film, &mut self.sums);
+        self.stats.nonfinite += dropped as u64;
+        self.lap(Stage::Film, self.film.len(), self.film.len() - dropped, t);
         std::mem::swap(&mut self.rays, &mut self.next);
     }
 
@@ -279,6 +293,10 @@ impl Worker {
             self.spans.push(Span { stage, start_us, dur_us: (now - since).as_secs_f64() * 1e6 });
         }
         now
+    }
+
+    fn cancelled(&self) -> bool {
+        self.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed))
     }
 
     fn peak_rays(&mut self, n: usize) {
@@ -418,11 +436,18 @@ fn for_tiles(
 ) -> Vec<(Stats, Vec<Span>)> {
     let next = AtomicUsize::new(0);
     pool.broadcast(|_| {
-        let mut w =
-            Worker { count: !ctx.opts.no_counters, trace: ctx.opts.trace.then_some(ctx.start), ..Default::default() };
+        let mut w = Worker {
+            count: !ctx.opts.no_counters,
+            trace: ctx.opts.trace.then_some(ctx.start),
+            cancel: ctx.opts.cancel.clone(),
+            ..Default::default()
+        };
         while let Some(tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
             let before = w.stats.total_rays();
             work(&mut w, tile);
+            if w.aborted {
+                break; // cancelled mid-tile: the tile is incomplete, keep it out
+            }
             w.stats.tiles += 1;
             store(&w, tile);
             let done =
@@ -574,5 +599,6 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let mut stats = Stats::default();
     per_thread.iter().for_each(|t| stats.merge(&t.0));
     let (per_thread, spans) = per_thread.into_iter().unzip();
-    Ok(RenderOutput { image: Image { width: w, height: h, pixels }, heat, stats, per_thread, seconds, spans })
+    let partial = stats.tiles < (tiles(w, h).len() + grid_tiles.len()) as u64;
+    Ok(RenderOutput { image: Image { width: w, height: h, pixels }, heat, stats, per_thread, seconds, spans, partial })
 }

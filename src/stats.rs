@@ -112,6 +112,8 @@ pub struct Stats {
     /// Bytes the worker's queues and buffers held at the end (merged: the sum over
     /// workers, which hold them at the same time).
     pub queue_bytes: u64,
+    /// Non-finite (NaN or infinite) contributions the film stage dropped.
+    pub nonfinite: u64,
 }
 
 /// The longest each queue got.
@@ -163,6 +165,7 @@ impl Stats {
         }
         self.peak.merge(&o.peak);
         self.queue_bytes += o.queue_bytes;
+        self.nonfinite += o.nonfinite;
         self.camera_rays += o.camera_rays;
         self.aa_corner_rays += o.aa_corner_rays;
         self.aa_refine_rays += o.aa_refine_rays;
@@ -208,6 +211,8 @@ impl Stats {
 pub struct Report {
     /// Schema version of this JSON.
     pub version: u32,
+    /// True when Ctrl-C stopped the render: unfinished tiles are black.
+    pub partial: bool,
     /// Image width.
     pub width: u32,
     /// Image height.
@@ -237,6 +242,8 @@ pub struct Report {
     pub peak_queue: QueuePeaks,
     /// Bytes held by all workers' queues and buffers at the end.
     pub queue_bytes: u64,
+    /// Non-finite contributions the film stage dropped (should be 0).
+    pub nonfinite_samples: u64,
     /// Facts about the scene.
     pub scene: SceneReport,
     /// Per-thread ray totals and busy seconds, in thread order.
@@ -279,6 +286,8 @@ pub struct SceneReport {
     pub bvh_seconds: f64,
     /// Seconds to parse, validate and load the scene, meshes and BVH included.
     pub load_seconds: f64,
+    /// Mesh files outside the scene's folder (reached through `..` or a symlink).
+    pub outside_paths: Vec<String>,
 }
 
 /// One thread's share.
@@ -318,6 +327,7 @@ impl Report {
         let t = total;
         Report {
             version: 1,
+            partial: false,
             width,
             height,
             threads: per_thread.len(),
@@ -356,6 +366,7 @@ impl Report {
                 .collect(),
             peak_queue: total.peak,
             queue_bytes: total.queue_bytes,
+            nonfinite_samples: total.nonfinite,
             scene,
             per_thread: per_thread
                 .iter()

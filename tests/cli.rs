@@ -330,3 +330,49 @@ fn failed_write_keeps_the_earlier_file() {
     assert!(case.path("out.png").is_dir());
     assert_eq!(case.outputs(&["scene.toml"]), vec!["out.png".to_string()]);
 }
+
+/// Sends SIGINT to a child process (through kill(1): no libc dependency).
+fn interrupt(child: &std::process::Child) {
+    let ok = Command::new("kill").args(["-INT", &child.id().to_string()]).status().expect("kill");
+    assert!(ok.success());
+}
+
+/// A render long enough to interrupt: seconds to minutes on any machine.
+fn long_render(case: &Case) -> std::process::Child {
+    case.write("scene.toml", GOOD);
+    let args = ["scene.toml", "-o", "out.png", "--stats-json", "s.json", "--set", "render.width=2000"];
+    let more = ["--set", "render.height=2000", "--set", "render.aa.samples=64", "--threads", "2"];
+    Command::new(BIN)
+        .args(args)
+        .args(more)
+        .current_dir(case.dir.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn")
+}
+
+#[test]
+fn ctrl_c_writes_what_is_finished_and_exits_130() {
+    let case = Case::new();
+    let mut child = long_render(&case);
+    // Give it time to load the scene and install the handler.
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    interrupt(&child);
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    assert_eq!(image_dims(&case.path("out.png")), (2000, 2000), "the finished part is written");
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(case.path("s.json")).unwrap()).unwrap();
+    assert_eq!(json["partial"], true);
+    assert_eq!(case.outputs(&["scene.toml"]), vec!["out.png".to_string(), "s.json".to_string()], "no temporary files");
+}
+
+#[test]
+fn a_second_ctrl_c_exits_at_once() {
+    let case = Case::new();
+    let mut child = long_render(&case);
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    interrupt(&child);
+    interrupt(&child);
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+}

@@ -19,14 +19,16 @@ pub enum Shape {
         /// Radius (> 0).
         radius: f32,
     },
-    /// A triangle `v0, v0 + e1, v0 + e2`; the normal is `e1 × e2` (counter-clockwise front).
+    /// A triangle; the normal is `(v1 - v0) × (v2 - v0)` (counter-clockwise front).
+    /// Vertices are stored as given, never rebuilt from edges, so triangles that share
+    /// an edge test exactly the same edge (watertightness depends on it).
     Triangle {
         /// First vertex.
         v0: Vec3,
-        /// Second vertex minus the first.
-        e1: Vec3,
-        /// Third vertex minus the first.
-        e2: Vec3,
+        /// Second vertex.
+        v1: Vec3,
+        /// Third vertex.
+        v2: Vec3,
     },
     /// A parallelogram `corner + a·u + b·v`, a, b in [0,1]; the normal is `u × v`.
     Quad {
@@ -56,7 +58,7 @@ impl Shape {
     pub fn intersect(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> f32 {
         let t = match *self {
             Shape::Sphere { center, radius } => intersect_sphere(center, radius, o, d, tmin, tmax),
-            Shape::Triangle { v0, e1, e2 } => intersect_triangle(v0, e1, e2, o, d),
+            Shape::Triangle { v0, v1, v2 } => intersect_triangle(v0, v1, v2, o, d),
             Shape::Quad { corner, u, v } => intersect_quad(corner, u, v, o, d),
         };
         if t > tmin && t < tmax {
@@ -71,7 +73,7 @@ impl Shape {
     pub fn normal(&self, p: Vec3) -> Vec3 {
         match *self {
             Shape::Sphere { center, .. } => p - center,
-            Shape::Triangle { e1, e2, .. } => e1.cross(e2),
+            Shape::Triangle { v0, v1, v2 } => (v1 - v0).cross(v2 - v0),
             Shape::Quad { u, v, .. } => u.cross(v),
         }
     }
@@ -80,10 +82,7 @@ impl Shape {
     pub fn bounds(&self) -> (Vec3, Vec3) {
         match *self {
             Shape::Sphere { center, radius } => (center - Vec3::splat(radius), center + Vec3::splat(radius)),
-            Shape::Triangle { v0, e1, e2 } => {
-                let (a, b) = (v0 + e1, v0 + e2);
-                (v0.min(a).min(b), v0.max(a).max(b))
-            }
+            Shape::Triangle { v0, v1, v2 } => (v0.min(v1).min(v2), v0.max(v1).max(v2)),
             Shape::Quad { corner, u, v } => {
                 let pts = [corner, corner + u, corner + v, corner + u + v];
                 let lo = pts.iter().fold(Vec3::splat(f32::INFINITY), |a, &p| a.min(p));
@@ -97,7 +96,7 @@ impl Shape {
     pub fn area(&self) -> f32 {
         match *self {
             Shape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
-            Shape::Triangle { e1, e2, .. } => 0.5 * e1.cross(e2).length(),
+            Shape::Triangle { v0, v1, v2 } => 0.5 * (v1 - v0).cross(v2 - v0).length(),
             Shape::Quad { u, v, .. } => u.cross(v).length(),
         }
     }
@@ -138,26 +137,56 @@ pub fn intersect_sphere(center: Vec3, radius: f32, o: Vec3, d: Vec3, tmin: f32, 
     }
 }
 
-/// Möller–Trumbore ray–triangle intersection. Hits from both sides count.
+/// Watertight ray–triangle intersection (Woop, Benthin and Wald, "Watertight
+/// Ray/Triangle Intersection", JCGT 2013). The ray is sheared so it points along +z and
+/// the edge functions are evaluated in 2D; a point exactly on an edge is claimed by both
+/// triangles sharing it (ties at zero recompute in f64), so rays through shared edges and
+/// vertices of a closed mesh never slip through. Hits from both sides count.
 #[inline]
-pub fn intersect_triangle(v0: Vec3, e1: Vec3, e2: Vec3, o: Vec3, d: Vec3) -> f32 {
-    let p = d.cross(e2);
-    let det = e1.dot(p);
+pub fn intersect_triangle(v0: Vec3, v1: Vec3, v2: Vec3, o: Vec3, d: Vec3) -> f32 {
+    let ad = d.abs();
+    let kz = if ad.x > ad.y {
+        if ad.x > ad.z {
+            0
+        } else {
+            2
+        }
+    } else if ad.y > ad.z {
+        1
+    } else {
+        2
+    };
+    let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+    let (a, b, c) = (v0 - o, v1 - o, v2 - o);
+    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+        u = (cx * by - cy * bx) as f32;
+        v = (ax * cy - ay * cx) as f32;
+        w = (bx * ay - by * ax) as f32;
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return f32::INFINITY;
+    }
+    let det = u + v + w;
     if det == 0.0 || !det.is_finite() {
         return f32::INFINITY;
     }
-    let inv = 1.0 / det;
-    let s = o - v0;
-    let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return f32::INFINITY;
+    let t = (u * sz * a[kz] + v * sz * b[kz] + w * sz * c[kz]) / det;
+    if t.is_finite() {
+        t
+    } else {
+        f32::INFINITY
     }
-    let q = s.cross(e1);
-    let v = d.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return f32::INFINITY;
-    }
-    e2.dot(q) * inv
 }
 
 /// Ray–parallelogram intersection. Hits from both sides count.
@@ -218,7 +247,7 @@ mod tests {
 
     #[test]
     fn triangle_hits_edges_and_misses() {
-        let tri = Shape::Triangle { v0: Vec3::ZERO, e1: Vec3::X, e2: Vec3::Y };
+        let tri = Shape::Triangle { v0: Vec3::ZERO, v1: Vec3::X, v2: Vec3::Y };
         let t = tri.intersect(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z, 0.0, INF);
         assert!((t - 1.0).abs() < 1e-6);
         // From behind.
@@ -230,6 +259,32 @@ mod tests {
         assert_eq!(tri.intersect(Vec3::new(0.1, 0.1, 0.0), Vec3::X, 0.0, INF), INF);
         // A vertex is inside.
         assert!(tri.intersect(Vec3::new(0.0, 0.0, 1.0), Vec3::NEG_Z, 0.0, INF).is_finite());
+    }
+
+    #[test]
+    fn shared_edges_and_vertices_of_a_closed_mesh_let_no_ray_through() {
+        // An octahedron: rays from inside aimed exactly at vertices and edge midpoints.
+        let p = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z].map(|v| v * 1.3 + Vec3::splat(0.1));
+        let mut tris = Vec::new();
+        for &a in &[0, 1] {
+            for &b in &[2, 3] {
+                for &c in &[4, 5] {
+                    tris.push(Shape::Triangle { v0: p[a], v1: p[b], v2: p[c] });
+                }
+            }
+        }
+        let centre = Vec3::splat(0.1) + Vec3::new(0.013, -0.021, 0.007);
+        let mut targets: Vec<Vec3> = p.to_vec();
+        for i in 0..6 {
+            for j in i + 1..6 {
+                targets.push((p[i] + p[j]) * 0.5);
+            }
+        }
+        for target in targets {
+            let d = (target - centre).normalize();
+            let hit = tris.iter().map(|t| t.intersect(centre, d, 0.0, INF)).fold(INF, f32::min);
+            assert!(hit.is_finite(), "ray to {target} escaped");
+        }
     }
 
     #[test]

@@ -216,6 +216,36 @@ fn available_memory() -> u64 {
         .map_or(8 << 30, |kb| kb * 1024)
 }
 
+/// Memory a mesh costs per byte of OBJ text: tobj's buffers, our triangles (36 bytes
+/// per 3 indices of about 10 text bytes) and about two 48-byte BVH nodes per triangle,
+/// with margin.
+const MESH_BYTES_PER_TEXT_BYTE: u64 = 16;
+
+/// Refuses, before reading it, a mesh whose file is too large for the memory available.
+fn check_mesh_size(path: &Path) -> std::result::Result<(), String> {
+    let Ok(meta) = std::fs::metadata(path) else { return Ok(()) }; // load_obj reports it
+    let need = meta.len().saturating_mul(MESH_BYTES_PER_TEXT_BYTE);
+    let have = available_memory();
+    if need > have / 2 {
+        return Err(format!(
+            "mesh `{}` ({:.1} MiB of text) would need about {:.1} GiB of memory; {:.1} GiB is available (at most half may be used)",
+            path.display(),
+            meta.len() as f64 / (1u64 << 20) as f64,
+            need as f64 / (1u64 << 30) as f64,
+            have as f64 / (1u64 << 30) as f64
+        ));
+    }
+    Ok(())
+}
+
+/// True when `path` resolves (following `..` and symlinks) outside `dir`.
+fn outside_folder(dir: &Path, path: &Path) -> bool {
+    match (std::fs::canonicalize(dir), std::fs::canonicalize(path)) {
+        (Ok(d), Ok(p)) => !p.starts_with(d),
+        _ => false,
+    }
+}
+
 fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     if r.width == 0 {
         return Err(ctx.fail("render.width", "must be at least 1"));
@@ -475,20 +505,24 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
                 if *scale <= 0.0 {
                     return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
                 }
-                let tris =
-                    super::mesh::load_obj(&ctx.src.dir.join(file)).map_err(|e| ctx.fail(&format!("{path}.file"), e))?;
+                let mesh_path = ctx.src.dir.join(file);
+                let fail = |e: String| ctx.fail(&format!("{path}.file"), e);
+                check_mesh_size(&mesh_path).map_err(fail)?;
+                if outside_folder(&ctx.src.dir, &mesh_path) {
+                    info.outside_paths.push(mesh_path.display().to_string());
+                }
+                let tris = super::mesh::load_obj(&mesh_path).map_err(fail)?;
                 let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
                 let t = vec3(*translate);
                 let xf = |p: Vec3| rot * (p * *scale) + t;
                 for tri in tris {
                     let (v0, v1, v2) = (xf(tri[0]), xf(tri[1]), xf(tri[2]));
-                    let (e1, e2) = (v1 - v0, v2 - v0);
-                    if e1.cross(e2).length_squared() == 0.0 {
+                    if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
                         info.degenerate_triangles += 1;
                         continue;
                     }
                     info.triangles += 1;
-                    prims.push(Primitive { shape: Shape::Triangle { v0, e1, e2 }, material, light: NO_LIGHT });
+                    prims.push(Primitive { shape: Shape::Triangle { v0, v1, v2 }, material, light: NO_LIGHT });
                 }
             }
         }

@@ -199,6 +199,9 @@ pub struct SceneInfo {
     pub degenerate_triangles: usize,
     /// BVH build time in seconds.
     pub bvh_seconds: f64,
+    /// Mesh files that resolve outside the scene file's folder (through `..` or a
+    /// symlink): allowed, but reported.
+    pub outside_paths: Vec<String>,
 }
 
 /// A validated scene ready to render.

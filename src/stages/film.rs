@@ -4,9 +4,17 @@ use glam::Vec3;
 
 use crate::queue::FilmQueue;
 
-/// Adds every contribution of `film` to `sums[slot]`.
-pub fn accumulate(film: &FilmQueue, sums: &mut [Vec3]) {
+/// Adds every contribution of `film` to `sums[slot]`. A non-finite contribution (NaN or
+/// infinity, which would poison the pixel) is dropped instead; returns how many were.
+pub fn accumulate(film: &FilmQueue, sums: &mut [Vec3]) -> usize {
+    let mut dropped = 0;
     for i in 0..film.len() {
-        sums[film.slot[i] as usize] += Vec3::new(film.r[i], film.g[i], film.b[i]);
+        let l = Vec3::new(film.r[i], film.g[i], film.b[i]);
+        if l.is_finite() {
+            sums[film.slot[i] as usize] += l;
+        } else {
+            dropped += 1;
+        }
     }
+    dropped
 }
