@@ -83,6 +83,22 @@ impl RayQueue {
         self.key.clear();
     }
 
+    /// Appends rays `range` of `src`.
+    pub fn append_range(&mut self, src: &RayQueue, range: std::ops::Range<usize>) {
+        self.ox.extend_from_slice(&src.ox[range.clone()]);
+        self.oy.extend_from_slice(&src.oy[range.clone()]);
+        self.oz.extend_from_slice(&src.oz[range.clone()]);
+        self.dx.extend_from_slice(&src.dx[range.clone()]);
+        self.dy.extend_from_slice(&src.dy[range.clone()]);
+        self.dz.extend_from_slice(&src.dz[range.clone()]);
+        self.slot.extend_from_slice(&src.slot[range.clone()]);
+        self.wr.extend_from_slice(&src.wr[range.clone()]);
+        self.wg.extend_from_slice(&src.wg[range.clone()]);
+        self.wb.extend_from_slice(&src.wb[range.clone()]);
+        self.depth.extend_from_slice(&src.depth[range.clone()]);
+        self.key.extend_from_slice(&src.key[range]);
+    }
+
     /// Origin of ray `i`.
     #[inline]
     pub fn origin(&self, i: usize) -> Vec3 {

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use crate::geometry::Traversal;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
-use crate::scene::{AaMode, Scene, ShadowMode};
+use crate::scene::{AaMode, Light, Scene, ShadowMode};
 use crate::stages::refine::{self, RefineState};
 use crate::stages::{camera, film, intersect, penumbra, scatter, shade, shadow, shadow_corner, Tile};
 use crate::stats::{Stage, Stats};
@@ -21,9 +21,30 @@ use crate::{Error, Result};
 
 /// Tile edge in pixels: small enough to balance load, large enough for coherent waves.
 pub const TILE: u32 = 16;
-/// Camera rays started per wave; a pass is split into batches of this size, which
-/// bounds queue memory whatever the sample counts.
+/// Most rays one wave traces (camera rays of a batch, or a chunk of a deeper level); a
+/// scene with many shadow samples per hit uses smaller waves (see [`wave_size`]).
 pub const WAVE_RAYS: u64 = 4096;
+
+/// Most shadow rays (or probes plus penumbra rays) one wave may queue.
+pub const SHADOW_RAYS_PER_WAVE: u64 = 1 << 18;
+
+/// The wave size of a scene: WAVE_RAYS, or fewer when each hit can queue many shadow
+/// rays, so that the shadow queues stay below SHADOW_RAYS_PER_WAVE entries. Together
+/// with depth-first draining of the bounce levels this bounds every queue: a worker
+/// holds at most (max_depth + 1) levels of at most 2 waves each.
+pub fn wave_size(scene: &Scene) -> u64 {
+    let s = &scene.settings;
+    let per_hit: u64 = scene
+        .lights
+        .iter()
+        .map(|l| match (l, s.shadow_mode) {
+            (Light::Point { .. }, _) => 1,
+            (Light::Quad { .. }, ShadowMode::Uniform) => s.shadow_samples as u64,
+            (Light::Quad { .. }, ShadowMode::Adaptive(p)) => p.rays() as u64 + s.shadow_samples as u64,
+        })
+        .sum();
+    (SHADOW_RAYS_PER_WAVE / per_hit.max(1)).clamp(1, WAVE_RAYS)
+}
 
 /// How to render.
 #[derive(Clone, Debug, Default)]
@@ -140,6 +161,12 @@ struct Worker {
     /// Tile results: final radiance and heat per tile pixel.
     out: Vec<Vec3>,
     heat: Heat,
+    /// Rays still to trace per bounce level (level 0: the camera batch), and how far
+    /// each level has been traced.
+    levels: Vec<RayQueue>,
+    cursors: Vec<usize>,
+    /// Rays per wave for this scene.
+    wave: u64,
     /// Adaptive AA buffers.
     centre: Vec<Vec3>,
     corner_mean: Vec<Vec3>,
@@ -174,7 +201,7 @@ impl Worker {
                 self.aborted = true;
                 return;
             }
-            let k1 = (k0 + WAVE_RAYS).min(total);
+            let k1 = (k0 + self.wave).min(total);
             let t = Instant::now();
             self.rays.clear();
             generate(k0..k1, &mut self.rays);
@@ -185,10 +212,36 @@ impl Worker {
                 Kind::Corner => self.stats.aa_corner_rays += n,
                 Kind::Refine => self.stats.aa_refine_rays += n,
             }
-            while !self.rays.is_empty() {
-                self.wave(scene);
-            }
+            self.drain(scene);
             k0 = k1;
+        }
+    }
+
+    /// Traces the camera batch in `self.rays` and every bounce it spawns, depth first:
+    /// the deepest pending level is traced next, a wave at a time, so level d holds at
+    /// most the two waves' worth of rays spawned from one wave of level d - 1, and the
+    /// queues stay bounded however many rays dielectrics split into.
+    fn drain(&mut self, scene: &Scene) {
+        let wave = self.wave as usize;
+        self.levels.resize_with(scene.settings.max_depth as usize + 2, Default::default);
+        self.cursors.resize(self.levels.len(), 0);
+        std::mem::swap(&mut self.levels[0], &mut self.rays);
+        self.cursors[0] = 0;
+        while let Some(d) = (0..self.levels.len()).rev().find(|&d| self.cursors[d] < self.levels[d].len()) {
+            let (start, end) = (self.cursors[d], (self.cursors[d] + wave).min(self.levels[d].len()));
+            self.rays.clear();
+            self.rays.append_range(&self.levels[d], start..end);
+            self.cursors[d] = end;
+            if end == self.levels[d].len() {
+                self.levels[d].clear();
+                self.cursors[d] = 0;
+            }
+            self.wave(scene);
+            // The wave's output (its scattered rays) is the next level, empty until now.
+            if !self.rays.is_empty() {
+                std::mem::swap(&mut self.levels[d + 1], &mut self.rays);
+                self.cursors[d + 1] = 0;
+            }
         }
     }
 
@@ -309,6 +362,7 @@ impl Worker {
         let sh = |q: &ShadowQueue| 11 * 4 * q.ox.capacity();
         let b = self.rays.bytes()
             + self.next.bytes()
+            + self.levels.iter().map(RayQueue::bytes).sum::<usize>()
             + 8 * self.hits.t.capacity()
             + sh(&self.shadow)
             + sh(&self.penumbra_rays)
@@ -440,6 +494,7 @@ fn for_tiles(
             count: !ctx.opts.no_counters,
             trace: ctx.opts.trace.then_some(ctx.start),
             cancel: ctx.opts.cancel.clone(),
+            wave: ctx.wave,
             ..Default::default()
         };
         while let Some(tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
@@ -466,6 +521,7 @@ fn for_tiles(
 /// What every tile pass of one render shares: options, start time, rays so far.
 struct Pass<'a> {
     opts: &'a RenderOptions,
+    wave: u64,
     start: Instant,
     rays: std::sync::atomic::AtomicU64,
 }
@@ -499,7 +555,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
         pb.set_length((pixel_tiles.len() + grid_tiles.len()) as u64);
     }
     let start = Instant::now();
-    let ctx = Pass { opts, start, rays: std::sync::atomic::AtomicU64::new(0) };
+    let ctx = Pass { opts, wave: wave_size(scene), start, rays: std::sync::atomic::AtomicU64::new(0) };
 
     // Adaptive AA with shared corners: trace the (W+1)×(H+1) corner grid once.
     let grid =

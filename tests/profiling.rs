@@ -71,3 +71,18 @@ fn trace_has_one_span_per_stage_call_per_thread() {
     let none = render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).unwrap();
     assert!(none.spans.iter().all(|s| s.is_empty()), "no spans unless asked");
 }
+
+#[test]
+fn queues_stay_bounded_however_deep_the_glass() {
+    // Every dielectric hit splits a path in two; with 24 bounces a breadth-first wave
+    // could hold millions of rays. Depth-first draining keeps one level of at most two
+    // waves per bounce.
+    let sets = ["render.width=24", "render.height=16", "render.max_depth=24", "render.aa.samples=64"];
+    let out = render_text(wavetrace::DEFAULT_SCENE, &sets, 2);
+    let s = &out.stats;
+    assert!(s.secondary_rays > s.camera_rays, "the scene must actually split rays: {s:?}");
+    assert!(s.peak.rays <= WAVE_RAYS, "one wave at a time: {}", s.peak.rays);
+    let bound = 2 * (24 + 2) * 2 * WAVE_RAYS * 48 + (64 << 20);
+    assert!(s.queue_bytes < bound, "{} bytes held, bound {bound}", s.queue_bytes);
+    assert!(out.image.pixels.iter().all(|p| p.is_finite()));
+}

@@ -29,6 +29,7 @@ fn every_scene_renders_something() {
     for name in names {
         let out = tiny(&name);
         assert!(out.image.pixels.iter().all(|p| p.is_finite()), "{name}: non-finite pixel");
+        assert_eq!(out.stats.nonfinite, 0, "{name}: the film dropped non-finite samples");
         assert!(out.image.pixels.iter().any(|p| p.max_element() > 0.0), "{name}: black image");
         // Counters from the stages agree with the counts by kind.
         let s = &out.stats;

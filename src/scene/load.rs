@@ -11,6 +11,9 @@ use super::{AaMode, Camera, Light, Material, Probe, ReflectRatio, Scene, SceneIn
 use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::{Error, Result};
 
+/// Most reflection/refraction bounces a scene may ask for.
+pub const MAX_DEPTH: u32 = 64;
+
 /// Highest adaptive refinement level: 2^16 samples per pixel.
 pub const MAX_LEVEL: u32 = 16;
 
@@ -252,6 +255,10 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     }
     if r.height == 0 {
         return Err(ctx.fail("render.height", "must be at least 1"));
+    }
+    if r.max_depth > MAX_DEPTH {
+        // Each bounce level keeps a queue; past this, contributions are below f32 noise.
+        return Err(ctx.fail("render.max_depth", format!("{} is more than {MAX_DEPTH}", r.max_depth)));
     }
     let pixels = r.width as u64 * r.height as u64;
     let need = pixels * BYTES_PER_PIXEL;
