@@ -376,3 +376,33 @@ fn a_second_ctrl_c_exits_at_once() {
     interrupt(&child);
     assert_eq!(child.wait().unwrap().code(), Some(130));
 }
+
+#[test]
+fn compare_prints_metrics_and_rejects_bad_pairs() {
+    let case = Case::new();
+    case.write("scene.toml", GOOD);
+    assert_eq!(case.run(&["scene.toml", "-o", "a.png", "-q"]).status.code(), Some(0));
+    assert_eq!(case.run(&["scene.toml", "-o", "a.exr", "-q"]).status.code(), Some(0));
+    assert_eq!(case.run(&["scene.toml", "-o", "b.png", "-q", "--set", "render.width=9"]).status.code(), Some(0));
+    // Identical images: zero error, in text and JSON.
+    let o = case.run(&["compare", "a.png", "a.png"]);
+    assert_eq!(o.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("rmse 0.000000") && text.contains("flip 0.000000"), "{text}");
+    let o = case.run(&["compare", "a.exr", "a.exr", "--json"]);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json["rmse"], 0.0);
+    // PNG against EXR of the same render: only 8-bit quantisation and clamping remain.
+    let o = case.run(&["compare", "a.png", "a.exr", "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(json["rmse"].as_f64().unwrap() > 0.0);
+    // Size mismatch and unreadable files are bad input.
+    for args in
+        [&["compare", "a.png", "b.png"][..], &["compare", "a.png", "missing.png"], &["compare", "scene.toml", "a.png"]]
+    {
+        let o = case.run(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+    assert!(stderr(&case.run(&["compare", "a.png", "b.png"])).contains("differ in size"));
+}
