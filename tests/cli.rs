@@ -406,3 +406,42 @@ fn compare_prints_metrics_and_rejects_bad_pairs() {
     }
     assert!(stderr(&case.run(&["compare", "a.png", "b.png"])).contains("differ in size"));
 }
+
+#[test]
+fn meshes_outside_the_scene_folder_are_allowed_and_reported() {
+    let case = Case::new();
+    std::fs::create_dir(case.path("scenes")).unwrap();
+    std::fs::write(case.path("m.obj"), "v -1 0 0\nv 1 0 0\nv 0 2 0\nf 1 2 3\n").unwrap();
+    let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"../m.obj\"\nmaterial = \"white\"\n";
+    std::fs::write(case.path("scenes/scene.toml"), format!("{GOOD}{mesh}")).unwrap();
+    let o = case.run(&["scenes/scene.toml", "-o", "out.png", "--stats-json", "s.json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(case.path("s.json")).unwrap()).unwrap();
+    let outside = json["scene"]["outside_paths"].as_array().unwrap();
+    assert_eq!(outside.len(), 1, "{outside:?}");
+    assert!(outside[0].as_str().unwrap().ends_with("m.obj"));
+    // Inside the folder: nothing reported.
+    std::fs::write(case.path("scenes/m.obj"), "v -1 0 0\nv 1 0 0\nv 0 2 0\nf 1 2 3\n").unwrap();
+    std::fs::write(case.path("scenes/in.toml"), format!("{GOOD}{}", mesh.replace("../m.obj", "m.obj"))).unwrap();
+    let o = case.run(&["scenes/in.toml", "-o", "in.png", "--stats-json", "t.json"]);
+    assert_eq!(o.status.code(), Some(0));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(case.path("t.json")).unwrap()).unwrap();
+    assert!(json["scene"]["outside_paths"].as_array().unwrap().is_empty());
+}
+
+#[test]
+fn resource_limits_are_checked_before_work() {
+    // More bounces than any queue budget allows.
+    bad_scene("width = 8", "width = 8\nmax_depth = 100000", &["render.max_depth", "64"]);
+    // A mesh file too large for the machine is refused before it is read: a sparse
+    // file costs no disk.
+    let case = Case::new();
+    let f = std::fs::File::create(case.path("huge.obj")).unwrap();
+    f.set_len(1 << 40).unwrap();
+    let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"huge.obj\"\nmaterial = \"white\"\n";
+    case.write("scene.toml", &format!("{GOOD}{mesh}"));
+    let o = case.run(&["scene.toml", "-o", "out.png"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("GiB") && stderr(&o).contains("objects.2.file"), "{}", stderr(&o));
+    assert!(!case.path("out.png").exists());
+}
