@@ -12,12 +12,14 @@ pub mod flip;
 pub mod geometry;
 pub mod heatmap;
 pub mod output;
+pub mod plot;
 pub mod queue;
 pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod stages;
 pub mod stats;
+pub mod sweep;
 
 pub use error::{Error, Result};
 pub use render::{render, RenderOptions, RenderOutput};

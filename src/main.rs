@@ -30,6 +30,36 @@ enum Command {
     Render(RenderArgs),
     /// Compare an image with a reference: RMSE, relative MSE, PSNR (linear) and mean LDR-FLIP.
     Compare(CompareArgs),
+    /// Render the cross product of parameter values and measure each against a reference:
+    /// DIR/sweep.csv, DIR/sweep.json and error-vs-rays / error-vs-seconds plots.
+    Sweep(SweepArgs),
+}
+
+#[derive(Args, Debug)]
+struct SweepArgs {
+    /// Scene file (TOML). Omitted: the embedded default scene.
+    scene: Option<PathBuf>,
+    /// A swept value list, KEY=V1,V2,... (repeatable; points are the cross product).
+    #[arg(long = "param", value_name = "KEY=V1,V2,...")]
+    params: Vec<String>,
+    /// Override applied to every point and to the reference (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Reference image (PNG or EXR, same size) instead of rendering one.
+    #[arg(long, value_name = "REF", conflicts_with = "reference_spp")]
+    reference: Option<PathBuf>,
+    /// Samples per pixel of the rendered (and cached) uniform reference.
+    #[arg(long, value_name = "N")]
+    reference_spp: Option<u32>,
+    /// Output folder (created if missing; its parent must exist).
+    #[arg(short, long, default_value = "sweep")]
+    output: PathBuf,
+    /// Worker threads per render (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -86,6 +116,7 @@ fn main() {
     let result = match cli.command {
         Some(Command::Render(a)) => run_render(a),
         Some(Command::Compare(a)) => run_compare(a).map(|_| 0),
+        Some(Command::Sweep(a)) => run_sweep(a).map(|_| 0),
         None => run_render(cli.render),
     };
     match result {
@@ -102,6 +133,44 @@ fn main() {
 fn say(text: &str) {
     use std::io::Write;
     let _ = writeln!(std::io::stdout().lock(), "{text}");
+}
+
+fn run_sweep(args: SweepArgs) -> Result<()> {
+    use wavetrace::sweep::{self, Reference, SweepOptions};
+    if args.threads == Some(0) {
+        return Err(Error::input("--threads must be at least 1"));
+    }
+    let params = args.params.iter().map(|p| sweep::parse_param(p)).collect::<Result<Vec<_>>>()?;
+    let reference = match (&args.reference, args.reference_spp) {
+        (Some(path), _) => Reference::File(path.clone()),
+        (None, Some(0)) => return Err(Error::input("--reference-spp must be at least 1")),
+        (None, Some(n)) => Reference::Spp(n),
+        (None, None) => Reference::default(),
+    };
+    let opts = SweepOptions {
+        scene: args.scene.clone(),
+        params,
+        sets: args.sets.clone(),
+        reference,
+        out_dir: args.output.clone(),
+        threads: args.threads,
+        progress: !args.quiet && std::io::stderr().is_terminal(),
+    };
+    let result = sweep::run(&opts)?;
+    if !args.quiet {
+        say(&format!(
+            "{} points -> {} (reference {}{})",
+            result.points.len(),
+            args.output.display(),
+            result.reference.path.display(),
+            match (result.reference.spp, result.reference.rendered) {
+                (None, _) => "",
+                (Some(_), true) => ", rendered",
+                (Some(_), false) => ", cached",
+            }
+        ));
+    }
+    Ok(())
 }
 
 fn run_compare(args: CompareArgs) -> Result<()> {

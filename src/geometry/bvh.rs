@@ -23,6 +23,23 @@ pub struct Traversal {
 /// obvhs's builders on real meshes) fall back to obvhs's own traversal.
 const STACK: usize = 128;
 
+/// Conservative ray–box slab test: the far distance is widened by 1 + 2γ₃ (PBRT's
+/// bound on the rounding of the slab distances), so a ray through a box's edge or corner
+/// is never lost to rounding.
+#[inline(always)]
+fn slab(b: &obvhs::aabb::Aabb, ray: &Ray) -> f32 {
+    const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+    let t1 = (b.min - ray.origin) * ray.inv_direction;
+    let t2 = (b.max - ray.origin) * ray.inv_direction;
+    let tmin = t1.min(t2).max_element();
+    let tmax = t1.max(t2).min_element() * WIDEN;
+    if tmax >= tmin && tmax >= 0.0 {
+        tmin
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// Primitives reordered to the BVH's leaf order, with the BVH over them.
 pub struct Accel {
     /// Primitives, in BVH order: a traversal's primitive id indexes this directly.
@@ -65,7 +82,7 @@ impl Accel {
         if COUNT {
             c.nodes += 1;
         }
-        if root.aabb().intersect_ray(&ray) >= ray.tmax {
+        if slab(root.aabb(), &ray) >= ray.tmax {
             return;
         }
         if root.is_leaf() {
@@ -78,7 +95,7 @@ impl Accel {
         let mut current = root.first_index as usize;
         loop {
             let (mut near, mut far) = (&nodes[current], &nodes[current + 1]);
-            let (mut t_near, mut t_far) = (near.aabb().intersect_ray(&ray), far.aabb().intersect_ray(&ray));
+            let (mut t_near, mut t_far) = (slab(near.aabb(), &ray), slab(far.aabb(), &ray));
             if COUNT {
                 c.nodes += 2;
             }

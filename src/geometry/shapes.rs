@@ -78,6 +78,40 @@ impl Shape {
         }
     }
 
+    /// The hit point of the ray `o + t·d`, recomputed on the surface from the shape's own
+    /// data (so its error no longer depends on the ray origin), and a per-component bound on
+    /// its absolute rounding error (PBRT's γ bounds).
+    #[inline]
+    pub fn surface_point(&self, o: Vec3, d: Vec3, t: f32) -> (Vec3, Vec3) {
+        let x = o + t * d;
+        match *self {
+            Shape::Sphere { center, radius } => {
+                let v = x - center;
+                let r = v * (radius / v.length());
+                let p = center + r;
+                (p, gamma(1) * p.abs() + gamma(5) * r.abs())
+            }
+            Shape::Quad { corner, u, v } => {
+                let n = u.cross(v);
+                let w = n / n.length_squared();
+                let q = x - corner;
+                let (a, b) = (w.dot(q.cross(v)), w.dot(u.cross(q)));
+                let p = corner + a * u + b * v;
+                (p, gamma(3) * (corner.abs() + (a * u).abs() + (b * v).abs()))
+            }
+            Shape::Triangle { v0, v1, v2 } => {
+                let (e1, e2) = (v1 - v0, v2 - v0);
+                let n = e1.cross(e2);
+                let w = n / n.length_squared();
+                let q = x - v0;
+                let (b1, b2) = (w.dot(q.cross(e2)), w.dot(e1.cross(q)));
+                let b0 = 1.0 - b1 - b2;
+                let p = b0 * v0 + b1 * v1 + b2 * v2;
+                (p, gamma(7) * ((b0 * v0).abs() + (b1 * v1).abs() + (b2 * v2).abs()))
+            }
+        }
+    }
+
     /// Axis-aligned bounds.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         match *self {
@@ -187,6 +221,13 @@ pub fn intersect_triangle(v0: Vec3, v1: Vec3, v2: Vec3, o: Vec3, d: Vec3) -> f32
     } else {
         f32::INFINITY
     }
+}
+
+/// γ(n) = nε / (1 − nε), ε = 2⁻²⁴: the relative error bound of n rounded operations.
+#[inline]
+pub fn gamma(n: u32) -> f32 {
+    let e = n as f32 * f32::EPSILON * 0.5;
+    e / (1.0 - e)
 }
 
 /// Ray–parallelogram intersection. Hits from both sides count.

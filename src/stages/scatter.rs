@@ -43,16 +43,24 @@ pub fn interface(d: Vec3, ng: Vec3, ior: f32) -> Interface {
     }
 }
 
+/// cos²θt = 1 − η²(1 − cos²θi), evaluated as cos²θi − (η − 1)(η + 1)(1 − cos²θi): exact
+/// for η = 1 and free of the cancellation in 1 − sin²θt at grazing incidence when η ≈ 1.
+#[inline]
+pub fn cos2_transmitted(cos_i: f32, eta: f32) -> f32 {
+    let c2 = cos_i * cos_i;
+    c2 - (eta - 1.0) * (eta + 1.0) * (1.0 - c2)
+}
+
 /// Snell refraction of unit `d` through a boundary with unit normal `n` facing `d`'s
 /// origin side and eta = n_i / n_t. `None` on total internal reflection.
 #[inline]
 pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
     let cos_i = (-d.dot(n)).min(1.0);
-    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
-    if sin2_t >= 1.0 {
+    let cos2_t = cos2_transmitted(cos_i, eta);
+    if cos2_t <= 0.0 {
         return None;
     }
-    let cos_t = (1.0 - sin2_t).sqrt();
+    let cos_t = cos2_t.sqrt();
     Some((eta * d + (eta * cos_i - cos_t) * n).normalize())
 }
 
@@ -61,11 +69,11 @@ pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
 #[inline]
 pub fn fresnel(cos_i: f32, eta: f32) -> f32 {
     let cos_i = cos_i.clamp(0.0, 1.0);
-    let sin2_t = eta * eta * (1.0 - cos_i * cos_i);
-    if sin2_t >= 1.0 {
+    let cos2_t = cos2_transmitted(cos_i, eta);
+    if cos2_t <= 0.0 {
         return 1.0;
     }
-    let cos_t = (1.0 - sin2_t).sqrt();
+    let cos_t = cos2_t.sqrt();
     let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     0.5 * (rs * rs + rp * rp)
@@ -77,13 +85,13 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &[u32]
         let i = i as usize;
         let prim = &scene.accel.prims[hits.prim[i] as usize];
         let (d, w) = (rays.dir(i), rays.weight(i));
-        let x = rays.origin(i) + hits.t[i] * d;
+        let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
         let ng = prim.shape.normal(x).normalize();
         let (slot, depth, key) = (rays.slot[i], rays.depth[i] + 1, rays.key[i]);
         match scene.materials[prim.material as usize] {
             Material::Mirror { color } => {
                 let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-                next.push(offset_ray_origin(x, n), reflect(d, n), slot, w * color, depth, hash(&[key, 1]));
+                next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * color, depth, hash(&[key, 1]));
             }
             Material::Dielectric { ior, ratio, tint } => {
                 let side = interface(d, ng, ior);
@@ -95,11 +103,11 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &[u32]
                     (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(n), side.eta),
                 };
                 if c > 0.0 {
-                    next.push(offset_ray_origin(x, n), reflect(d, n), slot, w * c, depth, hash(&[key, 1]));
+                    next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * c, depth, hash(&[key, 1]));
                 }
                 if let Some(t) = refracted {
                     if c < 1.0 {
-                        next.push(offset_ray_origin(x, -n), t, slot, w * tint * (1.0 - c), depth, hash(&[key, 2]));
+                        next.push(offset_ray_origin(x, err, -n), t, slot, w * tint * (1.0 - c), depth, hash(&[key, 2]));
                     }
                 }
             }

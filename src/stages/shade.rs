@@ -65,12 +65,12 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
         return None;
     };
     let d = rays.dir(i);
-    let x = rays.origin(i) + hits.t[i] * d;
+    let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
     let ng = prim.shape.normal(x).normalize();
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = if ng.dot(d) < 0.0 { ng } else { -ng };
     Some(Surface {
-        o: offset_ray_origin(x, n),
+        o: offset_ray_origin(x, err, n),
         n,
         wo: -d,
         color,

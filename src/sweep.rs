@@ -1,0 +1,745 @@
+//! `wavetrace sweep`: renders the cross product of parameter values, measures each render
+//! against one converged reference, and writes the rows (`sweep.csv`, `sweep.json`) and
+//! two plots (error against rays, error against seconds, with Pareto fronts per mode).
+//!
+//! Every point is validated before anything is rendered, so a bad value costs no render
+//! time. The reference is rendered once and cached in the output folder under a hash of
+//! everything that determines it, so a second sweep of the same scene reuses it.
+//!
+//! The reference converges what the sweep varies (see [`reference_overrides`]):
+//! - When no swept key touches the camera samples (`render.aa.*`, `render.dof.*`,
+//!   `render.seed`) and the scene's AA is uniform, every point traces exactly the
+//!   reference's camera rays (they depend only on the AA settings and the seed). The
+//!   reference keeps them and converges the shadows alone: uniform shadows with
+//!   `render.shadows.samples` = spp. Anti-aliasing error then cancels, and the sweep
+//!   measures the shadow error of each point.
+//! - Otherwise the reference converges the pixel integral: uniform AA with spp samples,
+//!   uniform shadows with the largest `render.shadows.samples` of the scene and the sweep
+//!   for each camera sample, so that each of its spp shadow estimates is at least as good
+//!   as any point's.
+
+use serde::ser::{SerializeMap, Serializer};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+use crate::compare::{load_linear, metrics, Metrics};
+use crate::output::{check_folder, write_image, write_text};
+use crate::plot::{pareto_front, scatter_plot, Series};
+use crate::render::Image;
+use crate::scene::{load, AaMode, SceneSource, Settings, ShadowMode};
+use crate::{render, Error, RenderOptions, Result};
+
+/// Default `--reference-spp`.
+pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
+
+/// Schema version of `sweep.json`.
+pub const JSON_VERSION: u32 = 1;
+
+/// Where the error of each point is measured against.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Reference {
+    /// An image file (PNG or EXR) of the same size as the points.
+    File(PathBuf),
+    /// Render one (or reuse the cached one) with this many samples; see the module docs
+    /// for which samples.
+    Spp(u32),
+}
+
+impl Default for Reference {
+    fn default() -> Self {
+        Reference::Spp(DEFAULT_REFERENCE_SPP)
+    }
+}
+
+/// What to sweep.
+#[derive(Clone, Debug)]
+pub struct SweepOptions {
+    /// Scene file; `None` is the embedded default scene.
+    pub scene: Option<PathBuf>,
+    /// Swept keys with their values, as parsed by [`parse_param`]. Points are the cross
+    /// product, the first key varying slowest. No params: one point, the scene as it is.
+    pub params: Vec<(String, Vec<String>)>,
+    /// `KEY=VALUE` overrides applied to every point and to the reference, before the
+    /// point's own values.
+    pub sets: Vec<String>,
+    /// The reference.
+    pub reference: Reference,
+    /// Output folder, created if missing (its parent must exist).
+    pub out_dir: PathBuf,
+    /// Worker threads per render; `None` uses every core.
+    pub threads: Option<usize>,
+    /// Show a progress bar over the points on stderr. The caller decides: the CLI sets it
+    /// when stderr is a terminal and `--quiet` is not given.
+    pub progress: bool,
+}
+
+impl Default for SweepOptions {
+    fn default() -> Self {
+        SweepOptions {
+            scene: None,
+            params: Vec::new(),
+            sets: Vec::new(),
+            reference: Reference::default(),
+            out_dir: PathBuf::from("sweep"),
+            threads: None,
+            progress: false,
+        }
+    }
+}
+
+/// A point's sampling modes, for grouping: adaptive when AA or shadows are adaptive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Mode {
+    /// Uniform AA and uniform shadows.
+    Uniform,
+    /// Adaptive AA, adaptive shadows, or both.
+    Adaptive,
+}
+
+impl Mode {
+    /// The label in the CSV, the JSON and the plots.
+    pub fn label(self) -> &'static str {
+        match self {
+            Mode::Uniform => "uniform",
+            Mode::Adaptive => "adaptive",
+        }
+    }
+
+    /// The mode of a loaded scene's settings.
+    pub fn of(s: &Settings) -> Mode {
+        if matches!(s.aa_mode, AaMode::Adaptive { .. }) || matches!(s.shadow_mode, ShadowMode::Adaptive(_)) {
+            Mode::Adaptive
+        } else {
+            Mode::Uniform
+        }
+    }
+}
+
+/// One rendered point of the sweep.
+#[derive(Clone, Debug, Serialize)]
+pub struct Point {
+    /// The point's values, in the order of the params.
+    #[serde(serialize_with = "ordered_map")]
+    pub params: Vec<(String, String)>,
+    /// Uniform or adaptive.
+    pub mode: Mode,
+    /// Rays of all kinds.
+    pub total_rays: u64,
+    /// Rays by kind, in the order of [`crate::stats::Stats::kinds`].
+    #[serde(serialize_with = "ordered_map")]
+    pub rays: Vec<(String, u64)>,
+    /// Wall-clock render seconds (scene loading excluded, as in the stats).
+    pub seconds: f64,
+    /// total_rays / seconds / 10⁶.
+    pub mrays_per_s: f64,
+    /// Error against the reference.
+    #[serde(flatten)]
+    pub metrics: Metrics,
+    /// On the Pareto front of its mode in (total_rays, rmse).
+    pub pareto_rays: bool,
+    /// On the Pareto front of its mode in (seconds, rmse).
+    pub pareto_seconds: bool,
+}
+
+/// The reference a sweep measured against.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReferenceInfo {
+    /// The image: the given file, or the cached render in the output folder.
+    pub path: PathBuf,
+    /// `Reference::Spp`'s samples; `None` for a given file.
+    pub spp: Option<u32>,
+    /// True when this sweep rendered it; false when it was given or found in the cache.
+    pub rendered: bool,
+    /// The overrides the reference was rendered with, after the sweep's sets (empty for a
+    /// given file).
+    pub overrides: Vec<String>,
+    /// Render seconds, when this sweep rendered it.
+    pub seconds: Option<f64>,
+    /// Rays traced, when this sweep rendered it.
+    pub total_rays: Option<u64>,
+}
+
+/// What a sweep produced.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepResult {
+    /// The scene's name (its path, or `<default scene>`).
+    pub scene: String,
+    /// Overrides applied to every point and the reference.
+    pub sets: Vec<String>,
+    /// The swept keys, in order.
+    pub keys: Vec<String>,
+    /// Worker threads of each render.
+    pub threads: usize,
+    /// The reference.
+    pub reference: ReferenceInfo,
+    /// One row per point, in cross-product order.
+    pub points: Vec<Point>,
+    /// The files written: the CSV, the JSON and the two plots.
+    #[serde(skip)]
+    pub files: Vec<PathBuf>,
+}
+
+/// File names in the output folder.
+pub const CSV_FILE: &str = "sweep.csv";
+/// The JSON rows.
+pub const JSON_FILE: &str = "sweep.json";
+/// RMSE against total rays, log-log.
+pub const RAYS_PLOT: &str = "error_vs_rays.png";
+/// RMSE against render seconds, log-log.
+pub const SECONDS_PLOT: &str = "error_vs_seconds.png";
+
+/// Parses `KEY=V1,V2,...`. Values are split on commas outside brackets, braces and
+/// quotes, so TOML arrays and strings stay whole: `camera.position=[0,1,5],[0,2,5]` has
+/// two values. Each value is what `--set KEY=VALUE` takes.
+pub fn parse_param(s: &str) -> Result<(String, Vec<String>)> {
+    let bad = |msg: &str| Error::input(format!("--param `{s}`: {msg}"));
+    let (key, list) = s.split_once('=').ok_or_else(|| bad("expected KEY=V1,V2,..."))?;
+    let key = key.trim();
+    if key.is_empty() || key.split('.').any(|seg| seg.trim().is_empty()) {
+        return Err(bad("empty key segment"));
+    }
+    if key.chars().any(char::is_whitespace) {
+        return Err(bad("the key contains a space"));
+    }
+    let mut values = Vec::new();
+    let (mut depth, mut quote, mut escaped) = (0i32, None::<char>, false);
+    let mut cur = String::new();
+    for c in list.chars() {
+        match quote {
+            Some(q) => {
+                // Inside a basic string a backslash escapes the next character; literal
+                // ('...') strings have no escapes.
+                if escaped {
+                    escaped = false;
+                } else if c == '\\' && q == '"' {
+                    escaped = true;
+                } else if c == q {
+                    quote = None;
+                }
+            }
+            None => match c {
+                '"' | '\'' => quote = Some(c),
+                '[' | '{' => depth += 1,
+                ']' | '}' => {
+                    depth -= 1;
+                    if depth < 0 {
+                        return Err(bad(&format!("unmatched `{c}`")));
+                    }
+                }
+                ',' if depth == 0 => {
+                    values.push(std::mem::take(&mut cur));
+                    continue;
+                }
+                _ => {}
+            },
+        }
+        cur.push(c);
+    }
+    if quote.is_some() {
+        return Err(bad("unterminated string"));
+    }
+    if depth != 0 {
+        return Err(bad("unclosed `[` or `{`"));
+    }
+    values.push(cur);
+    let values: Vec<String> = values.into_iter().map(|v| v.trim().to_string()).collect();
+    if let Some(i) = values.iter().position(String::is_empty) {
+        return Err(bad(&format!("value {} is empty", i + 1)));
+    }
+    Ok((key.to_string(), values))
+}
+
+/// 64-bit FNV-1a: a stable hash (unlike std's hasher, the same on every build and
+/// platform), enough to name a cache file.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// True when a swept key can change the camera rays (their count, film positions or lens
+/// samples), so the points cannot share the reference's camera samples: any `render.*`
+/// key but the shadow settings and `max_depth`, and any `camera.*` key.
+fn moves_camera_samples(key: &str) -> bool {
+    let under = |p: &str| key == p || key.starts_with(&format!("{p}."));
+    (under("render") || under("camera")) && !under("render.shadows") && !under("render.max_depth")
+}
+
+/// The overrides that make the reference from the sweep's scene (after its sets), as
+/// described in the module docs. `base` is the scene with the sets applied.
+pub fn reference_overrides(base: &Settings, params: &[(String, Vec<String>)], spp: u32) -> Vec<String> {
+    let keep_camera = base.aa_mode == AaMode::Uniform && !params.iter().any(|(k, _)| moves_camera_samples(k));
+    if keep_camera {
+        return vec!["render.shadows.mode=uniform".into(), format!("render.shadows.samples={spp}")];
+    }
+    let swept_shadow = params
+        .iter()
+        .filter(|(k, _)| k == "render.shadows.samples")
+        .flat_map(|(_, vs)| vs.iter().filter_map(|v| v.parse::<u32>().ok()))
+        .max()
+        .unwrap_or(0);
+    vec![
+        "render.aa.mode=uniform".into(),
+        format!("render.aa.samples={spp}"),
+        "render.shadows.mode=uniform".into(),
+        format!("render.shadows.samples={}", base.shadow_samples.max(swept_shadow)),
+    ]
+}
+
+/// The cross product of the params' values, the first key varying slowest.
+fn cross_product(params: &[(String, Vec<String>)]) -> Vec<Vec<(String, String)>> {
+    let mut points = vec![Vec::new()];
+    for (key, values) in params {
+        points = points
+            .iter()
+            .flat_map(|p| {
+                values.iter().map(move |v| {
+                    let mut q: Vec<(String, String)> = p.clone();
+                    q.push((key.clone(), v.clone()));
+                    q
+                })
+            })
+            .collect();
+    }
+    points
+}
+
+/// `k=v, k=v` for messages.
+fn describe(point: &[(String, String)]) -> String {
+    if point.is_empty() {
+        return "the scene as given".into();
+    }
+    point.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(", ")
+}
+
+/// Sets plus the point's assignments: what `load` gets for a point.
+fn overrides(sets: &[String], point: &[(String, String)]) -> Vec<String> {
+    sets.iter().cloned().chain(point.iter().map(|(k, v)| format!("{k}={v}"))).collect()
+}
+
+/// Creates the output folder if missing; its parent must exist.
+fn prepare_dir(dir: &Path) -> Result<()> {
+    if dir.is_dir() {
+        return Ok(());
+    }
+    if dir.exists() {
+        return Err(Error::output(dir, "exists and is not a folder"));
+    }
+    let parent = match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !parent.is_dir() {
+        return Err(Error::output(dir, format!("folder `{}` does not exist", parent.display())));
+    }
+    std::fs::create_dir(dir).map_err(|e| Error::output(dir, format!("cannot create the folder: {e}")))
+}
+
+/// Serializes pairs as a JSON object, keeping their order.
+fn ordered_map<S: Serializer, K: AsRef<str>, V: Serialize>(
+    pairs: &[(K, V)],
+    ser: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    let mut m = ser.serialize_map(Some(pairs.len()))?;
+    for (k, v) in pairs {
+        m.serialize_entry(k.as_ref(), v)?;
+    }
+    m.end()
+}
+
+/// Runs the sweep: validates every point, gets the reference, renders each point,
+/// measures it, and writes `sweep.csv`, `sweep.json`, `error_vs_rays.png` and
+/// `error_vs_seconds.png` into the output folder.
+pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
+    if opts.threads == Some(0) {
+        return Err(Error::input("--threads must be at least 1"));
+    }
+    let mut seen = std::collections::HashSet::new();
+    for (key, values) in &opts.params {
+        if !seen.insert(key.as_str()) {
+            return Err(Error::input(format!("--param `{key}` is given twice")));
+        }
+        if values.is_empty() {
+            return Err(Error::input(format!("--param `{key}` has no values")));
+        }
+    }
+    let src = match &opts.scene {
+        Some(p) => SceneSource::from_file(p)?,
+        None => SceneSource::default_scene(),
+    };
+    let base = load(&src, &opts.sets)?.settings;
+
+    // Validate every point before rendering anything. A failing point is retried one
+    // assignment at a time so the message can name the value that is wrong by itself.
+    let points = cross_product(&opts.params);
+    let mut settings = Vec::with_capacity(points.len());
+    for point in &points {
+        match load(&src, &overrides(&opts.sets, point)) {
+            Ok(scene) => settings.push(scene.settings),
+            Err(e) => {
+                let culprit =
+                    point.iter().find(|a| load(&src, &overrides(&opts.sets, std::slice::from_ref(a))).is_err());
+                return Err(match culprit {
+                    Some((k, v)) => Error::input(format!("--param {k}={v}: {e}")),
+                    None => Error::input(format!("sweep point {}: {e}", describe(point))),
+                });
+            }
+        }
+    }
+
+    // The reference: a given file, or the cached or new render. Sizes are checked now.
+    let (ref_path, ref_image, spp, ref_overrides) = match &opts.reference {
+        Reference::File(p) => {
+            if !p.is_file() {
+                return Err(Error::input(format!("--reference `{}`: no such file", p.display())));
+            }
+            (p.clone(), Some(load_linear(p)?), None, Vec::new())
+        }
+        Reference::Spp(0) => return Err(Error::input("--reference-spp must be at least 1")),
+        Reference::Spp(spp) => {
+            let ov = reference_overrides(&base, &opts.params, *spp);
+            let mut key = format!("wavetrace sweep reference\0{}\0", env!("CARGO_PKG_VERSION")).into_bytes();
+            for part in [src.text.as_str(), &src.dir.display().to_string()]
+                .into_iter()
+                .chain(opts.sets.iter().map(String::as_str))
+                .chain(ov.iter().map(String::as_str))
+            {
+                key.extend_from_slice(part.as_bytes());
+                key.push(0);
+            }
+            let path = opts.out_dir.join(format!("reference-{:016x}.exr", fnv1a64(&key)));
+            (path, None, Some(*spp), ov)
+        }
+    };
+    let ref_size = match &ref_image {
+        Some(img) => (img.width, img.height),
+        None => {
+            let all: Vec<String> = opts.sets.iter().chain(&ref_overrides).cloned().collect();
+            let s = load(&src, &all)
+                .map_err(|e| Error::input(format!("reference ({}): {e}", ref_overrides.join(", "))))?
+                .settings;
+            (s.width, s.height)
+        }
+    };
+    for (point, s) in points.iter().zip(&settings) {
+        if (s.width, s.height) != ref_size {
+            return Err(Error::input(format!(
+                "reference `{}` is {}×{} but sweep point {} renders {}×{}",
+                ref_path.display(),
+                ref_size.0,
+                ref_size.1,
+                describe(point),
+                s.width,
+                s.height
+            )));
+        }
+    }
+
+    prepare_dir(&opts.out_dir)?;
+    let files: Vec<PathBuf> =
+        [CSV_FILE, JSON_FILE, RAYS_PLOT, SECONDS_PLOT].iter().map(|f| opts.out_dir.join(f)).collect();
+    for f in &files {
+        check_folder(f)?;
+    }
+
+    let render_opts = RenderOptions { threads: opts.threads, ..Default::default() };
+    // A cached reference that cannot be read back, or has the wrong size, is rendered anew.
+    let cached = match (&ref_image, spp) {
+        (None, Some(_)) if ref_path.is_file() => {
+            load_linear(&ref_path).ok().filter(|i| (i.width, i.height) == ref_size)
+        }
+        _ => None,
+    };
+    let needs_render = ref_image.is_none() && cached.is_none();
+    let bar = opts.progress.then(|| {
+        let pb = indicatif::ProgressBar::new(points.len() as u64 + needs_render as u64);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} renders {msg}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        // A reference render can take minutes: keep the clock moving between renders.
+        pb.enable_steady_tick(std::time::Duration::from_millis(250));
+        pb
+    });
+    let say = |msg: String| {
+        if let Some(pb) = &bar {
+            pb.set_message(msg);
+        }
+    };
+    let step = || {
+        if let Some(pb) = &bar {
+            pb.inc(1);
+        }
+    };
+
+    let mut info = ReferenceInfo {
+        path: ref_path.clone(),
+        spp,
+        rendered: false,
+        overrides: ref_overrides.clone(),
+        seconds: None,
+        total_rays: None,
+    };
+    let reference: Image = match (ref_image, cached) {
+        (Some(img), _) | (None, Some(img)) => img,
+        (None, None) => {
+            say("reference".into());
+            let all: Vec<String> = opts.sets.iter().chain(&ref_overrides).cloned().collect();
+            let scene = load(&src, &all)?;
+            let out = render(&scene, &render_opts)?;
+            write_image(&ref_path, &out.image)?;
+            step();
+            info.rendered = true;
+            info.seconds = Some(out.seconds);
+            info.total_rays = Some(out.stats.total_rays());
+            out.image
+        }
+    };
+
+    let mut rows = Vec::with_capacity(points.len());
+    let mut threads = opts.threads.unwrap_or(0);
+    for point in &points {
+        say(describe(point));
+        let scene = load(&src, &overrides(&opts.sets, point))?;
+        let out = render(&scene, &render_opts)?;
+        threads = out.per_thread.len();
+        let m = metrics(&out.image, &reference).map_err(|e| {
+            Error::input(format!("sweep point {} against `{}`: {e}", describe(point), ref_path.display()))
+        })?;
+        let total = out.stats.total_rays();
+        rows.push(Point {
+            params: point.clone(),
+            mode: Mode::of(&scene.settings),
+            total_rays: total,
+            rays: out.stats.kinds().iter().map(|&(k, n)| (k.to_string(), n)).collect(),
+            seconds: out.seconds,
+            mrays_per_s: if out.seconds > 0.0 { total as f64 / out.seconds / 1e6 } else { 0.0 },
+            metrics: m,
+            pareto_rays: false,
+            pareto_seconds: false,
+        });
+        step();
+    }
+    if let Some(pb) = &bar {
+        pb.finish_and_clear();
+    }
+    mark_pareto(&mut rows);
+
+    let result = SweepResult {
+        scene: src.name.clone(),
+        sets: opts.sets.clone(),
+        keys: opts.params.iter().map(|(k, _)| k.clone()).collect(),
+        threads,
+        reference: info,
+        points: rows,
+        files,
+    };
+    write_text(&result.files[0], &result.csv())?;
+    write_text(&result.files[1], &(result.json()? + "\n"))?;
+    result.plot(&result.files[2], |p| p.total_rays as f64, "rays traced (all kinds)")?;
+    result.plot(&result.files[3], |p| p.seconds, "render seconds (wall clock)")?;
+    Ok(result)
+}
+
+/// Marks each point's place on its mode's Pareto fronts.
+fn mark_pareto(rows: &mut [Point]) {
+    for mode in [Mode::Uniform, Mode::Adaptive] {
+        let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].mode == mode).collect();
+        let by_rays =
+            pareto_front(&idx.iter().map(|&i| (rows[i].total_rays as f64, rows[i].metrics.rmse)).collect::<Vec<_>>());
+        let by_secs = pareto_front(&idx.iter().map(|&i| (rows[i].seconds, rows[i].metrics.rmse)).collect::<Vec<_>>());
+        for (k, &i) in idx.iter().enumerate() {
+            rows[i].pareto_rays = by_rays[k];
+            rows[i].pareto_seconds = by_secs[k];
+        }
+    }
+}
+
+/// Quotes a CSV field when it holds a comma, a quote or a line break (RFC 4180).
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+impl SweepResult {
+    /// The CSV: a header, then one row per point: the param values, `mode`,
+    /// `total_rays`, `rays_<kind>` for each ray kind, `seconds`, `rmse`, `rel_mse`,
+    /// `psnr` (`inf` for an exact match) and `flip`.
+    pub fn csv(&self) -> String {
+        let kinds: Vec<String> =
+            crate::stats::Stats::default().kinds().iter().map(|k| format!("rays_{}", k.0)).collect();
+        let mut header: Vec<String> = self.keys.clone();
+        header.extend(["mode".to_string(), "total_rays".to_string()]);
+        header.extend(kinds);
+        header.extend(["seconds", "rmse", "rel_mse", "psnr", "flip"].map(String::from));
+        let mut out = header.iter().map(|h| csv_field(h)).collect::<Vec<_>>().join(",") + "\n";
+        for p in &self.points {
+            let mut row: Vec<String> = p.params.iter().map(|(_, v)| csv_field(v)).collect();
+            row.push(p.mode.label().into());
+            row.push(p.total_rays.to_string());
+            row.extend(p.rays.iter().map(|(_, n)| n.to_string()));
+            let m = &p.metrics;
+            row.extend([p.seconds, m.rmse, m.rel_mse, m.psnr, m.flip].map(|v| v.to_string()));
+            out += &(row.join(",") + "\n");
+        }
+        out
+    }
+
+    /// The text of `sweep.json`: `version`, then the fields of [`SweepResult`] in order
+    /// (`files` left out). Maps keep their order: params as swept, ray kinds as in the
+    /// stats. Non-finite numbers, such as the PSNR of an exact match, become `null`.
+    pub fn json(&self) -> Result<String> {
+        #[derive(Serialize)]
+        struct Doc<'a> {
+            version: u32,
+            #[serde(flatten)]
+            result: &'a SweepResult,
+        }
+        // Serialized straight to text: going through serde_json::Value would sort the keys.
+        serde_json::to_string_pretty(&Doc { version: JSON_VERSION, result: self })
+            .map_err(|e| Error::Internal(e.to_string()))
+    }
+
+    /// A text table of the points, for the terminal.
+    pub fn table(&self) -> String {
+        let mut out = String::new();
+        for k in &self.keys {
+            out += &format!("{k:>22} ");
+        }
+        out += &format!("{:>9} {:>13} {:>9} {:>10} {:>9}\n", "mode", "rays", "seconds", "rmse", "flip");
+        for p in &self.points {
+            for (_, v) in &p.params {
+                out += &format!("{v:>22} ");
+            }
+            let front = if p.pareto_rays { " *" } else { "" };
+            out += &format!(
+                "{:>9} {:>13} {:>9.3} {:>10.6} {:>9.5}{front}\n",
+                p.mode.label(),
+                p.total_rays,
+                p.seconds,
+                p.metrics.rmse,
+                p.metrics.flip
+            );
+        }
+        out + "(* on the mode's Pareto front in rays and RMSE)"
+    }
+
+    /// Draws RMSE against `x` of each point, one series per mode, log-log.
+    fn plot(&self, path: &Path, x: impl Fn(&Point) -> f64, x_label: &str) -> Result<()> {
+        let by_seconds = path.ends_with(SECONDS_PLOT);
+        let labels = point_labels(&self.points);
+        // Both modes always, an empty one included, so uniform is blue and adaptive orange
+        // in every plot.
+        let series: Vec<Series> = [Mode::Uniform, Mode::Adaptive]
+            .iter()
+            .map(|&mode| {
+                let idx: Vec<usize> = (0..self.points.len()).filter(|&i| self.points[i].mode == mode).collect();
+                let pts: Vec<&Point> = idx.iter().map(|&i| &self.points[i]).collect();
+                Series {
+                    name: mode.label().into(),
+                    points: pts.iter().map(|p| (x(p), p.metrics.rmse)).collect(),
+                    pareto: pts.iter().map(|p| if by_seconds { p.pareto_seconds } else { p.pareto_rays }).collect(),
+                    labels: idx.iter().map(|&i| labels[i].clone()).collect(),
+                }
+            })
+            .collect();
+        let name = Path::new(&self.scene).file_stem().map_or(self.scene.clone(), |s| s.to_string_lossy().into_owned());
+        let title = format!(
+            "{name}: RMSE vs {} (filled and joined: each mode's Pareto front)",
+            if by_seconds { "seconds" } else { "rays" }
+        );
+        scatter_plot(path, &title, x_label, "RMSE (linear)", &series, true, true)
+    }
+}
+
+/// Plot labels: a point's values with the last segment of each key (`samples=64
+/// eps=0.01`). Points whose renders came out the same (same mode, rays of every kind and
+/// error: a setting their mode ignores differs) share one label of the values they have
+/// in common, with their count: `samples=4 (×3)`. A `*.mode` value that names the point's
+/// series is left out, as the colour says it.
+fn point_labels(points: &[Point]) -> Vec<String> {
+    let same = |a: &Point, b: &Point| {
+        a.mode == b.mode && a.rays == b.rays && a.metrics.rmse.to_bits() == b.metrics.rmse.to_bits()
+    };
+    points
+        .iter()
+        .map(|p| {
+            let group: Vec<&Point> = points.iter().filter(|q| same(p, q)).collect();
+            let text = p
+                .params
+                .iter()
+                .filter(|(k, v)| !(k.ends_with(".mode") && v == p.mode.label()))
+                .filter(|(k, v)| group.iter().all(|q| q.params.iter().any(|(qk, qv)| qk == k && qv == v)))
+                .map(|(k, v)| format!("{}={v}", k.rsplit('.').next().unwrap_or(k)))
+                .collect::<Vec<_>>()
+                .join(" ");
+            if group.len() > 1 {
+                format!("{text} (×{})", group.len())
+            } else {
+                text
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv1a_known_values() {
+        // Published FNV-1a 64 test vectors.
+        assert_eq!(fnv1a64(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a64(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a64(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn cross_product_order() {
+        let p =
+            cross_product(&[("a".into(), vec!["1".into(), "2".into()]), ("b".into(), vec!["x".into(), "y".into()])]);
+        let d: Vec<String> = p.iter().map(|q| describe(q)).collect();
+        assert_eq!(d, ["a=1, b=x", "a=1, b=y", "a=2, b=x", "a=2, b=y"]);
+        assert_eq!(cross_product(&[]).len(), 1);
+    }
+
+    #[test]
+    fn parse_param_splits_outside_brackets_and_quotes() {
+        let (k, v) = parse_param("objects.0.name=\"a,b\",'c,d',[1,[2,3]],{x=1,y=2}").unwrap();
+        assert_eq!(k, "objects.0.name");
+        assert_eq!(v, ["\"a,b\"", "'c,d'", "[1,[2,3]]", "{x=1,y=2}"]);
+        assert!(parse_param("k=[1,2").is_err());
+        assert!(parse_param("k=1]").is_err());
+        assert!(parse_param("k=1,,2").is_err());
+        assert!(parse_param("k=\"open").is_err());
+        assert!(parse_param("=1").is_err());
+        assert!(parse_param("a..b=1").is_err());
+        assert!(parse_param("novalue").is_err());
+    }
+
+    #[test]
+    fn csv_quotes_fields_with_commas() {
+        assert_eq!(csv_field("[0,1,5]"), "\"[0,1,5]\"");
+        assert_eq!(csv_field("\"a\""), "\"\"\"a\"\"\"");
+        assert_eq!(csv_field("0.01"), "0.01");
+    }
+
+    #[test]
+    fn camera_keys() {
+        for k in ["render.aa.samples", "render.aa.mode", "render.dof.samples", "render.seed", "render.width"] {
+            assert!(moves_camera_samples(k), "{k}");
+        }
+        for k in ["render.shadows.samples", "render.shadows.mode", "render.max_depth", "objects.0.radius"] {
+            assert!(!moves_camera_samples(k), "{k}");
+        }
+    }
+}
