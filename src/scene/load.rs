@@ -11,6 +11,15 @@ use super::{AaMode, Camera, Light, Material, Probe, ReflectRatio, Scene, SceneIn
 use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::{Error, Result};
 
+/// Largest coordinate, edge or radius magnitude: squares and cross products of scene
+/// vectors must stay finite in f32 (3.4e38), or directions turn to NaN.
+pub const MAX_COORD: f32 = 1e18;
+
+/// True when every component is finite and within ±MAX_COORD.
+fn in_range(v: Vec3) -> bool {
+    v.is_finite() && v.abs().max_element() <= MAX_COORD
+}
+
 /// Most reflection/refraction bounces a scene may ask for.
 pub const MAX_DEPTH: u32 = 64;
 
@@ -191,8 +200,18 @@ fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
     Ok(vec3(c))
 }
 
+/// A position or extent, refused beyond ±MAX_COORD.
+fn coord(ctx: &Ctx, path: &str, v: Vec3) -> Result<Vec3> {
+    if in_range(v) {
+        Ok(v)
+    } else {
+        Err(ctx.fail(path, format!("beyond ±{MAX_COORD:e} scene units")))
+    }
+}
+
 fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)> {
-    let (u, v) = (vec3(u), vec3(v));
+    let u = coord(ctx, &format!("{path}.edge_u"), vec3(u))?;
+    let v = coord(ctx, &format!("{path}.edge_v"), vec3(v))?;
     if u.length_squared() == 0.0 {
         return Err(ctx.fail(&format!("{path}.edge_u"), "zero-length edge"));
     }
@@ -374,6 +393,12 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
 
 fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> {
     let position = vec3(c.position);
+    if !in_range(position) {
+        return Err(ctx.fail("camera.position", format!("beyond ±{MAX_COORD:e} scene units")));
+    }
+    if !in_range(vec3(c.look_at)) {
+        return Err(ctx.fail("camera.look_at", format!("beyond ±{MAX_COORD:e} scene units")));
+    }
     let to = vec3(c.look_at) - position;
     if to.length_squared() == 0.0 {
         return Err(ctx.fail("camera.look_at", "equals camera.position: no view direction"));
@@ -459,6 +484,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         lights.push(match *l {
             LightDesc::Quad { corner, edge_u, edge_v, radiance } => {
                 let (u, v) = edges(ctx, &path, edge_u, edge_v)?;
+                coord(ctx, &format!("{path}.corner"), vec3(corner))?;
                 let n = u.cross(v);
                 let shape = Shape::Quad { corner: vec3(corner), u, v };
                 prims.push(Primitive { shape, material: 0, light: i as u32 });
@@ -472,7 +498,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
                 }
             }
             LightDesc::Point { position, intensity } => Light::Point {
-                position: vec3(position),
+                position: coord(ctx, &format!("{path}.position"), vec3(position))?,
                 intensity: color(ctx, &format!("{path}.intensity"), intensity)?,
             },
         });
@@ -495,6 +521,8 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
                 if *radius <= 0.0 {
                     return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
                 }
+                coord(ctx, &format!("{path}.radius"), Vec3::splat(*radius))?;
+                coord(ctx, &format!("{path}.center"), vec3(*center))?;
                 let material = lookup(material)?;
                 prims.push(Primitive {
                     shape: Shape::Sphere { center: vec3(*center), radius: *radius },
@@ -504,6 +532,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
             }
             ObjectDesc::Quad { corner, edge_u, edge_v, material } => {
                 let (u, v) = edges(ctx, &path, *edge_u, *edge_v)?;
+                coord(ctx, &format!("{path}.corner"), vec3(*corner))?;
                 let material = lookup(material)?;
                 prims.push(Primitive { shape: Shape::Quad { corner: vec3(*corner), u, v }, material, light: NO_LIGHT });
             }
@@ -520,10 +549,16 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
                 }
                 let tris = super::mesh::load_obj(&mesh_path).map_err(fail)?;
                 let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
-                let t = vec3(*translate);
+                let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
                 let xf = |p: Vec3| rot * (p * *scale) + t;
                 for tri in tris {
                     let (v0, v1, v2) = (xf(tri[0]), xf(tri[1]), xf(tri[2]));
+                    if [v0, v1, v2].iter().any(|v| !in_range(*v)) {
+                        return Err(ctx.fail(
+                            &format!("{path}.scale"),
+                            format!("a vertex lands at {v0}/{v1}/{v2} after scale, rotate_y and translate: beyond ±{MAX_COORD:e}"),
+                        ));
+                    }
                     if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
                         info.degenerate_triangles += 1;
                         continue;

@@ -7,6 +7,11 @@ use std::path::Path;
 /// Reads the triangles of an OBJ file (faces fan-triangulated by tobj), in object space.
 /// Errors are messages to be placed after the field that named the file.
 pub fn load_obj(path: &Path) -> Result<Vec<[Vec3; 3]>, String> {
+    // A device or a pipe would be read without end or block for ever.
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => return Err(format!("mesh `{}` is not a regular file", path.display())),
+        _ => {}
+    }
     let file = std::fs::File::open(path).map_err(|e| format!("cannot open mesh `{}`: {e}", path.display()))?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     // Materials are not used: never let tobj open .mtl files next to the mesh.
