@@ -152,6 +152,12 @@ const KNOWN: &[(&str, &str, &str)] = &[
     ),
     ("camera basis", "not finite", "camera accepted with a non-finite basis (camera_view_vector_that_overflows)"),
     (
+        "src/scene/load.rs:",
+        "attempt to multiply with overflow",
+        "settings(): width × height × BYTES_PER_PIXEL overflows u64 (debug builds only; release wraps and the \
+         2^32-pixel check catches it) (pixel_budget_overflow_in_debug)",
+    ),
+    (
         // Raised on a rayon worker of the render, so the location may not reach the case.
         "assertion failed: ray.inv_direction.is_finite()",
         "panicked at",
@@ -1289,4 +1295,18 @@ fn huge_geometry_in_debug() {
         let verdict = check_scene(&text, dir.path(), &TINY.map(String::from));
         assert!(matches!(verdict, Ok(Verdict::Rejected | Verdict::Rendered)), "{verdict:?}");
     }
+}
+
+/// width × height × BYTES_PER_PIXEL computed in u64 before the 2^32-pixel check: with
+/// overflow checks on, a multiplication overflow panic in `settings()`.
+#[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "src/scene/load.rs settings() overflows u64 on width × height × BYTES_PER_PIXEL: \
+              check pixels > u32::MAX first, or use checked_mul/saturating_mul"
+)]
+fn pixel_budget_overflow_in_debug() {
+    let text =
+        DEFAULT_SCENE.replace("width = 320", "width = 4294967295").replace("height = 240", "height = 4294967295");
+    assert_eq!(check_scene(&text, Path::new("."), &[]), Ok(Verdict::Rejected));
 }

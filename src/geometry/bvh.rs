@@ -21,13 +21,13 @@ pub struct Traversal {
 
 /// Deepest tree the fixed-size traversal stack handles; deeper trees (never seen from
 /// obvhs's builders on real meshes) fall back to obvhs's own traversal.
-const STACK: usize = 128;
+pub(crate) const STACK: usize = 128;
 
 /// Conservative ray–box slab test: the far distance is widened by 1 + 2γ₃ (PBRT's
 /// bound on the rounding of the slab distances), so a ray through a box's edge or corner
 /// is never lost to rounding.
 #[inline(always)]
-fn slab(b: &obvhs::aabb::Aabb, ray: &Ray) -> f32 {
+pub(crate) fn slab(b: &obvhs::aabb::Aabb, ray: &Ray) -> f32 {
     const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
     let t1 = (b.min - ray.origin) * ray.inv_direction;
     let t2 = (b.max - ray.origin) * ray.inv_direction;
@@ -44,9 +44,9 @@ fn slab(b: &obvhs::aabb::Aabb, ray: &Ray) -> f32 {
 pub struct Accel {
     /// Primitives, in BVH order: a traversal's primitive id indexes this directly.
     pub prims: Vec<Primitive>,
-    bvh: Option<Bvh2>,
+    pub(crate) bvh: Option<Bvh2>,
     /// Depth of the tree (root = 1), which bounds the traversal stack.
-    depth: usize,
+    pub(crate) depth: usize,
     /// Seconds the BVH build took.
     pub build_seconds: f64,
 }

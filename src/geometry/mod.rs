@@ -2,6 +2,7 @@
 
 pub mod bvh;
 pub mod offset;
+pub mod packet;
 pub mod shapes;
 
 pub use bvh::{Accel, Traversal};
