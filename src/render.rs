@@ -175,6 +175,8 @@ struct Worker {
     stats: Stats,
     /// Traversal work of the stage being run.
     work: Traversal,
+    /// Scratch: the order rays are grouped into packets.
+    order: Vec<(u64, u32)>,
     count: bool,
     /// Stage spans, when tracing: `Some(render start)`.
     trace: Option<Instant>,
@@ -253,7 +255,7 @@ impl Worker {
         }
         self.peak_rays(n);
         let t = Instant::now();
-        intersect::intersect(scene, &self.rays, &mut self.hits, &mut self.work, self.count);
+        intersect::intersect(scene, &self.rays, &mut self.hits, &mut self.work, self.count, &mut self.order);
         let t = self.lap(Stage::Intersect, n, n, t);
 
         let uniform_equivalent = shade::shade(
@@ -272,7 +274,7 @@ impl Worker {
         p.specular = p.specular.max(self.specular.len() as u64);
         let t = self.lap(Stage::Shade, n, shaded_out, t);
 
-        let lit = shadow::occlusion(scene, &self.shadow, &mut self.film, &mut self.work, self.count);
+        let lit = shadow::occlusion(scene, &self.shadow, &mut self.film, &mut self.work, self.count, &mut self.order);
         self.stats.shadow_rays += self.shadow.len() as u64;
         for &s in &self.shadow.slot {
             self.slot_heat.rays[s as usize] += 1.0;
@@ -307,7 +309,14 @@ impl Worker {
             t = self.lap(Stage::ShadowCorner, self.points.len(), self.penumbra.len(), t);
 
             penumbra::penumbra(scene, &self.rays, &self.hits, &self.points, &self.penumbra, &mut self.penumbra_rays);
-            let lit = shadow::occlusion(scene, &self.penumbra_rays, &mut self.film, &mut self.work, self.count);
+            let lit = shadow::occlusion(
+                scene,
+                &self.penumbra_rays,
+                &mut self.film,
+                &mut self.work,
+                self.count,
+                &mut self.order,
+            );
             let p = &mut self.stats.peak;
             p.penumbra_rays = p.penumbra_rays.max(self.penumbra_rays.len() as u64);
             self.stats.penumbra_rays += self.penumbra_rays.len() as u64;
@@ -340,6 +349,9 @@ impl Worker {
         let c = &mut self.stats.stages[stage as usize];
         c.nodes += self.work.nodes;
         c.prims += self.work.prims;
+        c.packet_rays += self.work.packet_rays;
+        c.packet_steps += self.work.packet_steps;
+        c.packet_lanes += self.work.packet_lanes;
         self.work = Traversal::default();
         if let Some(t0) = self.trace {
             let start_us = (since - t0).as_secs_f64() * 1e6;

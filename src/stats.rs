@@ -71,6 +71,12 @@ pub struct StageCounters {
     pub nodes: u64,
     /// Primitive intersection tests run by the stage's traversals.
     pub prims: u64,
+    /// Rays the stage traced in 8-wide packets (`render.packets`).
+    pub packet_rays: u64,
+    /// Packet node-pair tests, and the active lanes summed over them.
+    pub packet_steps: u64,
+    /// Active lanes summed over packet node-pair tests.
+    pub packet_lanes: u64,
 }
 
 /// Counters of one worker, or of the whole render once merged.
@@ -162,6 +168,9 @@ impl Stats {
             a.seconds += b.seconds;
             a.nodes += b.nodes;
             a.prims += b.prims;
+            a.packet_rays += b.packet_rays;
+            a.packet_steps += b.packet_steps;
+            a.packet_lanes += b.packet_lanes;
         }
         self.peak.merge(&o.peak);
         self.queue_bytes += o.queue_bytes;
@@ -310,6 +319,10 @@ pub struct TraversalReport {
     pub nodes_per_ray: f64,
     /// Primitive intersection tests per ray.
     pub prims_per_ray: f64,
+    /// Share of the stage's rays traced in packets.
+    pub packet_share: f64,
+    /// Active lanes / 8 over the packets' node tests (0 without packets).
+    pub lane_utilisation: f64,
 }
 
 impl Report {
@@ -355,12 +368,17 @@ impl Report {
                         Stage::Penumbra => total.penumbra_rays,
                         _ => c.rays_in,
                     };
-                    (c.nodes > 0 && rays > 0).then(|| {
+                    (rays > 0 && (c.nodes > 0 || c.packet_steps > 0)).then(|| {
                         let r = rays as f64;
-                        (
-                            st.name(),
-                            TraversalReport { nodes_per_ray: c.nodes as f64 / r, prims_per_ray: c.prims as f64 / r },
-                        )
+                        let lanes =
+                            if c.packet_steps > 0 { c.packet_lanes as f64 / (8 * c.packet_steps) as f64 } else { 0.0 };
+                        let t = TraversalReport {
+                            nodes_per_ray: c.nodes as f64 / r,
+                            prims_per_ray: c.prims as f64 / r,
+                            packet_share: c.packet_rays as f64 / r,
+                            lane_utilisation: lanes,
+                        };
+                        (st.name(), t)
                     })
                 })
                 .collect(),

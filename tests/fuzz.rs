@@ -17,7 +17,7 @@
 //!
 //! Failures this fuzzing found that src/ does not fix yet are listed in [`KNOWN`]: a case
 //! that hits one is counted and reported, not failed (`WAVETRACE_FUZZ_STRICT=1` fails it),
-//! and each has an `#[ignore]`d test with a minimal input.
+//! and each has a test with a minimal input, ignored in the builds where it fails.
 //!
 //! Cases per generator: `WAVETRACE_FUZZ_CASES` (default 200); `PROPTEST_RNG_SEED` fixes
 //! the seed. A long run:
@@ -134,23 +134,15 @@ enum Verdict {
 }
 
 /// Known failures, found by this fuzzing and not yet fixed in src/: a problem whose text
-/// contains both strings is one of them. Each has an ignored test below with a minimal
-/// input. Remove an entry once its fix lands.
+/// contains both strings is one of them. Each has a test below with a minimal input,
+/// ignored where it fails. Remove an entry, and the test's `ignore`, once its fix lands.
 const KNOWN: &[(&str, &str, &str)] = &[
-    (
-        // An index out of bounds at line 467 in release, a debug assertion at line 441 in debug.
-        "obvhs-0.4.0/src/ploc/mod.rs",
-        "panicked at",
-        "obvhs PLOC build on NaN bounds: mesh vertices that overflow f32 after scale/translate \
-         (mesh_vertices_that_overflow_after_the_transform)",
-    ),
     (
         "tobj-4.0.5/src/lib.rs",
         "overflow",
         "tobj 4.0.5 index arithmetic overflows (debug builds only) on vt/vn indices far out of range \
          (obj_attribute_index_overflow_in_debug)",
     ),
-    ("camera basis", "not finite", "camera accepted with a non-finite basis (camera_view_vector_that_overflows)"),
     (
         "src/scene/load.rs:",
         "attempt to multiply with overflow",
@@ -161,8 +153,8 @@ const KNOWN: &[(&str, &str, &str)] = &[
         // Raised on a rayon worker of the render, so the location may not reach the case.
         "assertion failed: ray.inv_direction.is_finite()",
         "panicked at",
-        "obvhs Ray::new debug assertion (debug builds only): huge but finite geometry gives NaN ray directions \
-         (huge_geometry_in_debug)",
+        "obvhs Ray::new debug assertion (debug builds only): geometry within MAX_COORD but too big for f32 \
+         products gives NaN ray directions (huge_geometry_in_debug)",
     ),
 ];
 
@@ -1198,8 +1190,8 @@ fn obj_mesh() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Known failures: minimal inputs for each entry of `KNOWN`, and two the generators never
-// produce (a mesh `file` that is a device or a pipe).
+// Regressions: minimal inputs of failures this fuzzing found and src/ now refuses, and two
+// the generators never produce (a mesh `file` that is a device or a pipe).
 
 /// The default scene plus a mesh object that names `file`.
 fn scene_with_mesh(file: &Path) -> String {
@@ -1209,14 +1201,15 @@ fn scene_with_mesh(file: &Path) -> String {
     )
 }
 
-/// A mesh `file` that is a device with no end: tobj reads it as one endless line.
+/// A mesh `file` that is a device with no end: tobj would read it as one endless line (a
+/// regression aborts this binary at the 1 GiB allocation guard).
 #[test]
 fn mesh_file_that_never_ends() {
     let verdict = check_scene(&scene_with_mesh(Path::new("/dev/zero")), Path::new("."), &TINY.map(String::from));
     assert_eq!(verdict, Ok(Verdict::Rejected));
 }
 
-/// A mesh `file` that is a named pipe with no writer: opening it blocks for ever.
+/// A mesh `file` that is a named pipe with no writer: opening it would block for ever.
 #[test]
 fn mesh_file_that_is_a_pipe() {
     let dir = tempfile::tempdir().unwrap();
@@ -1230,13 +1223,43 @@ fn mesh_file_that_is_a_pipe() {
     assert_eq!(verdict, Ok(Verdict::Rejected));
 }
 
+/// One finite triangle and four that `scale = 1e38` pushes past f32::MAX: their edges were
+/// inf - inf = NaN, the zero-area test let NaN through, and obvhs's PLOC build indexed out
+/// of bounds on the NaN bounds (ploc/mod.rs:467; a debug assertion at :441).
+#[test]
+fn mesh_vertices_that_overflow_after_the_transform() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = String::from("v 0 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n");
+    for (i, x) in [4, 5, 6, 7].into_iter().enumerate() {
+        let k = 3 * i + 4;
+        obj += &format!("v {x} 0 0\nv {x} 1 0\nv {x} 0 1\nf {k} {} {}\n", k + 1, k + 2);
+    }
+    std::fs::write(dir.path().join("mesh.obj"), obj).unwrap();
+    let text = scene_with_mesh(Path::new("mesh.obj")) + "scale = 1e38\n";
+    assert_eq!(check_scene(&text, dir.path(), &TINY.map(String::from)), Ok(Verdict::Rejected));
+}
+
+/// `look_at - position` overflowed to infinity: `forward` was NaN, yet the scene loaded.
+#[test]
+fn camera_view_vector_that_overflows() {
+    let text = DEFAULT_SCENE
+        .replace("position = [0, 1, 3.9]", "position = [3e38, 1, 3.9]")
+        .replace("look_at = [0, 1, 0]", "look_at = [-3e38, 1, 0]");
+    assert_eq!(check_scene(&text, Path::new("."), &TINY.map(String::from)), Ok(Verdict::Rejected));
+}
+
+// ---------------------------------------------------------------------------------------
+// Known failures: a minimal input for each entry of `KNOWN`. All three are debug-only
+// (overflow checks and debug assertions); release builds pass them.
+
 /// tobj 4.0.5 computes `vt * 2 + 1` and `vn * 3 + 2` on indices that a relative (negative)
 /// index below the start, or a huge one, makes close to `usize::MAX`: with overflow checks
 /// on that is a panic inside tobj; in release the wrapped index is out of range (an error).
 #[test]
 #[cfg_attr(
     debug_assertions,
-    ignore = "tobj 4.0.5 overflows on vt/vn indices far out of range when overflow checks are on: src/scene/mesh.rs should drop vt/vn data before tobj sees it"
+    ignore = "tobj 4.0.5 overflows on vt/vn indices far out of range when overflow checks are on: \
+              src/scene/mesh.rs load_obj should drop vt/vn data before tobj sees it"
 )]
 fn obj_attribute_index_overflow_in_debug() {
     let dir = tempfile::tempdir().unwrap();
@@ -1251,49 +1274,29 @@ fn obj_attribute_index_overflow_in_debug() {
     }
 }
 
-/// One finite triangle and four that `scale = 1e38` pushes past f32::MAX: their edges are
-/// inf - inf = NaN, the zero-area test (`length_squared() == 0.0`) lets NaN through, and
-/// obvhs's PLOC build indexes out of bounds on the NaN bounds.
-#[test]
-fn mesh_vertices_that_overflow_after_the_transform() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut obj = String::from("v 0 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n");
-    for (i, x) in [4, 5, 6, 7].into_iter().enumerate() {
-        let k = 3 * i + 4;
-        obj += &format!("v {x} 0 0\nv {x} 1 0\nv {x} 0 1\nf {k} {} {}\n", k + 1, k + 2);
-    }
-    std::fs::write(dir.path().join("mesh.obj"), obj).unwrap();
-    let text = scene_with_mesh(Path::new("mesh.obj")) + "scale = 1e38\n";
-    assert_eq!(check_scene(&text, dir.path(), &TINY.map(String::from)), Ok(Verdict::Rejected));
-}
-
-/// `look_at - position` overflows to infinity: `forward` is NaN, yet the scene loads.
-#[test]
-fn camera_view_vector_that_overflows() {
-    let text = DEFAULT_SCENE
-        .replace("position = [0, 1, 3.9]", "position = [3e38, 1, 3.9]")
-        .replace("look_at = [0, 1, 0]", "look_at = [-3e38, 1, 0]");
-    assert_eq!(check_scene(&text, Path::new("."), &TINY.map(String::from)), Ok(Verdict::Rejected));
-}
-
-/// Geometry that passes validation but is too big for f32 arithmetic downstream: a floor
-/// edge of 2^63 units, a unit triangle scaled by 2^32. Shading makes NaN directions, which
-/// obvhs's `Ray::new` asserts against in debug builds (release renders finite pixels).
+/// Geometry within MAX_COORD (1e18) but too big for f32 products: a unit triangle scaled by
+/// 2^32, a floor of 1e17 × 1e17. `|e1 × e2|²` overflows to infinity, normals and hit
+/// points turn to zero or NaN, and obvhs's `Ray::new` asserts against the NaN directions in
+/// debug builds (release renders finite pixels).
 #[test]
 #[cfg_attr(
     debug_assertions,
-    ignore = "huge but finite geometry gives NaN ray directions (obvhs ray.rs:47 debug assertion): \
-              src/scene/load.rs build() should bound coordinates, edges and radii (e.g. |x| <= 1e8)"
+    ignore = "edges up to MAX_COORD = 1e18 still overflow |u × v|² (obvhs ray.rs:47 debug assertion): \
+              src/scene/load.rs MAX_COORD must be about 1e9 (|u|·|v| < 1.8e19)"
 )]
 fn huge_geometry_in_debug() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("mesh.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     for text in [
-        DEFAULT_SCENE.replacen("edge_u = [2, 0, 0]", "edge_u = [9223372036854775807, 0, 0]", 1),
-        scene_with_mesh(Path::new("mesh.obj")) + "scale = 4294967295\n",
+        scene_with_mesh(Path::new("mesh.obj")) + "scale = 4294967296\n",
+        DEFAULT_SCENE.replacen(
+            "edge_u = [2, 0, 0]\nedge_v = [0, 0, 2]",
+            "edge_u = [1e17, 0, 0]\nedge_v = [0, 0, 1e17]",
+            1,
+        ),
     ] {
         let verdict = check_scene(&text, dir.path(), &TINY.map(String::from));
-        assert!(matches!(verdict, Ok(Verdict::Rejected | Verdict::Rendered)), "{verdict:?}");
+        assert!(matches!(verdict, Ok(Verdict::Rejected | Verdict::Rendered)), "{verdict:?} for\n{text}");
     }
 }
 

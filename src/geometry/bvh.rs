@@ -17,6 +17,12 @@ pub struct Traversal {
     pub nodes: u64,
     /// Primitives whose intersection test ran.
     pub prims: u64,
+    /// Packet traversals: node pairs tested for a packet (one 8-lane test each).
+    pub packet_steps: u64,
+    /// Active lanes summed over those tests (utilisation = lanes / (8 · steps)).
+    pub packet_lanes: u64,
+    /// Rays traced in packets (the rest went one at a time).
+    pub packet_rays: u64,
 }
 
 /// Deepest tree the fixed-size traversal stack handles; deeper trees (never seen from

@@ -23,6 +23,31 @@ pub struct PacketWork {
     pub lanes: u64,
 }
 
+/// Direction octant: the three sign bits.
+#[inline]
+pub fn octant(d: Vec3) -> u32 {
+    (d.x < 0.0) as u32 | ((d.y < 0.0) as u32) << 1 | ((d.z < 0.0) as u32) << 2
+}
+
+/// Spreads the low 10 bits of `v` to every third bit (for a 30-bit Morton code).
+#[inline]
+fn spread(mut v: u32) -> u32 {
+    v &= 0x3ff;
+    v = (v | (v << 16)) & 0x0300_00ff;
+    v = (v | (v << 8)) & 0x0300_f00f;
+    v = (v | (v << 4)) & 0x030c_30c3;
+    (v | (v << 2)) & 0x0924_9249
+}
+
+/// Sort key that puts coherent rays next to each other: direction octant first, then the
+/// Morton code of the origin on a 1024³ grid over `(lo, hi)`.
+#[inline]
+pub fn coherence_key(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> u64 {
+    let q = ((o - lo) / (hi - lo).max(Vec3::splat(1e-30)) * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+    let m = spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2;
+    (octant(d) as u64) << 32 | m as u64
+}
+
 /// obvhs's `safe_inverse`, so lanes divide exactly as the scalar rays do.
 #[inline]
 fn safe_inverse(x: f32) -> f32 {
@@ -79,6 +104,14 @@ fn min_in(t: f32x8, mask: u32) -> f32 {
 }
 
 impl Accel {
+    /// Bounds of everything in the tree (zero-size at the origin when empty).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match self.bvh.as_ref().and_then(|b| b.nodes.first()) {
+            Some(root) => (root.aabb().min.into(), root.aabb().max.into()),
+            None => (Vec3::ZERO, Vec3::ZERO),
+        }
+    }
+
     /// Walks the tree for up to 8 rays; `leaf(mask, prims, tmax)` tests a leaf's primitives
     /// for the lanes in `mask`, may lower their `tmax`, and returns false to stop all lanes.
     #[inline(always)]

@@ -388,6 +388,7 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         shadow_mode,
         shadow_samples: r.shadows.samples,
         dof_samples,
+        packets: r.packets,
     })
 }
 

@@ -1,12 +1,31 @@
 //! Closest-hit intersection. Reads the ray queue; writes one hit (or miss) per ray.
+//!
+//! With packets on, rays go through the 8-wide packet kernel in groups of 8 that share a
+//! direction octant; a group that does not is traced one ray at a time. Camera rays keep
+//! their generation order (already coherent: a pixel's samples, then its neighbours);
+//! bounce rays are first ordered by octant and origin (Morton code).
 
+use glam::Vec3;
+
+use crate::geometry::packet::{coherence_key, octant, PacketWork, LANES};
 use crate::geometry::Traversal;
 use crate::queue::{HitQueue, RayQueue, MISS};
 use crate::scene::Scene;
 
 /// Finds the closest hit of every ray in `rays`, in order. When `count`, BVH nodes and
 /// primitives tested are added to `work`; when not, the traversal has no counting code.
-pub fn intersect(scene: &Scene, rays: &RayQueue, hits: &mut HitQueue, work: &mut Traversal, count: bool) {
+/// `order` is scratch space for the packet order.
+pub fn intersect(
+    scene: &Scene,
+    rays: &RayQueue,
+    hits: &mut HitQueue,
+    work: &mut Traversal,
+    count: bool,
+    order: &mut Vec<(u64, u32)>,
+) {
+    if scene.settings.packets {
+        return packets(scene, rays, hits, work, order);
+    }
     if count {
         run::<true>(scene, rays, hits, work)
     } else {
@@ -22,4 +41,59 @@ fn run<const COUNT: bool>(scene: &Scene, rays: &RayQueue, hits: &mut HitQueue, w
             None => hits.push(f32::INFINITY, MISS),
         }
     }
+}
+
+/// The order packets are formed in: generation order for camera rays, else by
+/// [`coherence_key`] (a stable sort, so the order is deterministic).
+pub fn packet_order(
+    scene: &Scene,
+    n: usize,
+    o: impl Fn(usize) -> Vec3,
+    d: impl Fn(usize) -> Vec3,
+    keep: bool,
+    order: &mut Vec<(u64, u32)>,
+) {
+    order.clear();
+    if keep {
+        order.extend((0..n as u32).map(|i| (0, i)));
+        return;
+    }
+    let (lo, hi) = scene.accel.bounds();
+    order.extend((0..n).map(|i| (coherence_key(o(i), d(i), lo, hi), i as u32)));
+    order.sort_by_key(|e| e.0);
+}
+
+fn packets(scene: &Scene, rays: &RayQueue, hits: &mut HitQueue, work: &mut Traversal, order: &mut Vec<(u64, u32)>) {
+    let n = rays.len();
+    hits.t.clear();
+    hits.t.resize(n, f32::INFINITY);
+    hits.prim.clear();
+    hits.prim.resize(n, MISS);
+    let camera = rays.depth.first().is_some_and(|&d| d == 0);
+    packet_order(scene, n, |i| rays.origin(i), |i| rays.dir(i), camera, order);
+    let mut pw = PacketWork::default();
+    let (mut o, mut d, mut out) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [(0.0f32, 0u32); LANES]);
+    for group in order.chunks(LANES) {
+        for (l, &(_, i)) in group.iter().enumerate() {
+            o[l] = rays.origin(i as usize);
+            d[l] = rays.dir(i as usize);
+        }
+        let k = group.len();
+        let oct = octant(d[0]);
+        if k == LANES && d[..k].iter().all(|&x| octant(x) == oct) {
+            scene.accel.closest8(&o[..k], &d[..k], 0.0, &mut out, &mut pw);
+            work.packet_rays += k as u64;
+        } else {
+            for l in 0..k {
+                out[l] =
+                    scene.accel.closest::<false>(o[l], d[l], 0.0, f32::INFINITY, work).unwrap_or((f32::INFINITY, MISS));
+            }
+        }
+        for (l, &(_, i)) in group.iter().enumerate() {
+            hits.t[i as usize] = out[l].0;
+            hits.prim[i as usize] = out[l].1;
+        }
+    }
+    work.packet_steps += pw.steps;
+    work.packet_lanes += pw.lanes;
 }
