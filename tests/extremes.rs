@@ -98,7 +98,7 @@ f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n";
 fn step_all(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue, ShadowQueue, FilmQueue) {
     let mut hits = HitQueue::default();
     let (mut shadow, mut spec, mut film) = (ShadowQueue::default(), Vec::new(), FilmQueue::default());
-    intersect::intersect(scene, rays, &mut hits, &mut Default::default(), false);
+    intersect::intersect(scene, rays, &mut hits, &mut Default::default(), false, &mut Vec::new());
     shade::shade(scene, rays, &hits, &mut shadow, &mut ShadowPointQueue::default(), &mut spec, &mut film);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next);
@@ -452,7 +452,7 @@ fn self_shadowed(s: f64, t: [f64; 3]) -> (usize, usize) {
     let (_, hits, shadow_q, _) = step_all(&scene, &rays);
     assert!(hits.prim.iter().all(|&p| p != MISS), "every ray hits the plane");
     let mut film = FilmQueue::default();
-    let lit = shadow::occlusion(&scene, &shadow_q, &mut film, &mut Traversal::default(), false);
+    let lit = shadow::occlusion(&scene, &shadow_q, &mut film, &mut Traversal::default(), false, &mut Vec::new());
     (shadow_q.len() - lit, shadow_q.len())
 }
 

@@ -15,7 +15,7 @@ const CAMERA: &str = "[camera]\nposition = [0, 5, 5]\nlook_at = [0, 0, 0]\n";
 fn step(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue) {
     let mut hits = HitQueue::default();
     let (mut shadow, mut spec, mut film) = (ShadowQueue::default(), Vec::new(), FilmQueue::default());
-    intersect::intersect(scene, rays, &mut hits, &mut Default::default(), false);
+    intersect::intersect(scene, rays, &mut hits, &mut Default::default(), false, &mut Vec::new());
     shade::shade(scene, rays, &hits, &mut shadow, &mut ShadowPointQueue::default(), &mut spec, &mut film);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next);
