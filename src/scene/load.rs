@@ -11,9 +11,10 @@ use super::{AaMode, Camera, Light, Material, Probe, ReflectRatio, Scene, SceneIn
 use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::{Error, Result};
 
-/// Largest coordinate, edge or radius magnitude: squares and cross products of scene
-/// vectors must stay finite in f32 (3.4e38), or directions turn to NaN.
-pub const MAX_COORD: f32 = 1e18;
+/// Largest coordinate, edge or radius magnitude: the squared length of a cross product of
+/// two edges, (4e9)⁴ = 2.6e38, must stay below f32::MAX (3.4e38), or normals and
+/// directions turn to NaN.
+pub const MAX_COORD: f32 = 4e9;
 
 /// True when every component is finite and within ±MAX_COORD.
 fn in_range(v: Vec3) -> bool {
@@ -280,7 +281,7 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         return Err(ctx.fail("render.max_depth", format!("{} is more than {MAX_DEPTH}", r.max_depth)));
     }
     let pixels = r.width as u64 * r.height as u64;
-    let need = pixels * BYTES_PER_PIXEL;
+    let need = pixels.saturating_mul(BYTES_PER_PIXEL);
     let have = available_memory();
     // Blame the dimension a --set changed, if one did.
     let dim_path =
