@@ -3,6 +3,7 @@
 //! nodes and primitives tested for the profiling stats.
 
 use glam::Vec3;
+use obvhs::bvh2::node::Bvh2Node;
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::BvhBuildParams;
@@ -43,6 +44,38 @@ pub(crate) fn slab(b: &obvhs::aabb::Aabb, ray: &Ray) -> f32 {
         tmin
     } else {
         f32::INFINITY
+    }
+}
+
+/// The node indices a traversal still has to visit (fixed size, see [`STACK`]).
+pub(crate) struct NodeStack {
+    items: [u32; STACK],
+    len: usize,
+}
+
+impl NodeStack {
+    pub(crate) fn new() -> NodeStack {
+        NodeStack { items: [0; STACK], len: 0 }
+    }
+
+    /// The next inner node after testing a node pair whose inner children to `descend`
+    /// into are flagged (nearer first): the nearer child, saving the farther one; else the
+    /// one child; else the most recently saved node; `None` when the walk is over.
+    #[inline(always)]
+    pub(crate) fn next(&mut self, descend: [bool; 2], near: &Bvh2Node, far: &Bvh2Node) -> Option<usize> {
+        match descend {
+            [true, true] => {
+                self.items[self.len] = far.first_index;
+                self.len += 1;
+                Some(near.first_index as usize)
+            }
+            [true, false] => Some(near.first_index as usize),
+            [false, true] => Some(far.first_index as usize),
+            [false, false] => {
+                self.len = self.len.checked_sub(1)?;
+                Some(self.items[self.len] as usize)
+            }
+        }
     }
 }
 
@@ -96,8 +129,7 @@ impl Accel {
             leaf(&mut ray, first..first + root.prim_count as usize, c);
             return;
         }
-        let mut stack = [0u32; STACK];
-        let mut sp = 0;
+        let mut stack = NodeStack::new();
         let mut current = root.first_index as usize;
         loop {
             let (mut near, mut far) = (&nodes[current], &nodes[current + 1]);
@@ -123,22 +155,8 @@ impl Accel {
                     descend[k] = true;
                 }
             }
-            current = match descend {
-                [true, true] => {
-                    stack[sp] = far.first_index;
-                    sp += 1;
-                    near.first_index as usize
-                }
-                [true, false] => near.first_index as usize,
-                [false, true] => far.first_index as usize,
-                [false, false] => {
-                    if sp == 0 {
-                        return;
-                    }
-                    sp -= 1;
-                    stack[sp] as usize
-                }
-            };
+            let Some(next) = stack.next(descend, near, far) else { return };
+            current = next;
         }
     }
 

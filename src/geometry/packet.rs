@@ -8,7 +8,7 @@
 use glam::Vec3;
 use wide::f32x8;
 
-use super::bvh::{Accel, Traversal, STACK};
+use super::bvh::{Accel, NodeStack, Traversal, STACK};
 use super::shapes::NO_LIGHT;
 
 /// Rays per packet.
@@ -136,8 +136,7 @@ impl Accel {
             leaf(mask, first..first + root.prim_count as usize, tmax);
             return;
         }
-        let mut stack = [0u32; STACK];
-        let mut sp = 0;
+        let mut stack = NodeStack::new();
         let mut current = root.first_index as usize;
         loop {
             let t = f32x8::from(*tmax);
@@ -163,22 +162,8 @@ impl Accel {
                     descend[k] = true;
                 }
             }
-            current = match descend {
-                [true, true] => {
-                    stack[sp] = far.first_index;
-                    sp += 1;
-                    near.first_index as usize
-                }
-                [true, false] => near.first_index as usize,
-                [false, true] => far.first_index as usize,
-                [false, false] => {
-                    if sp == 0 {
-                        return;
-                    }
-                    sp -= 1;
-                    stack[sp] as usize
-                }
-            };
+            let Some(next) = stack.next(descend, near, far) else { return };
+            current = next;
         }
     }
 
