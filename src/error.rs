@@ -1,7 +1,5 @@
 //! Error types: user errors (bad input, exit code 2) and internal errors (exit code 1).
 
-use std::path::PathBuf;
-
 /// A wavetrace error.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
@@ -49,8 +47,3 @@ impl Error {
 
 /// Result with a wavetrace [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
-
-/// A path shown in messages; kept as a type so every message spells paths the same way.
-pub fn show(path: &std::path::Path) -> String {
-    PathBuf::from(path).display().to_string()
-}

@@ -125,15 +125,6 @@ impl Shape {
             }
         }
     }
-
-    /// Surface area.
-    pub fn area(&self) -> f32 {
-        match *self {
-            Shape::Sphere { radius, .. } => 4.0 * std::f32::consts::PI * radius * radius,
-            Shape::Triangle { v0, v1, v2 } => 0.5 * (v1 - v0).cross(v2 - v0).length(),
-            Shape::Quad { u, v, .. } => u.cross(v).length(),
-        }
-    }
 }
 
 impl obvhs::Boundable for Primitive {
