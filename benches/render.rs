@@ -1,5 +1,6 @@
-//! Full renders of the default and bunny scenes at reduced size, reported as rays per
-//! second (criterion `Throughput::Elements` = rays traced per render).
+//! Full renders of the default and bunny scenes at reduced size, with the scalar and the
+//! packet kernel, on one and two threads, reported as rays per second (criterion
+//! `Throughput::Elements` = rays traced per render).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::Path;
@@ -7,14 +8,21 @@ use wavetrace::scene::{load, SceneSource};
 use wavetrace::{render, RenderOptions};
 
 fn bench_scene(c: &mut Criterion, name: &str, src: SceneSource) {
-    let sets: Vec<String> = ["render.width=160", "render.height=120"].map(String::from).to_vec();
-    let scene = load(&src, &sets).expect("scene loads");
-    let opts = RenderOptions { threads: Some(1), ..Default::default() };
-    let rays = render(&scene, &opts).expect("render").stats.total_rays();
     let mut g = c.benchmark_group("render");
     g.sample_size(10);
-    g.throughput(Throughput::Elements(rays));
-    g.bench_function(format!("{name}/160x120/1-thread"), |b| b.iter(|| render(&scene, &opts).expect("render")));
+    for packets in [false, true] {
+        let sets = vec!["render.width=160".into(), "render.height=120".into(), format!("render.packets={packets}")];
+        let scene = load(&src, &sets).expect("scene loads");
+        for threads in [1, 2] {
+            let opts = RenderOptions { threads: Some(threads), ..Default::default() };
+            let rays = render(&scene, &opts).expect("render").stats.total_rays();
+            g.throughput(Throughput::Elements(rays));
+            let kernel = if packets { "packet" } else { "scalar" };
+            g.bench_function(format!("{name}/160x120/{kernel}/{threads}-thread"), |b| {
+                b.iter(|| render(&scene, &opts).expect("render"))
+            });
+        }
+    }
     g.finish();
 }
 

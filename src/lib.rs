@@ -6,6 +6,7 @@
 //! driver in [`render`] runs the stages over screen tiles in parallel.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod compare;
 pub mod error;
 pub mod flip;

@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+use wavetrace::geometry::packet::PacketConfig;
 use wavetrace::heatmap::{self, HeatmapKind};
 use wavetrace::output::{check_folder, check_image_path, check_png_path, write_image, write_png, write_text};
 use wavetrace::scene::{load, SceneSource};
@@ -33,6 +34,50 @@ enum Command {
     /// Render the cross product of parameter values and measure each against a reference:
     /// DIR/sweep.csv, DIR/sweep.json and error-vs-rays / error-vs-seconds plots.
     Sweep(SweepArgs),
+    /// Trace fixed ray sets from a scene (primary, shadow, secondary) with the scalar and
+    /// the packet kernel; print Mrays/s per set and kernel (median of --reps runs).
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug)]
+struct BenchArgs {
+    /// Scene file (TOML). Omitted: the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Override a scene value by its dotted path (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Timed repetitions per set and kernel; the median is reported.
+    #[arg(long, default_value_t = 5)]
+    reps: usize,
+    /// Most rays per set (larger sets keep every k-th ray).
+    #[arg(long, default_value_t = 1 << 20)]
+    max_rays: usize,
+    /// Lanes per packet of the packet kernel: 4, 8 or 16.
+    #[arg(long, default_value_t = wavetrace::geometry::packet::LANES)]
+    lanes: usize,
+    /// Packet kernel: lanes entering a node pair below which each finishes it alone.
+    #[arg(long, default_value_t = PacketConfig::RENDER.min_active)]
+    min_active: u32,
+    /// Packet kernel: order bounce and shadow rays by octant and origin first (on|off).
+    #[arg(long, default_value = "on", value_parser = on_off)]
+    reorder: bool,
+    /// Packet kernel: trace packets that mix direction octants one ray at a time (on|off).
+    #[arg(long, default_value = "on", value_parser = on_off)]
+    split_mixed: bool,
+    /// Print JSON: {"bvh_build_seconds", "threads", "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
+    #[arg(long)]
+    json: bool,
+}
+
+fn on_off(s: &str) -> std::result::Result<bool, String> {
+    match s {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("`{s}`: expected on or off")),
+    }
 }
 
 #[derive(Args, Debug)]
@@ -117,6 +162,7 @@ fn main() {
         Some(Command::Render(a)) => run_render(a),
         Some(Command::Compare(a)) => run_compare(a).map(|_| 0),
         Some(Command::Sweep(a)) => run_sweep(a).map(|_| 0),
+        Some(Command::Bench(a)) => run_bench(a).map(|_| 0),
         None => run_render(cli.render),
     };
     match result {
@@ -169,6 +215,38 @@ fn run_sweep(args: SweepArgs) -> Result<()> {
                 (Some(_), false) => ", cached",
             }
         ));
+    }
+    Ok(())
+}
+
+fn run_bench(args: BenchArgs) -> Result<()> {
+    use wavetrace::bench::{self, BenchOptions};
+    let threads = match args.threads {
+        Some(0) => return Err(Error::input("--threads must be at least 1")),
+        Some(t) => t,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    if args.reps == 0 {
+        return Err(Error::input("--reps must be at least 1"));
+    }
+    if args.max_rays == 0 {
+        return Err(Error::input("--max-rays must be at least 1"));
+    }
+    if ![4, 8, 16].contains(&args.lanes) {
+        return Err(Error::input(format!("--lanes {}: expected 4, 8 or 16", args.lanes)));
+    }
+    let source = match &args.scene {
+        Some(path) => SceneSource::from_file(path)?,
+        None => SceneSource::default_scene(),
+    };
+    let mut scene = load(&source, &args.sets)?;
+    let packet = PacketConfig { min_active: args.min_active, reorder: args.reorder, split_mixed: args.split_mixed };
+    let opts = BenchOptions { threads, reps: args.reps, max_rays: args.max_rays, lanes: args.lanes, packet };
+    let report = bench::run(&mut scene, &opts)?;
+    if args.json {
+        say(&serde_json::to_string(&report).map_err(|e| Error::Internal(e.to_string()))?);
+    } else {
+        say(report.table().trim_end());
     }
     Ok(())
 }

@@ -24,6 +24,9 @@ pub mod dim {
     pub const REFINE: u32 = 7;
     /// Adaptive shadows: jittered probe positions on a quad light.
     pub const PROBE: u32 = 8;
+    /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
+    /// renderer's dimensions, which grow from 1).
+    pub const BENCH: u32 = 100;
 }
 
 /// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").

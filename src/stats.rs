@@ -370,8 +370,11 @@ impl Report {
                     };
                     (rays > 0 && (c.nodes > 0 || c.packet_steps > 0)).then(|| {
                         let r = rays as f64;
-                        let lanes =
-                            if c.packet_steps > 0 { c.packet_lanes as f64 / (8 * c.packet_steps) as f64 } else { 0.0 };
+                        let lanes = if c.packet_steps > 0 {
+                            c.packet_lanes as f64 / (crate::geometry::packet::LANES as u64 * c.packet_steps) as f64
+                        } else {
+                            0.0
+                        };
                         let t = TraversalReport {
                             nodes_per_ray: c.nodes as f64 / r,
                             prims_per_ray: c.prims as f64 / r,

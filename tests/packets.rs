@@ -34,3 +34,257 @@ fn bunny_with_packets() {
         std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bunny.toml")).unwrap();
     same_render(&text, &["render.width=32", "render.height=24", "render.aa.samples=2", "render.shadows.samples=2"]);
 }
+
+// ---------------------------------------------------------------------------------------
+// Kernel equivalence on random rays, and closed meshes shot from inside.
+
+use glam::Vec3;
+use wavetrace::geometry::packet::{Packet, PacketConfig, PacketWork, Simd, MAX};
+use wavetrace::geometry::{Accel, Primitive, Shape, Traversal, NO_LIGHT};
+use wide::{f32x16, f32x4, f32x8};
+
+/// A deterministic uniform stream in [0, 1).
+struct Rng(u32);
+
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = wavetrace::sampling::mix(self.0.wrapping_add(0x9e37_79b9));
+        wavetrace::sampling::to_unit(self.0)
+    }
+    fn dir(&mut self) -> Vec3 {
+        let z = 1.0 - 2.0 * self.next();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = std::f32::consts::TAU * self.next();
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+}
+
+/// `n` rays: coherent ones (a pinhole grid looking at the bounds, row by row) or
+/// incoherent ones (origins in the bounds, uniform directions).
+fn rays(accel: &Accel, n: usize, coherent: bool, seed: u32) -> (Vec<Vec3>, Vec<Vec3>) {
+    let (lo, hi) = accel.bounds();
+    let (c, diag) = ((lo + hi) * 0.5, (hi - lo).length().max(1e-3));
+    let mut rng = Rng(seed);
+    let side = (n as f32).sqrt().ceil() as usize;
+    let eye = c + Vec3::new(0.3, 0.4, 1.0).normalize() * diag * 1.5;
+    let fwd = (c - eye).normalize();
+    let right = fwd.cross(Vec3::Y).normalize();
+    let up = right.cross(fwd);
+    (0..n)
+        .map(|i| {
+            if coherent {
+                let (x, y) = ((i % side) as f32 / side as f32 - 0.5, (i / side) as f32 / side as f32 - 0.5);
+                (eye, (fwd + 0.8 * (x * right + y * up)).normalize())
+            } else {
+                let o = lo + (hi - lo) * Vec3::new(rng.next(), rng.next(), rng.next());
+                (o, rng.dir())
+            }
+        })
+        .unzip()
+}
+
+/// Every packet answer equals the scalar one: the same hit or miss, the same distance
+/// (bit for bit: the kernels compute the same operations), the same primitive or one at
+/// exactly the same distance; any-hit answers the same for segments ending around the
+/// closest hit.
+fn check_width<S: Simd>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig, label: &str) {
+    let mut work = PacketWork::default();
+    let mut out = [(0.0f32, 0u32); MAX];
+    let mut occ = [false; MAX];
+    let mut rng = Rng(99);
+    for (chunk, (o, d)) in o.chunks(S::LANES).zip(d.chunks(S::LANES)).enumerate() {
+        accel.closest_packet::<S>(o, d, 0.0, cfg.min_active, &mut out, &mut work);
+        let mut tmax = [0.0f32; MAX];
+        let mut single = [None; MAX];
+        for l in 0..o.len() {
+            single[l] = accel.closest::<false>(o[l], d[l], 0.0, f32::INFINITY, &mut Traversal::default());
+            tmax[l] = match single[l] {
+                Some((t, _)) => t * (0.5 + rng.next()),
+                None => 1e3,
+            };
+        }
+        accel.occluded_packet::<S>(o, d, &tmax[..o.len()], cfg.min_active, &mut occ, &mut work);
+        for l in 0..o.len() {
+            let at = || format!("{label}, {} lanes, ray {}", S::LANES, chunk * S::LANES + l);
+            match single[l] {
+                Some((t, p)) => {
+                    assert_eq!(out[l].0.to_bits(), t.to_bits(), "{}: t", at());
+                    let q = out[l].1 as usize;
+                    assert!(
+                        q == p as usize || accel.prims[q].shape.intersect(o[l], d[l], 0.0, f32::INFINITY) == t,
+                        "{}: primitive {q} vs {p}",
+                        at()
+                    );
+                }
+                None => assert_eq!(out[l], (f32::INFINITY, u32::MAX), "{}: miss", at()),
+            }
+            let blocked = accel.occluded::<false>(o[l], d[l], 0.0, tmax[l], &mut Traversal::default());
+            assert_eq!(occ[l], blocked, "{}: any-hit", at());
+        }
+    }
+}
+
+fn check_accel(accel: &Accel, n: usize, label: &str) {
+    for coherent in [true, false] {
+        let (o, d) = rays(accel, n, coherent, 7);
+        let label = format!("{label}, {}", if coherent { "coherent" } else { "incoherent" });
+        for cfg in [PacketConfig::RENDER, PacketConfig { min_active: 0, ..PacketConfig::RENDER }] {
+            check_width::<f32x4>(accel, &o, &d, cfg, &label);
+            check_width::<f32x8>(accel, &o, &d, cfg, &label);
+            check_width::<f32x16>(accel, &o, &d, cfg, &label);
+        }
+    }
+}
+
+fn mesh_accel(path: &std::path::Path) -> Accel {
+    let tris = wavetrace::scene::mesh::load_obj(path).unwrap_or_else(|e| panic!("{e}"));
+    Accel::build(
+        tris.into_iter()
+            .map(|[v0, v1, v2]| Primitive { shape: Shape::Triangle { v0, v1, v2 }, material: 0, light: NO_LIGHT })
+            .collect(),
+    )
+}
+
+#[test]
+fn packet_kernels_equal_scalar_on_the_bunny_and_the_default_scene() {
+    let bunny = mesh_accel(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/stanford-bunny.obj"));
+    check_accel(&bunny, 20_000, "bunny");
+    // Spheres and parallelograms (and an emitter, which never blocks).
+    let default = scene(wavetrace::DEFAULT_SCENE, &[]);
+    check_accel(&default.accel, 20_000, "default scene");
+}
+
+/// The full run the issue asks for: 10⁶ rays of each kind against every mesh in a folder
+/// (default ../shared/meshes; WAVETRACE_MESHES overrides it, WAVETRACE_EQUIV_RAYS the
+/// count) and the default scene's spheres and quads. Minutes long, so run on demand:
+/// `cargo test --release --test packets -- --ignored`.
+#[test]
+#[ignore]
+fn packet_kernels_equal_scalar_on_every_mesh_full() {
+    let n = std::env::var("WAVETRACE_EQUIV_RAYS").ok().and_then(|v| v.parse().ok()).unwrap_or(1_000_000);
+    let dir = std::env::var("WAVETRACE_MESHES")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|_| std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes"));
+    let mut meshes: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "obj"))
+        .collect();
+    meshes.sort();
+    assert!(!meshes.is_empty(), "no .obj in {}", dir.display());
+    for path in meshes {
+        let accel = mesh_accel(&path);
+        eprintln!("{}: {} triangles, {n} rays per kind", path.display(), accel.prims.len());
+        check_accel(&accel, n, &path.display().to_string());
+    }
+    check_accel(&scene(wavetrace::DEFAULT_SCENE, &[]).accel, n, "default scene");
+}
+
+/// A closed icosphere (subdivided `levels` times, vertices shared exactly between
+/// neighbouring triangles) of radius `r` around `c`.
+fn icosphere(levels: u32, c: Vec3, r: f32) -> (Vec<Vec3>, Vec<[usize; 3]>) {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut v: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[usize; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        for [a, b, cc] in f {
+            let mut m = |i: usize, j: usize| {
+                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
+                    v.push(((v[i] + v[j]) * 0.5).normalize());
+                    v.len() - 1
+                })
+            };
+            let (ab, bc, ca) = (m(a, b), m(b, cc), m(cc, a));
+            next.extend([[a, ab, ca], [b, bc, ab], [cc, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    (v.into_iter().map(|p| c + p * r).collect(), f)
+}
+
+#[test]
+fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_kernel() {
+    let (c, r) = (Vec3::new(0.3, -0.2, 0.1), 1.7);
+    let (v, f) = icosphere(4, c, r);
+    let accel = Accel::build(
+        f.iter()
+            .map(|&[a, b, cc]| Primitive {
+                shape: Shape::Triangle { v0: v[a], v1: v[b], v2: v[cc] },
+                material: 0,
+                light: NO_LIGHT,
+            })
+            .collect(),
+    );
+    let mut rng = Rng(3);
+    let n = 100_000;
+    let (mut o, mut d) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for i in 0..n {
+        // Half the rays start at the centre and aim exactly at vertices and edge midpoints
+        // (where a non-watertight test leaks); the rest start anywhere inside.
+        if i % 2 == 0 {
+            let tri = f[(i / 2) % f.len()];
+            let target = match (i / 2) % 3 {
+                0 => v[tri[0]],
+                1 => (v[tri[0]] + v[tri[1]]) * 0.5,
+                _ => (v[tri[0]] + v[tri[1]] + v[tri[2]]) / 3.0,
+            };
+            o.push(c);
+            d.push((target - c).normalize());
+        } else {
+            o.push(c + rng.dir() * (r * 0.9 * rng.next()));
+            d.push(rng.dir());
+        }
+    }
+    let mut work = PacketWork::default();
+    let (mut escaped, mut unblocked) = (0, 0);
+    let mut out = [(0.0f32, 0u32); MAX];
+    let mut occ = [false; MAX];
+    for (o, d) in o.chunks(<Packet as Simd>::LANES).zip(d.chunks(<Packet as Simd>::LANES)) {
+        accel.closest_packet::<Packet>(o, d, 0.0, PacketConfig::RENDER.min_active, &mut out, &mut work);
+        escaped += out[..o.len()].iter().filter(|h| h.1 == u32::MAX).count();
+        let far = [4.0 * r; MAX];
+        accel.occluded_packet::<Packet>(o, d, &far[..o.len()], PacketConfig::RENDER.min_active, &mut occ, &mut work);
+        unblocked += occ[..o.len()].iter().filter(|&&b| !b).count();
+    }
+    assert_eq!((escaped, unblocked), (0, 0), "of {n} rays from inside a closed mesh of {} triangles", f.len());
+    assert!(work.steps > 0);
+}

@@ -79,6 +79,49 @@ impl NodeStack {
     }
 }
 
+/// Walks, for one ray, the subtree below an inner node whose two children start at
+/// `first` (children adjacent, nearer child first). Shared by the single-ray traversal and
+/// the packet traversal's fallback for packets whose active lanes have thinned out.
+/// `leaf` tests a leaf's primitives, may shrink `ray.tmax`, and returns false to stop.
+#[inline(always)]
+pub(crate) fn subtree<const COUNT: bool>(
+    nodes: &[Bvh2Node],
+    first: usize,
+    mut ray: Ray,
+    c: &mut Traversal,
+    mut leaf: impl FnMut(&mut Ray, std::ops::Range<usize>, &mut Traversal) -> bool,
+) {
+    let mut stack = NodeStack::new();
+    let mut current = first;
+    loop {
+        let (mut near, mut far) = (&nodes[current], &nodes[current + 1]);
+        let (mut t_near, mut t_far) = (slab(near.aabb(), &ray), slab(far.aabb(), &ray));
+        if COUNT {
+            c.nodes += 2;
+        }
+        if t_near > t_far {
+            std::mem::swap(&mut near, &mut far);
+            std::mem::swap(&mut t_near, &mut t_far);
+        }
+        let mut descend = [false; 2];
+        for (k, (node, t)) in [(near, t_near), (far, t_far)].into_iter().enumerate() {
+            if t >= ray.tmax {
+                continue;
+            }
+            if node.is_leaf() {
+                let first = node.first_index as usize;
+                if !leaf(&mut ray, first..first + node.prim_count as usize, c) {
+                    return;
+                }
+            } else {
+                descend[k] = true;
+            }
+        }
+        let Some(next) = stack.next(descend, near, far) else { return };
+        current = next;
+    }
+}
+
 /// Primitives reordered to the BVH's leaf order, with the BVH over them.
 pub struct Accel {
     /// Primitives, in BVH order: a traversal's primitive id indexes this directly.
@@ -129,35 +172,7 @@ impl Accel {
             leaf(&mut ray, first..first + root.prim_count as usize, c);
             return;
         }
-        let mut stack = NodeStack::new();
-        let mut current = root.first_index as usize;
-        loop {
-            let (mut near, mut far) = (&nodes[current], &nodes[current + 1]);
-            let (mut t_near, mut t_far) = (slab(near.aabb(), &ray), slab(far.aabb(), &ray));
-            if COUNT {
-                c.nodes += 2;
-            }
-            if t_near > t_far {
-                std::mem::swap(&mut near, &mut far);
-                std::mem::swap(&mut t_near, &mut t_far);
-            }
-            let mut descend = [false; 2];
-            for (k, (node, t)) in [(near, t_near), (far, t_far)].into_iter().enumerate() {
-                if t >= ray.tmax {
-                    continue;
-                }
-                if node.is_leaf() {
-                    let first = node.first_index as usize;
-                    if !leaf(&mut ray, first..first + node.prim_count as usize, c) {
-                        return;
-                    }
-                } else {
-                    descend[k] = true;
-                }
-            }
-            let Some(next) = stack.next(descend, near, far) else { return };
-            current = next;
-        }
+        subtree::<COUNT>(nodes, root.first_index as usize, ray, c, leaf);
     }
 
     /// Closest hit along the ray within `(tmin, tmax)`: `(t, primitive index)`, or `None`.

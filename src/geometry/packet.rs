@@ -1,26 +1,162 @@
-//! 8-wide packet traversal of the obvhs `Bvh2` with `wide::f32x8`: eight rays walk the
-//! tree together, each node's two boxes are slab-tested for all lanes at once under an
-//! active-lane mask, and a leaf's primitives are tested (with the scalar kernels) only
-//! for the lanes whose box test passed. Each lane's box decisions are computed with the
-//! same operations as the scalar [`slab`](super::bvh) test, so a lane tests a superset of
-//! nothing it should miss and finds the same closest hit as the scalar traversal.
+//! Packet traversal of the obvhs `Bvh2`: a packet of rays (4, 8 or 16 lanes of `wide`)
+//! walks the tree together; each node pair's boxes are slab-tested for all lanes at once
+//! under an active-lane mask, and a leaf's triangles are tested for all lanes at once with
+//! the watertight kernel of Woop, Benthin and Wald (spheres and parallelograms run the
+//! scalar kernels per lane). When fewer than `min_active` lanes still enter a node pair,
+//! those lanes finish its subtree one ray at a time (the scalar traversal), so thinned-out
+//! packets stop paying for idle lanes.
+//!
+//! Exactness: every lane computes the same floating-point operations in the same order as
+//! the scalar kernels (slab test, shear, edge functions, the f64 recomputation of edge
+//! functions that round to zero, the distance), so a packet finds exactly the scalar
+//! traversal's closest distance and blockers; only on exact ties in t may it report
+//! another primitive.
 
 use glam::Vec3;
-use wide::f32x8;
+use obvhs::bvh2::node::Bvh2Node;
+use obvhs::ray::Ray;
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
+use wide::{f32x16, f32x4, f32x8};
 
-use super::bvh::{Accel, NodeStack, Traversal, STACK};
-use super::shapes::NO_LIGHT;
+use super::bvh::{subtree, Accel, NodeStack, Traversal, STACK};
+use super::shapes::{intersect_triangle, Shape, NO_LIGHT};
 
-/// Rays per packet.
-pub const LANES: usize = 8;
+/// The SIMD type the renderer's packets use (chosen by measurement: docs/performance.md).
+pub type Packet = f32x8;
+
+/// Rays per packet in the renderer.
+pub const LANES: usize = <Packet as Simd>::LANES;
+
+/// How a stage forms and traces packets; [`PacketConfig::RENDER`] is the renderer's
+/// choice, the other values exist to be measured (`wavetrace bench`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PacketConfig {
+    /// Below this many lanes entering a node pair, each of them finishes the pair's
+    /// subtree alone (the scalar traversal).
+    pub min_active: u32,
+    /// Order bounce and shadow rays by direction octant and origin (Morton code) before
+    /// cutting them into packets (camera rays keep their generation order).
+    pub reorder: bool,
+    /// Trace a packet whose rays do not share a direction octant one ray at a time.
+    pub split_mixed: bool,
+}
+
+impl PacketConfig {
+    /// The renderer's settings (chosen by measurement: docs/performance.md).
+    pub const RENDER: PacketConfig = PacketConfig { min_active: 3, reorder: true, split_mixed: true };
+}
+
+/// Most lanes of any supported packet width (arrays are sized for it).
+pub const MAX: usize = 16;
+
+/// The lane-wise operations the packet kernels need, over `wide`'s f32 vectors.
+pub trait Simd:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + BitAnd<Output = Self>
+    + BitOr<Output = Self>
+{
+    /// Number of lanes.
+    const LANES: usize;
+    /// Every lane `x`.
+    fn splat(x: f32) -> Self;
+    /// The first `LANES` values of `a`.
+    fn load(a: &[f32; MAX]) -> Self;
+    /// Writes the lanes to the front of `a`.
+    fn store(self, a: &mut [f32; MAX]);
+    /// Lane-wise minimum (no NaN handling: the kernels never produce NaN here).
+    fn min(self, o: Self) -> Self;
+    /// Lane-wise maximum (no NaN handling).
+    fn max(self, o: Self) -> Self;
+    /// Mask of `self >= o`.
+    fn ge(self, o: Self) -> Self;
+    /// Mask of `self > o`.
+    fn gt(self, o: Self) -> Self;
+    /// Mask of `self < o`.
+    fn lt(self, o: Self) -> Self;
+    /// Mask of `self == o`.
+    fn eq(self, o: Self) -> Self;
+    /// Mask of finite lanes.
+    fn finite(self) -> Self;
+    /// One bit per lane of a mask (lane 0 = bit 0).
+    fn bits(self) -> u32;
+    /// Lane-wise `mask ? t : f`.
+    fn select(mask: Self, t: Self, f: Self) -> Self;
+}
+
+macro_rules! simd {
+    ($t:ty, $n:expr) => {
+        impl Simd for $t {
+            const LANES: usize = $n;
+            #[inline(always)]
+            fn splat(x: f32) -> Self {
+                <$t>::splat(x)
+            }
+            #[inline(always)]
+            fn load(a: &[f32; MAX]) -> Self {
+                let mut v = [0.0f32; $n];
+                v.copy_from_slice(&a[..$n]);
+                <$t>::from(v)
+            }
+            #[inline(always)]
+            fn store(self, a: &mut [f32; MAX]) {
+                a[..$n].copy_from_slice(&self.to_array());
+            }
+            #[inline(always)]
+            fn min(self, o: Self) -> Self {
+                self.fast_min(o)
+            }
+            #[inline(always)]
+            fn max(self, o: Self) -> Self {
+                self.fast_max(o)
+            }
+            #[inline(always)]
+            fn ge(self, o: Self) -> Self {
+                self.simd_ge(o)
+            }
+            #[inline(always)]
+            fn gt(self, o: Self) -> Self {
+                self.simd_gt(o)
+            }
+            #[inline(always)]
+            fn lt(self, o: Self) -> Self {
+                self.simd_lt(o)
+            }
+            #[inline(always)]
+            fn eq(self, o: Self) -> Self {
+                self.simd_eq(o)
+            }
+            #[inline(always)]
+            fn finite(self) -> Self {
+                self.is_finite()
+            }
+            #[inline(always)]
+            fn bits(self) -> u32 {
+                self.to_bitmask() as u32
+            }
+            #[inline(always)]
+            fn select(mask: Self, t: Self, f: Self) -> Self {
+                mask.select(t, f)
+            }
+        }
+    };
+}
+simd!(f32x4, 4);
+simd!(f32x8, 8);
+simd!(f32x16, 16);
 
 /// Work counters of packet traversals.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PacketWork {
-    /// Node pairs whose boxes were tested (one 8-lane test each).
+    /// Node pairs whose boxes were tested for a whole packet (one SIMD test per box).
     pub steps: u64,
-    /// Active lanes summed over those tests: `lanes / (8 · steps)` is the utilisation.
+    /// Active lanes summed over those tests: `lanes / (LANES · steps)` is the utilisation.
     pub lanes: u64,
+    /// Lane subtrees finished one ray at a time after the packet thinned out.
+    pub fallbacks: u64,
 }
 
 /// Direction octant: the three sign bits.
@@ -58,49 +194,157 @@ fn safe_inverse(x: f32) -> f32 {
     }
 }
 
-/// A packet's rays in SIMD form.
-struct Lanes {
-    o: [f32x8; 3],
-    inv: [f32x8; 3],
+/// The watertight triangle test's axis choice for direction `d`, as the scalar kernel
+/// makes it: `kz` the dominant axis, `kx`, `ky` the others (swapped when `d[kz] < 0`).
+#[inline]
+fn shear_axes(d: Vec3) -> [usize; 3] {
+    let ad = d.abs();
+    let kz = if ad.x > ad.y {
+        if ad.x > ad.z {
+            0
+        } else {
+            2
+        }
+    } else if ad.y > ad.z {
+        1
+    } else {
+        2
+    };
+    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    if d[kz] < 0.0 {
+        [ky, kx, kz]
+    } else {
+        [kx, ky, kz]
+    }
 }
 
-impl Lanes {
-    fn new(o: &[Vec3], d: &[Vec3]) -> Lanes {
-        let mut oa = [[0.0f32; LANES]; 3];
-        let mut ia = [[1.0f32; LANES]; 3];
+/// How a triangle's vertex components are permuted into each lane's sheared frame.
+enum Axes<S> {
+    /// Every lane uses the same permutation (the usual case for a coherent packet).
+    Same([usize; 3]),
+    /// Per lane: masks of "axis j of the frame is x" and "… is y" (else z).
+    Mixed([S; 3], [S; 3]),
+}
+
+/// A packet's rays in SIMD form.
+struct Lanes<'a, S> {
+    o: &'a [Vec3],
+    d: &'a [Vec3],
+    origin: [S; 3],
+    inv: [S; 3],
+    /// Origin components in each lane's sheared frame (kx, ky, kz).
+    sheared_origin: [S; 3],
+    /// The shear: d[kx]/d[kz], d[ky]/d[kz], 1/d[kz].
+    shear: [S; 3],
+    axes: Axes<S>,
+}
+
+impl<'a, S: Simd> Lanes<'a, S> {
+    fn new(o: &'a [Vec3], d: &'a [Vec3]) -> Self {
+        let mut oa = [[0.0f32; MAX]; 3];
+        let mut ia = [[1.0f32; MAX]; 3];
+        let mut so = [[0.0f32; MAX]; 3];
+        let mut sh = [[1.0f32; MAX]; 3];
+        let mut is = [[[0.0f32; MAX]; 3]; 2];
+        let first = d.first().map_or([0, 1, 2], |&d| shear_axes(d));
+        let mut same = true;
+        let on = f32::from_bits(u32::MAX);
         for (l, (o, d)) in o.iter().zip(d).enumerate() {
-            for k in 0..3 {
-                oa[k][l] = o[k];
-                ia[k][l] = safe_inverse(d[k]);
+            let k = shear_axes(*d);
+            same &= k == first;
+            for j in 0..3 {
+                oa[j][l] = o[j];
+                ia[j][l] = safe_inverse(d[j]);
+                so[j][l] = o[k[j]];
+                is[0][j][l] = if k[j] == 0 { on } else { 0.0 };
+                is[1][j][l] = if k[j] == 1 { on } else { 0.0 };
             }
+            sh[0][l] = d[k[0]] / d[k[2]];
+            sh[1][l] = d[k[1]] / d[k[2]];
+            sh[2][l] = 1.0 / d[k[2]];
         }
-        Lanes { o: oa.map(f32x8::from), inv: ia.map(f32x8::from) }
+        let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
+        let axes = if same { Axes::Same(first) } else { Axes::Mixed(load3(&is[0]), load3(&is[1])) };
+        Lanes { o, d, origin: load3(&oa), inv: load3(&ia), sheared_origin: load3(&so), shear: load3(&sh), axes }
     }
 
     /// Lanes (bitmask) whose ray enters the box before their `tmax`, with the entry
     /// distances. Same arithmetic as the scalar conservative slab test.
     #[inline(always)]
-    fn slab(&self, min: Vec3, max: Vec3, tmax: f32x8) -> (u32, f32x8) {
+    fn slab(&self, node: &Bvh2Node, tmax: S) -> (u32, S) {
         const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
-        let mut near = f32x8::splat(f32::NEG_INFINITY);
-        let mut far = f32x8::splat(f32::INFINITY);
+        let b = node.aabb();
+        let (min, max): (Vec3, Vec3) = (b.min.into(), b.max.into());
+        let mut near = S::splat(f32::NEG_INFINITY);
+        let mut far = S::splat(f32::INFINITY);
         for k in 0..3 {
-            let t1 = (f32x8::splat(min[k]) - self.o[k]) * self.inv[k];
-            let t2 = (f32x8::splat(max[k]) - self.o[k]) * self.inv[k];
+            let t1 = (S::splat(min[k]) - self.origin[k]) * self.inv[k];
+            let t2 = (S::splat(max[k]) - self.origin[k]) * self.inv[k];
             near = near.max(t1.min(t2));
             far = far.min(t1.max(t2));
         }
-        let far = far * f32x8::splat(WIDEN);
-        let hit = far.simd_ge(near) & far.simd_ge(f32x8::ZERO) & near.simd_lt(tmax);
-        (hit.to_bitmask(), near)
+        let far = far * S::splat(WIDEN);
+        let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(tmax);
+        (hit.bits(), near)
+    }
+
+    /// A vertex's components in each lane's sheared frame, minus the lane's origin.
+    #[inline(always)]
+    fn relative(&self, v: Vec3) -> [S; 3] {
+        let p = match &self.axes {
+            Axes::Same(k) => [S::splat(v[k[0]]), S::splat(v[k[1]]), S::splat(v[k[2]])],
+            Axes::Mixed(is_x, is_y) => {
+                let (x, y, z) = (S::splat(v.x), S::splat(v.y), S::splat(v.z));
+                [0, 1, 2].map(|j| S::select(is_x[j], x, S::select(is_y[j], y, z)))
+            }
+        };
+        [p[0] - self.sheared_origin[0], p[1] - self.sheared_origin[1], p[2] - self.sheared_origin[2]]
+    }
+
+    /// The watertight triangle test: each lane's distance exactly as [`intersect_triangle`]
+    /// computes it (infinity for a miss); exact for the lanes in `mask`.
+    #[inline(always)]
+    fn triangle(&self, v0: Vec3, v1: Vec3, v2: Vec3, mask: u32) -> S {
+        let (a, b, c) = (self.relative(v0), self.relative(v1), self.relative(v2));
+        let [sx, sy, sz] = self.shear;
+        let (ax, ay) = (a[0] - sx * a[2], a[1] - sy * a[2]);
+        let (bx, by) = (b[0] - sx * b[2], b[1] - sy * b[2]);
+        let (cx, cy) = (c[0] - sx * c[2], c[1] - sy * c[2]);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let (zero, inf) = (S::splat(0.0), S::splat(f32::INFINITY));
+        let outside = (u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero));
+        let det = u + v + w;
+        let dist = (u * sz * a[2] + v * sz * b[2] + w * sz * c[2]) / det;
+        let t = S::select(outside | det.eq(zero), inf, S::select(det.finite() & dist.finite(), dist, inf));
+        // An edge function that rounds to zero is recomputed in f64 by the scalar kernel;
+        // those (rare) lanes take the scalar kernel whole.
+        let mut edge = mask & (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
+        if edge == 0 {
+            return t;
+        }
+        let mut a = [0.0; MAX];
+        t.store(&mut a);
+        while edge != 0 {
+            let l = edge.trailing_zeros() as usize;
+            edge &= edge - 1;
+            a[l] = intersect_triangle(v0, v1, v2, self.o[l], self.d[l]);
+        }
+        S::load(&a)
     }
 }
 
-/// Smallest entry distance among the lanes in `mask`.
+/// Iterates over the set bits of a lane mask, lowest first.
 #[inline(always)]
-fn min_in(t: f32x8, mask: u32) -> f32 {
-    let a = t.to_array();
-    (0..LANES).filter(|&l| mask & (1 << l) != 0).map(|l| a[l]).fold(f32::INFINITY, f32::min)
+fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            l
+        })
+    })
 }
 
 impl Accel {
@@ -112,20 +356,23 @@ impl Accel {
         }
     }
 
-    /// Walks the tree for up to 8 rays; `leaf(mask, prims, tmax)` tests a leaf's primitives
-    /// for the lanes in `mask`, may lower their `tmax`, and returns false to stop all lanes.
+    /// Walks the tree for a packet; `leaf(lanes, mask, prims, tmax)` tests a leaf's
+    /// primitives for the lanes in `mask`, may lower their `tmax`, and returns false to stop
+    /// all lanes. Node pairs entered by fewer than `min_active` lanes are finished by each
+    /// of those lanes alone.
     #[inline(always)]
-    fn walk8(
+    fn walk<S: Simd>(
         &self,
-        lanes: &Lanes,
-        tmax: &mut [f32; LANES],
+        lanes: &Lanes<S>,
+        tmax: &mut [f32; MAX],
+        min_active: u32,
         work: &mut PacketWork,
-        mut leaf: impl FnMut(u32, std::ops::Range<usize>, &mut [f32; LANES]) -> bool,
+        mut leaf: impl FnMut(&Lanes<S>, u32, std::ops::Range<usize>, &mut [f32; MAX]) -> bool,
     ) {
         let Some(bvh) = self.bvh.as_ref() else { return };
         let nodes = &bvh.nodes;
         let root = &nodes[0];
-        let (mask, _) = lanes.slab(root.aabb().min.into(), root.aabb().max.into(), f32x8::from(*tmax));
+        let (mask, _) = lanes.slab(root, S::load(tmax));
         work.steps += 1;
         work.lanes += mask.count_ones() as u64;
         if mask == 0 {
@@ -133,21 +380,31 @@ impl Accel {
         }
         if root.is_leaf() {
             let first = root.first_index as usize;
-            leaf(mask, first..first + root.prim_count as usize, tmax);
+            leaf(lanes, mask, first..first + root.prim_count as usize, tmax);
             return;
         }
         let mut stack = NodeStack::new();
         let mut current = root.first_index as usize;
         loop {
-            let t = f32x8::from(*tmax);
+            let t = S::load(tmax);
             let (a, b) = (&nodes[current], &nodes[current + 1]);
-            let (ma, ta) = lanes.slab(a.aabb().min.into(), a.aabb().max.into(), t);
-            let (mb, tb) = lanes.slab(b.aabb().min.into(), b.aabb().max.into(), t);
+            let (ma, ta) = lanes.slab(a, t);
+            let (mb, tb) = lanes.slab(b, t);
+            let active = ma | mb;
             work.steps += 1;
-            work.lanes += (ma | mb).count_ones() as u64;
-            // Nearer child first, judged by the nearest lane that enters it.
-            let ((near, mn), (far, mf)) =
-                if min_in(ta, ma) <= min_in(tb, mb) { ((a, ma), (b, mb)) } else { ((b, mb), (a, ma)) };
+            work.lanes += active.count_ones() as u64;
+            if active != 0 && active.count_ones() < min_active {
+                if !self.alone(nodes, current, lanes, active, tmax, work, &mut leaf) {
+                    return;
+                }
+                let Some(next) = stack.next([false, false], a, b) else { return };
+                current = next;
+                continue;
+            }
+            // Nearer child first, judged by the first lane that enters both.
+            let both = ma & mb;
+            let a_first = both == 0 || tb.lt(ta).bits() & (1 << both.trailing_zeros()) == 0;
+            let ((near, mn), (far, mf)) = if a_first { ((a, ma), (b, mb)) } else { ((b, mb), (a, ma)) };
             let mut descend = [false; 2];
             for (k, (node, m)) in [(near, mn), (far, mf)].into_iter().enumerate() {
                 if m == 0 {
@@ -155,7 +412,7 @@ impl Accel {
                 }
                 if node.is_leaf() {
                     let first = node.first_index as usize;
-                    if !leaf(m, first..first + node.prim_count as usize, tmax) {
+                    if !leaf(lanes, m, first..first + node.prim_count as usize, tmax) {
                         return;
                     }
                 } else {
@@ -167,78 +424,157 @@ impl Accel {
         }
     }
 
-    /// Closest hits of up to 8 rays (`o`, `d` of equal length ≤ 8) within `(tmin, ∞)`:
-    /// `out[l]` is `(t, primitive)` or `(∞, u32::MAX)`. The same hits as
-    /// [`Accel::closest`] (on exact ties in t, possibly another primitive).
-    pub fn closest8(&self, o: &[Vec3], d: &[Vec3], tmin: f32, out: &mut [(f32, u32)], work: &mut PacketWork) {
-        debug_assert!(o.len() == d.len() && o.len() <= LANES && out.len() >= o.len());
+    /// The fallback of a thinned-out packet: each lane in `active` walks the subtree of the
+    /// node pair at `first` alone (the scalar traversal), with the packet's leaf test.
+    /// Returns false when the leaf test stopped the packet.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn alone<S: Simd>(
+        &self,
+        nodes: &[Bvh2Node],
+        first: usize,
+        lanes: &Lanes<S>,
+        active: u32,
+        tmax: &mut [f32; MAX],
+        work: &mut PacketWork,
+        leaf: &mut impl FnMut(&Lanes<S>, u32, std::ops::Range<usize>, &mut [f32; MAX]) -> bool,
+    ) -> bool {
+        for l in lanes_of(active) {
+            work.fallbacks += 1;
+            let ray = Ray::new(lanes.o[l].into(), lanes.d[l].into(), 0.0, tmax[l]);
+            let mut go = true;
+            subtree::<false>(nodes, first, ray, &mut Traversal::default(), |r, range, _| {
+                go = leaf(lanes, 1 << l, range, tmax);
+                r.tmax = tmax[l];
+                // A blocked any-hit lane has tmax = -∞: nothing more to find.
+                go && tmax[l] != f32::NEG_INFINITY
+            });
+            if !go {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Closest hits of a packet of up to `S::LANES` rays (`o`, `d` of equal length) within
+    /// `(tmin, ∞)`: `out[l]` is `(t, primitive)` or `(∞, u32::MAX)`. The same hits as
+    /// [`Accel::closest`] (on exact ties in t, possibly another primitive). `min_active`:
+    /// see [`PacketConfig::min_active`].
+    pub fn closest_packet<S: Simd>(
+        &self,
+        o: &[Vec3],
+        d: &[Vec3],
+        tmin: f32,
+        min_active: u32,
+        out: &mut [(f32, u32)],
+        work: &mut PacketWork,
+    ) {
+        let n = o.len();
+        debug_assert!(n == d.len() && n <= S::LANES && out.len() >= n);
         if self.depth >= STACK {
-            for l in 0..o.len() {
+            for l in 0..n {
                 out[l] = self
                     .closest::<false>(o[l], d[l], tmin, f32::INFINITY, &mut Traversal::default())
                     .unwrap_or((f32::INFINITY, u32::MAX));
             }
             return;
         }
-        let lanes = Lanes::new(o, d);
-        let mut tmax = [f32::NEG_INFINITY; LANES];
-        tmax[..o.len()].fill(f32::INFINITY);
-        let mut best = [(f32::INFINITY, u32::MAX); LANES];
+        let lanes = Lanes::<S>::new(o, d);
+        let mut tmax = [f32::NEG_INFINITY; MAX];
+        tmax[..n].fill(f32::INFINITY);
+        let mut best = [(f32::INFINITY, u32::MAX); MAX];
         let prims = &self.prims;
-        self.walk8(&lanes, &mut tmax, work, |mask, range, tmax| {
-            let mut m = mask;
-            while m != 0 {
-                let l = m.trailing_zeros() as usize;
-                m &= m - 1;
-                for id in range.clone() {
-                    let t = prims[id].shape.intersect(o[l], d[l], tmin, tmax[l]);
-                    if t < tmax[l] {
-                        tmax[l] = t;
-                        best[l] = (t, id as u32);
+        let tmin_s = S::splat(tmin);
+        self.walk(&lanes, &mut tmax, min_active, work, |lanes, mask, range, tmax| {
+            for id in range {
+                let shape = &prims[id].shape;
+                match *shape {
+                    Shape::Triangle { v0, v1, v2 } if mask & (mask - 1) != 0 => {
+                        let t = lanes.triangle(v0, v1, v2, mask);
+                        let hits = (t.gt(tmin_s) & t.lt(S::load(tmax))).bits() & mask;
+                        if hits != 0 {
+                            let mut a = [0.0; MAX];
+                            t.store(&mut a);
+                            for l in lanes_of(hits) {
+                                tmax[l] = a[l];
+                                best[l] = (a[l], id as u32);
+                            }
+                        }
+                    }
+                    _ => {
+                        for l in lanes_of(mask) {
+                            let t = shape.intersect(o[l], d[l], tmin, tmax[l]);
+                            if t < tmax[l] {
+                                tmax[l] = t;
+                                best[l] = (t, id as u32);
+                            }
+                        }
                     }
                 }
             }
             true
         });
-        out[..o.len()].copy_from_slice(&best[..o.len()]);
+        out[..n].copy_from_slice(&best[..n]);
     }
 
-    /// Any-hit tests of up to 8 shadow segments `(0, tmax[l])`: `out[l]` is true when a
-    /// non-emitting primitive blocks lane l. Lanes stop as soon as they are blocked, and
-    /// the packet when all are.
-    pub fn occluded8(&self, o: &[Vec3], d: &[Vec3], tmax: &[f32], out: &mut [bool], work: &mut PacketWork) {
-        debug_assert!(o.len() == d.len() && o.len() == tmax.len() && o.len() <= LANES);
+    /// Any-hit tests of a packet of up to `S::LANES` shadow segments `(0, tmax[l])`:
+    /// `out[l]` is true when a non-emitting primitive blocks lane l. Lanes stop as soon as
+    /// they are blocked, and the packet when all are. The same answers as
+    /// [`Accel::occluded`].
+    pub fn occluded_packet<S: Simd>(
+        &self,
+        o: &[Vec3],
+        d: &[Vec3],
+        tmax: &[f32],
+        min_active: u32,
+        out: &mut [bool],
+        work: &mut PacketWork,
+    ) {
+        let n = o.len();
+        debug_assert!(n == d.len() && n == tmax.len() && n <= S::LANES && out.len() >= n);
         if self.depth >= STACK {
-            for l in 0..o.len() {
+            for l in 0..n {
                 out[l] = self.occluded::<false>(o[l], d[l], 0.0, tmax[l], &mut Traversal::default());
             }
             return;
         }
-        let lanes = Lanes::new(o, d);
-        let mut t = [f32::NEG_INFINITY; LANES];
-        t[..o.len()].copy_from_slice(tmax);
-        let mut blocked = [false; LANES];
-        let mut open = (1u32 << o.len()) - 1;
+        let lanes = Lanes::<S>::new(o, d);
+        let mut t = [f32::NEG_INFINITY; MAX];
+        t[..n].copy_from_slice(tmax);
+        let mut blocked = [false; MAX];
+        let mut open = (1u32 << n) - 1;
         let prims = &self.prims;
-        self.walk8(&lanes, &mut t, work, |mask, range, t| {
-            let mut m = mask;
-            while m != 0 {
-                let l = m.trailing_zeros() as usize;
-                m &= m - 1;
-                for id in range.clone() {
-                    let p = &prims[id];
-                    if p.light == NO_LIGHT && p.shape.intersect(o[l], d[l], 0.0, t[l]) < t[l] {
-                        blocked[l] = true;
-                        // A blocked lane drops out of every later box test.
-                        t[l] = f32::NEG_INFINITY;
-                        open &= !(1 << l);
-                        break;
-                    }
+        let zero = S::splat(0.0);
+        self.walk(&lanes, &mut t, min_active, work, |lanes, mask, range, t| {
+            let mut mask = mask & open;
+            for id in range {
+                if mask == 0 {
+                    break;
                 }
+                let p = &prims[id];
+                if p.light != NO_LIGHT {
+                    continue;
+                }
+                let hits = match p.shape {
+                    Shape::Triangle { v0, v1, v2 } if mask & (mask - 1) != 0 => {
+                        let th = lanes.triangle(v0, v1, v2, mask);
+                        (th.gt(zero) & th.lt(S::load(t))).bits() & mask
+                    }
+                    shape => lanes_of(mask)
+                        .filter(|&l| shape.intersect(o[l], d[l], 0.0, t[l]) < t[l])
+                        .fold(0, |m, l| m | 1 << l),
+                };
+                for l in lanes_of(hits) {
+                    blocked[l] = true;
+                    // A blocked lane drops out of every later box test.
+                    t[l] = f32::NEG_INFINITY;
+                }
+                mask &= !hits;
+                open &= !hits;
             }
             open != 0
         });
-        out[..o.len()].copy_from_slice(&blocked[..o.len()]);
+        out[..n].copy_from_slice(&blocked[..n]);
     }
 }
 
@@ -247,40 +583,67 @@ mod tests {
     use super::*;
     use crate::geometry::{Primitive, Shape};
 
-    #[test]
-    fn packets_match_single_rays() {
-        // A grid of small triangles and spheres, rays from many directions.
+    /// A grid of small triangles (some sharing edges) and spheres.
+    fn scene() -> Accel {
         let mut prims = Vec::new();
         for i in 0..20 {
             for j in 0..20 {
                 let c = Vec3::new(i as f32 * 0.3, j as f32 * 0.3, ((i * 7 + j * 3) % 5) as f32 * 0.2);
-                let shape = if (i + j) % 3 == 0 {
-                    Shape::Sphere { center: c, radius: 0.12 }
+                let (e1, e2) = (Vec3::new(0.25, 0.0, 0.05), Vec3::new(0.0, 0.25, -0.05));
+                if (i + j) % 3 == 0 {
+                    prims.push(Primitive {
+                        shape: Shape::Sphere { center: c, radius: 0.12 },
+                        material: 0,
+                        light: NO_LIGHT,
+                    });
                 } else {
-                    Shape::Triangle { v0: c, v1: c + Vec3::new(0.25, 0.0, 0.05), v2: c + Vec3::new(0.0, 0.25, -0.05) }
-                };
-                prims.push(Primitive { shape, material: 0, light: NO_LIGHT });
+                    // Two triangles sharing the edge v1–v2.
+                    prims.push(Primitive {
+                        shape: Shape::Triangle { v0: c, v1: c + e1, v2: c + e2 },
+                        material: 0,
+                        light: NO_LIGHT,
+                    });
+                    prims.push(Primitive {
+                        shape: Shape::Triangle { v0: c + e1, v1: c + e1 + e2, v2: c + e2 },
+                        material: 0,
+                        light: NO_LIGHT,
+                    });
+                }
             }
         }
-        let accel = Accel::build(prims);
+        Accel::build(prims)
+    }
+
+    fn check<S: Simd>(accel: &Accel, min_active: u32) -> PacketWork {
         let mut h = 12345u32;
         let mut rnd = || {
             h = crate::sampling::mix(h);
             crate::sampling::to_unit(h)
         };
         let mut work = PacketWork::default();
-        for _ in 0..500 {
-            let n = 1 + (rnd() * 8.0) as usize % 8;
+        for round in 0..400 {
+            let n = 1 + (rnd() * S::LANES as f32) as usize % S::LANES;
             let (mut o, mut d) = (Vec::new(), Vec::new());
             for _ in 0..n {
-                o.push(Vec3::new(rnd() * 6.0, rnd() * 6.0, 3.0 + rnd()));
-                d.push(Vec3::new(rnd() - 0.5, rnd() - 0.5, -1.0).normalize());
+                let orig = Vec3::new(rnd() * 6.0, rnd() * 6.0, 3.0 + rnd());
+                // Every fourth packet aims at grid vertices (shared edges and corners).
+                let dir = if round % 4 == 0 {
+                    let v = Vec3::new((rnd() * 20.0).floor() * 0.3, (rnd() * 20.0).floor() * 0.3, 0.4);
+                    v - orig
+                } else if round % 4 == 1 {
+                    // Incoherent: any direction.
+                    Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5)
+                } else {
+                    Vec3::new(rnd() - 0.5, rnd() - 0.5, -1.0)
+                };
+                o.push(orig);
+                d.push(dir.normalize());
             }
-            let mut out = [(0.0, 0); LANES];
-            accel.closest8(&o, &d, 0.0, &mut out, &mut work);
+            let mut out = [(0.0, 0); MAX];
+            accel.closest_packet::<S>(&o, &d, 0.0, min_active, &mut out, &mut work);
             let tmax: Vec<f32> = (0..n).map(|_| 1.0 + rnd() * 4.0).collect();
-            let mut occ = [false; LANES];
-            accel.occluded8(&o, &d, &tmax, &mut occ, &mut work);
+            let mut occ = [false; MAX];
+            accel.occluded_packet::<S>(&o, &d, &tmax, min_active, &mut occ, &mut work);
             for l in 0..n {
                 let single = accel.closest::<false>(o[l], d[l], 0.0, f32::INFINITY, &mut Traversal::default());
                 match single {
@@ -296,6 +659,53 @@ mod tests {
                 assert_eq!(occ[l], blocked, "lane {l}");
             }
         }
-        assert!(work.lanes > 0 && work.lanes <= 8 * work.steps);
+        assert!(work.lanes > 0 && work.lanes <= S::LANES as u64 * work.steps);
+        work
+    }
+
+    #[test]
+    fn packets_match_single_rays_at_every_width() {
+        let accel = scene();
+        for min_active in [0, 2, 4] {
+            check::<f32x4>(&accel, min_active);
+            check::<f32x8>(&accel, min_active);
+            check::<f32x16>(&accel, min_active);
+        }
+        // The fallback runs only when asked for.
+        assert_eq!(check::<f32x8>(&accel, 0).fallbacks, 0);
+        assert!(check::<f32x8>(&accel, 8).fallbacks > 0);
+    }
+
+    #[test]
+    fn simd_triangle_equals_scalar_kernel_bit_for_bit() {
+        // Mixed dominant axes in one packet, rays through vertices and edges.
+        let (v0, v1, v2) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let o = [
+            Vec3::new(0.2, 0.2, 1.0),
+            Vec3::new(0.0, 0.0, 2.0),
+            Vec3::new(3.0, 0.5, 0.1),
+            Vec3::new(0.5, 0.5, -1.0),
+            Vec3::new(-1.0, 0.3, 0.5),
+            Vec3::new(0.5, -2.0, 0.3),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.25, 0.25, 1e-3),
+        ];
+        let d = [
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, -0.03).normalize(),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, -0.4).normalize(),
+            Vec3::new(0.0, 1.0, -0.1).normalize(),
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.3, -0.2, -1.0).normalize(),
+        ];
+        let lanes = Lanes::<f32x8>::new(&o, &d);
+        let mut t = [0.0; MAX];
+        lanes.triangle(v0, v1, v2, 0xff).store(&mut t);
+        for l in 0..8 {
+            assert_eq!(t[l].to_bits(), intersect_triangle(v0, v1, v2, o[l], d[l]).to_bits(), "lane {l}");
+        }
+        assert!(matches!(lanes.axes, Axes::Mixed(..)));
     }
 }

@@ -1,13 +1,13 @@
 //! Closest-hit intersection. Reads the ray queue; writes one hit (or miss) per ray.
 //!
-//! With packets on, rays go through the 8-wide packet kernel in groups of 8 that share a
-//! direction octant; a group that does not is traced one ray at a time. Camera rays keep
-//! their generation order (already coherent: a pixel's samples, then its neighbours);
-//! bounce rays are first ordered by octant and origin (Morton code).
+//! With packets on, rays go through the packet kernel in groups that share a direction
+//! octant; a group that does not is traced one ray at a time. Camera rays keep their
+//! generation order (already coherent: a pixel's samples, then its neighbours); bounce
+//! rays are first ordered by octant and origin (Morton code).
 
 use glam::Vec3;
 
-use crate::geometry::packet::{coherence_key, octant, PacketWork, LANES};
+use crate::geometry::packet::{coherence_key, octant, Packet, PacketConfig, PacketWork, Simd, MAX};
 use crate::geometry::Traversal;
 use crate::queue::{HitQueue, RayQueue, MISS};
 use crate::scene::Scene;
@@ -24,7 +24,7 @@ pub fn intersect(
     order: &mut Vec<(u64, u32)>,
 ) {
     if scene.settings.packets {
-        return packets(scene, rays, hits, work, order);
+        return packets::<Packet>(scene, rays, hits, work, order, PacketConfig::RENDER);
     }
     if count {
         run::<true>(scene, rays, hits, work)
@@ -63,25 +63,34 @@ pub fn packet_order(
     order.sort_by_key(|e| e.0);
 }
 
-fn packets(scene: &Scene, rays: &RayQueue, hits: &mut HitQueue, work: &mut Traversal, order: &mut Vec<(u64, u32)>) {
+/// The packet path of [`intersect`]: rays in packets of `S::LANES`, formed and traced as
+/// `cfg` says. Public so that `wavetrace bench` can measure other widths and settings.
+pub fn packets<S: Simd>(
+    scene: &Scene,
+    rays: &RayQueue,
+    hits: &mut HitQueue,
+    work: &mut Traversal,
+    order: &mut Vec<(u64, u32)>,
+    cfg: PacketConfig,
+) {
     let n = rays.len();
     hits.t.clear();
     hits.t.resize(n, f32::INFINITY);
     hits.prim.clear();
     hits.prim.resize(n, MISS);
     let camera = rays.depth.first().is_some_and(|&d| d == 0);
-    packet_order(scene, n, |i| rays.origin(i), |i| rays.dir(i), camera, order);
+    packet_order(scene, n, |i| rays.origin(i), |i| rays.dir(i), camera || !cfg.reorder, order);
     let mut pw = PacketWork::default();
-    let (mut o, mut d, mut out) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [(0.0f32, 0u32); LANES]);
-    for group in order.chunks(LANES) {
+    let (mut o, mut d, mut out) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [(0.0f32, 0u32); MAX]);
+    for group in order.chunks(S::LANES) {
         for (l, &(_, i)) in group.iter().enumerate() {
             o[l] = rays.origin(i as usize);
             d[l] = rays.dir(i as usize);
         }
         let k = group.len();
         let oct = octant(d[0]);
-        if k == LANES && d[..k].iter().all(|&x| octant(x) == oct) {
-            scene.accel.closest8(&o[..k], &d[..k], 0.0, &mut out, &mut pw);
+        if k > 1 && !(cfg.split_mixed && d[..k].iter().any(|&x| octant(x) != oct)) {
+            scene.accel.closest_packet::<S>(&o[..k], &d[..k], 0.0, cfg.min_active, &mut out, &mut pw);
             work.packet_rays += k as u64;
         } else {
             for l in 0..k {

@@ -2,12 +2,12 @@
 //! contributions of unblocked rays to the film queue.
 //!
 //! With packets on, shadow rays are ordered by direction octant and origin, and traced
-//! 8 at a time when a group shares an octant (one at a time otherwise).
+//! a packet at a time when a group shares an octant (one at a time otherwise).
 
 use glam::Vec3;
 
 use super::intersect::packet_order;
-use crate::geometry::packet::{octant, PacketWork, LANES};
+use crate::geometry::packet::{octant, Packet, PacketConfig, PacketWork, Simd, MAX};
 use crate::geometry::Traversal;
 use crate::queue::{FilmQueue, ShadowQueue};
 use crate::scene::Scene;
@@ -24,7 +24,7 @@ pub fn occlusion(
     order: &mut Vec<(u64, u32)>,
 ) -> usize {
     if scene.settings.packets {
-        return packets(scene, shadow, film, work, order);
+        return packets::<Packet>(scene, shadow, film, work, order, PacketConfig::RENDER);
     }
     if count {
         run::<true>(scene, shadow, film, work)
@@ -44,27 +44,30 @@ fn run<const COUNT: bool>(scene: &Scene, shadow: &ShadowQueue, film: &mut FilmQu
     lit
 }
 
-fn packets(
+/// The packet path of [`occlusion`]: shadow rays in packets of `S::LANES`, formed and
+/// traced as `cfg` says. Public so that `wavetrace bench` can measure other settings.
+pub fn packets<S: Simd>(
     scene: &Scene,
     shadow: &ShadowQueue,
     film: &mut FilmQueue,
     work: &mut Traversal,
     order: &mut Vec<(u64, u32)>,
+    cfg: PacketConfig,
 ) -> usize {
-    packet_order(scene, shadow.len(), |i| shadow.origin(i), |i| shadow.dir(i), false, order);
+    packet_order(scene, shadow.len(), |i| shadow.origin(i), |i| shadow.dir(i), !cfg.reorder, order);
     let mut pw = PacketWork::default();
-    let (mut o, mut d, mut t) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [0.0f32; LANES]);
-    let mut blocked = [false; LANES];
+    let (mut o, mut d, mut t) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [0.0f32; MAX]);
+    let mut blocked = [false; MAX];
     let mut lit = 0;
-    for group in order.chunks(LANES) {
+    for group in order.chunks(S::LANES) {
         let k = group.len();
         for (l, &(_, i)) in group.iter().enumerate() {
             let i = i as usize;
             (o[l], d[l], t[l]) = (shadow.origin(i), shadow.dir(i), shadow.tmax[i]);
         }
         let oct = octant(d[0]);
-        if k == LANES && d.iter().all(|&x| octant(x) == oct) {
-            scene.accel.occluded8(&o, &d, &t, &mut blocked, &mut pw);
+        if k > 1 && !(cfg.split_mixed && d[..k].iter().any(|&x| octant(x) != oct)) {
+            scene.accel.occluded_packet::<S>(&o[..k], &d[..k], &t[..k], cfg.min_active, &mut blocked, &mut pw);
             work.packet_rays += k as u64;
         } else {
             for l in 0..k {

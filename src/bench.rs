@@ -1,0 +1,344 @@
+//! `wavetrace bench`: fixed ray sets taken from a scene, traced by each traversal kernel
+//! through the renderer's own intersect and shadow stages, timed over repetitions.
+//!
+//! The sets (all deterministic for a scene and seed):
+//! - `primary`: the scene's uniform-mode camera rays, in the renderer's order (16×16
+//!   tiles, a pixel's samples together);
+//! - `shadow`: the shade stage's uniform-mode shadow rays from those rays' hits (every
+//!   k-th one when there are more than the cap), any-hit;
+//! - `secondary`: one cosine-distributed diffuse bounce from every diffuse primary hit
+//!   (incoherent), closest-hit.
+//!
+//! Each set is cut into chunks of [`CHUNK`] rays (the size of a render wave of camera rays)
+//! that threads take in turn; the packet kernel's reordering of bounce and shadow rays runs
+//! inside the stage, so its cost is part of the packet kernel's time.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Instant;
+use wide::{f32x16, f32x4, f32x8};
+
+use crate::error::{Error, Result};
+use crate::geometry::packet::{PacketConfig, LANES};
+use crate::geometry::Traversal;
+use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
+use crate::render::tiles;
+use crate::sampling::{dim, hash, to_unit};
+use crate::scene::{Scene, ShadowMode};
+use crate::stages::{camera, intersect, shade, shadow};
+
+/// Rays per chunk: one render wave of camera rays.
+pub const CHUNK: usize = 4096;
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Worker threads.
+    pub threads: usize,
+    /// Timed repetitions per set and kernel (the median is reported).
+    pub reps: usize,
+    /// Most rays per set (larger sets keep every k-th ray).
+    pub max_rays: usize,
+    /// Lanes per packet: 4, 8 or 16.
+    pub lanes: usize,
+    /// How packets are formed and traced.
+    pub packet: PacketConfig,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        BenchOptions { threads: 1, reps: 5, max_rays: 1 << 20, lanes: LANES, packet: PacketConfig::RENDER }
+    }
+}
+
+/// One ray set traced with one kernel.
+#[derive(Clone, Debug, Serialize)]
+pub struct SetResult {
+    /// `primary`, `shadow` or `secondary`.
+    pub set: &'static str,
+    /// `scalar` or `packet`.
+    pub kernel: &'static str,
+    /// Rays in the set.
+    pub rays: usize,
+    /// Median over the repetitions of rays per second, in millions.
+    pub mrays_per_s: f64,
+}
+
+/// Everything `wavetrace bench` prints.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    /// Seconds the BVH build took when the scene was loaded.
+    pub bvh_build_seconds: f64,
+    /// Worker threads.
+    pub threads: usize,
+    /// One entry per set and kernel.
+    pub sets: Vec<SetResult>,
+}
+
+/// A fixed set of rays: closest-hit ones in a ray queue, or any-hit shadow segments.
+pub enum RaySet {
+    /// Closest-hit rays (camera or bounce).
+    Closest(Vec<RayQueue>),
+    /// Shadow rays.
+    AnyHit(Vec<ShadowQueue>),
+}
+
+impl RaySet {
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        match self {
+            RaySet::Closest(c) => c.iter().map(|q| q.len()).sum(),
+            RaySet::AnyHit(c) => c.iter().map(|q| q.len()).sum(),
+        }
+    }
+
+    /// True when the set has no rays.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Keeps every k-th pushed item, doubling k (and dropping every other kept item) whenever
+/// twice `cap` are kept: a uniform stride over a stream of unknown length.
+struct Thinned<T> {
+    items: Vec<T>,
+    stride: usize,
+    seen: usize,
+    cap: usize,
+}
+
+impl<T> Thinned<T> {
+    fn new(cap: usize) -> Self {
+        Thinned { items: Vec::new(), stride: 1, seen: 0, cap: cap.max(1) }
+    }
+
+    fn push(&mut self, x: T) {
+        if self.seen.is_multiple_of(self.stride) {
+            self.items.push(x);
+            if self.items.len() >= 2 * self.cap {
+                let mut k = 0;
+                self.items.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+                self.stride *= 2;
+            }
+        }
+        self.seen += 1;
+    }
+}
+
+/// A unit direction around `n` with density cos θ / π.
+fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let (t, b) = n.any_orthonormal_pair();
+    let r = u1.sqrt();
+    let phi = std::f32::consts::TAU * u2;
+    (r * phi.cos() * t + r * phi.sin() * b + (1.0 - u1).max(0.0).sqrt() * n).normalize()
+}
+
+/// Builds the three ray sets of `scene` (shading in uniform shadow mode whatever the
+/// scene says, so the shadow set is the renderer's uniform shadow queue).
+pub fn ray_sets(scene: &mut Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
+    let saved = (scene.settings.shadow_mode, scene.settings.packets);
+    scene.settings.shadow_mode = ShadowMode::Uniform;
+    scene.settings.packets = false;
+    let s = scene.settings.clone();
+    let spp = s.aa_samples as u64 * s.dof_samples as u64;
+    let (mut primary, mut shadows, mut bounces) =
+        (Thinned::new(max_rays), Thinned::new(max_rays), Thinned::new(max_rays));
+    let (mut rays, mut hits, mut sq, mut points, mut spec, mut film) = (
+        RayQueue::default(),
+        HitQueue::default(),
+        ShadowQueue::default(),
+        ShadowPointQueue::default(),
+        Vec::new(),
+        FilmQueue::default(),
+    );
+    let mut order = Vec::new();
+    for tile in tiles(s.width, s.height) {
+        rays.clear();
+        camera::generate(scene, &tile, 0..tile.pixels() as u64 * spp, &mut rays);
+        intersect::intersect(scene, &rays, &mut hits, &mut Traversal::default(), false, &mut order);
+        shade::shade(scene, &rays, &hits, &mut sq, &mut points, &mut spec, &mut film);
+        for i in 0..rays.len() {
+            primary.push((rays.origin(i), rays.dir(i)));
+            if let Some(surf) = shade::diffuse_surface(scene, &rays, &hits, i) {
+                let (u1, u2) = (to_unit(hash(&[surf.key, 0, dim::BENCH])), to_unit(hash(&[surf.key, 1, dim::BENCH])));
+                bounces.push((surf.o, cosine_direction(surf.n, u1, u2)));
+            }
+        }
+        for i in 0..sq.len() {
+            shadows.push((sq.origin(i), sq.dir(i), sq.tmax[i]));
+        }
+    }
+    (scene.settings.shadow_mode, scene.settings.packets) = saved;
+    let closest = |items: Vec<(Vec3, Vec3)>, depth: u32| {
+        RaySet::Closest(
+            items
+                .chunks(CHUNK)
+                .map(|c| {
+                    let mut q = RayQueue::default();
+                    for (k, &(o, d)) in c.iter().enumerate() {
+                        q.push(o, d, k as u32, Vec3::ONE, depth, 0);
+                    }
+                    q
+                })
+                .collect(),
+        )
+    };
+    let any_hit = RaySet::AnyHit(
+        shadows
+            .items
+            .chunks(CHUNK)
+            .map(|c| {
+                let mut q = ShadowQueue::default();
+                for (k, &(o, d, t)) in c.iter().enumerate() {
+                    q.push(o, d, t, k as u32, Vec3::ONE);
+                }
+                q
+            })
+            .collect(),
+    );
+    [("primary", closest(primary.items, 0)), ("shadow", any_hit), ("secondary", closest(bounces.items, 1))]
+}
+
+/// A traversal kernel as the stages run it.
+#[derive(Clone, Copy, Debug)]
+pub enum Kernel {
+    /// One ray at a time.
+    Scalar,
+    /// Packets of this many lanes (4, 8 or 16), formed and traced as configured.
+    Packet(usize, PacketConfig),
+}
+
+/// Traces `set` once on `pool` with `kernel`; returns the seconds and a checksum of the
+/// results (hits with their distances, or unblocked rays) so kernels can be compared.
+pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kernel) -> (f64, u64) {
+    let start = Instant::now();
+    let sum: u64 = pool.install(|| match set {
+        RaySet::Closest(chunks) => chunks
+            .par_iter()
+            .map_init(
+                || (HitQueue::default(), Vec::new()),
+                |(hits, order), q| {
+                    let w = &mut Traversal::default();
+                    match kernel {
+                        Kernel::Scalar => intersect::intersect(scene, q, hits, w, false, order),
+                        Kernel::Packet(4, c) => intersect::packets::<f32x4>(scene, q, hits, w, order, c),
+                        Kernel::Packet(16, c) => intersect::packets::<f32x16>(scene, q, hits, w, order, c),
+                        Kernel::Packet(_, c) => intersect::packets::<f32x8>(scene, q, hits, w, order, c),
+                    }
+                    hits.t.iter().filter(|t| t.is_finite()).map(|t| t.to_bits() as u64).sum::<u64>()
+                },
+            )
+            .sum(),
+        RaySet::AnyHit(chunks) => chunks
+            .par_iter()
+            .map_init(
+                || (FilmQueue::default(), Vec::new()),
+                |(film, order), q| {
+                    film.clear();
+                    let w = &mut Traversal::default();
+                    (match kernel {
+                        Kernel::Scalar => shadow::occlusion(scene, q, film, w, false, order),
+                        Kernel::Packet(4, c) => shadow::packets::<f32x4>(scene, q, film, w, order, c),
+                        Kernel::Packet(16, c) => shadow::packets::<f32x16>(scene, q, film, w, order, c),
+                        Kernel::Packet(_, c) => shadow::packets::<f32x8>(scene, q, film, w, order, c),
+                    }) as u64
+                },
+            )
+            .sum(),
+    });
+    (start.elapsed().as_secs_f64(), sum)
+}
+
+/// Measures every set with the scalar and the packet kernel.
+pub fn run(scene: &mut Scene, opts: &BenchOptions) -> Result<BenchReport> {
+    if opts.threads == 0 || opts.reps == 0 || opts.max_rays == 0 {
+        return Err(Error::input("--threads, --reps and --max-rays must be at least 1"));
+    }
+    if ![4, 8, 16].contains(&opts.lanes) {
+        return Err(Error::input(format!("--lanes {}: expected 4, 8 or 16", opts.lanes)));
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start {} threads: {e}", opts.threads)))?;
+    let sets = ray_sets(scene, opts.max_rays);
+    let saved = scene.settings.packets;
+    scene.settings.packets = false;
+    let mut out = Vec::new();
+    for (name, set) in &sets {
+        let mut checksums = Vec::new();
+        for (label, kernel) in [("scalar", Kernel::Scalar), ("packet", Kernel::Packet(opts.lanes, opts.packet))] {
+            // One untimed pass warms caches and the thread pool.
+            let (_, check) = trace(scene, set, &pool, kernel);
+            checksums.push(check);
+            let mut secs: Vec<f64> = (0..opts.reps).map(|_| trace(scene, set, &pool, kernel).0).collect();
+            secs.sort_by(f64::total_cmp);
+            let median = secs[secs.len() / 2];
+            let mrays = if median > 0.0 { set.len() as f64 / median / 1e6 } else { 0.0 };
+            out.push(SetResult { set: name, kernel: label, rays: set.len(), mrays_per_s: mrays });
+        }
+        if checksums[0] != checksums[1] {
+            return Err(Error::Internal(format!(
+                "{name} set: the packet kernel found {} where the scalar kernel found {}",
+                checksums[1], checksums[0]
+            )));
+        }
+    }
+    scene.settings.packets = saved;
+    Ok(BenchReport { bvh_build_seconds: scene.accel.build_seconds, threads: opts.threads, sets: out })
+}
+
+impl BenchReport {
+    /// The human-readable table.
+    pub fn table(&self) -> String {
+        let mut t = format!(
+            "BVH build {:.3} s, {} thread{}\n{:<10} {:>10} {:>14} {:>14} {:>7}\n",
+            self.bvh_build_seconds,
+            self.threads,
+            if self.threads == 1 { "" } else { "s" },
+            "set",
+            "rays",
+            "scalar Mray/s",
+            "packet Mray/s",
+            "ratio"
+        );
+        for pair in self.sets.chunks(2) {
+            let (a, b) = (&pair[0], pair.get(1).unwrap_or(&pair[0]));
+            let ratio = if a.mrays_per_s > 0.0 { b.mrays_per_s / a.mrays_per_s } else { 0.0 };
+            t += &format!(
+                "{:<10} {:>10} {:>14.2} {:>14.2} {:>7.2}\n",
+                a.set, a.rays, a.mrays_per_s, b.mrays_per_s, ratio
+            );
+        }
+        t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thinning_keeps_a_uniform_stride() {
+        let mut t = Thinned::new(10);
+        for i in 0..1000 {
+            t.push(i);
+        }
+        assert!(t.items.len() < 20 && t.items.len() >= 10, "{}", t.items.len());
+        assert!(t.items.windows(2).all(|w| w[1] - w[0] == t.stride));
+        assert_eq!(t.items[0], 0);
+    }
+
+    #[test]
+    fn cosine_directions_stay_in_the_hemisphere() {
+        let n = Vec3::new(0.3, -0.5, 0.8).normalize();
+        for i in 0..100 {
+            let d = cosine_direction(n, i as f32 / 100.0, (i * 37 % 100) as f32 / 100.0);
+            assert!(d.dot(n) >= 0.0 && (d.length() - 1.0).abs() < 1e-5);
+        }
+    }
+}
