@@ -225,9 +225,9 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                     let w = &mut Traversal::default();
                     match kernel {
                         Kernel::Scalar => intersect::intersect(scene, q, hits, w, false, order),
-                        Kernel::Packet(4, c) => intersect::packets::<f32x4>(scene, q, hits, w, order, c),
-                        Kernel::Packet(16, c) => intersect::packets::<f32x16>(scene, q, hits, w, order, c),
-                        Kernel::Packet(_, c) => intersect::packets::<f32x8>(scene, q, hits, w, order, c),
+                        Kernel::Packet(4, c) => intersect::packets::<f32x4>(scene, q, hits, w, order, c, false),
+                        Kernel::Packet(16, c) => intersect::packets::<f32x16>(scene, q, hits, w, order, c, false),
+                        Kernel::Packet(_, c) => intersect::packets::<f32x8>(scene, q, hits, w, order, c, false),
                     }
                     hits.t.iter().filter(|t| t.is_finite()).map(|t| t.to_bits() as u64).sum::<u64>()
                 },
@@ -242,9 +242,9 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                     let w = &mut Traversal::default();
                     (match kernel {
                         Kernel::Scalar => shadow::occlusion(scene, q, film, w, false, order),
-                        Kernel::Packet(4, c) => shadow::packets::<f32x4>(scene, q, film, w, order, c),
-                        Kernel::Packet(16, c) => shadow::packets::<f32x16>(scene, q, film, w, order, c),
-                        Kernel::Packet(_, c) => shadow::packets::<f32x8>(scene, q, film, w, order, c),
+                        Kernel::Packet(4, c) => shadow::packets::<f32x4>(scene, q, film, w, order, c, false),
+                        Kernel::Packet(16, c) => shadow::packets::<f32x16>(scene, q, film, w, order, c, false),
+                        Kernel::Packet(_, c) => shadow::packets::<f32x8>(scene, q, film, w, order, c, false),
                     }) as u64
                 },
             )

@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use wavetrace::geometry::packet::PacketConfig;
+use wavetrace::geometry::packet::{Order, PacketConfig};
 use wavetrace::heatmap::{self, HeatmapKind};
 use wavetrace::output::{check_folder, check_image_path, check_png_path, write_image, write_png, write_text};
 use wavetrace::scene::{load, SceneSource};
@@ -61,21 +61,29 @@ struct BenchArgs {
     /// Packet kernel: lanes entering a node pair below which each finishes it alone.
     #[arg(long, default_value_t = PacketConfig::RENDER.min_active)]
     min_active: u32,
-    /// Packet kernel: order bounce and shadow rays by octant and origin first (on|off).
-    #[arg(long, default_value = "on", value_parser = on_off)]
-    reorder: bool,
+    /// Packet kernel: how bounce rays are ordered before packets are cut: keep, octant
+    /// or morton (octant, then the origin's Morton code).
+    #[arg(long, value_parser = order, default_value_t = PacketConfig::RENDER.bounce_order)]
+    bounce_order: Order,
+    /// Packet kernel: how shadow rays are ordered: keep, octant or morton.
+    #[arg(long, value_parser = order, default_value_t = PacketConfig::RENDER.shadow_order)]
+    shadow_order: Order,
     /// Packet kernel: trace packets that mix direction octants one ray at a time (on|off).
-    #[arg(long, default_value = "on", value_parser = on_off)]
+    #[arg(long, default_value_t = PacketConfig::RENDER.split_mixed, value_parser = on_off, action = clap::ArgAction::Set)]
     split_mixed: bool,
     /// Print JSON: {"bvh_build_seconds", "threads", "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
     #[arg(long)]
     json: bool,
 }
 
+fn order(s: &str) -> std::result::Result<Order, String> {
+    Order::parse(s).ok_or_else(|| format!("`{s}`: expected keep, octant or morton"))
+}
+
 fn on_off(s: &str) -> std::result::Result<bool, String> {
     match s {
-        "on" => Ok(true),
-        "off" => Ok(false),
+        "on" | "true" => Ok(true),
+        "off" | "false" => Ok(false),
         _ => Err(format!("`{s}`: expected on or off")),
     }
 }
@@ -240,7 +248,12 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         None => SceneSource::default_scene(),
     };
     let mut scene = load(&source, &args.sets)?;
-    let packet = PacketConfig { min_active: args.min_active, reorder: args.reorder, split_mixed: args.split_mixed };
+    let packet = PacketConfig {
+        min_active: args.min_active,
+        bounce_order: args.bounce_order,
+        shadow_order: args.shadow_order,
+        split_mixed: args.split_mixed,
+    };
     let opts = BenchOptions { threads, reps: args.reps, max_rays: args.max_rays, lanes: args.lanes, packet };
     let report = bench::run(&mut scene, &opts)?;
     if args.json {

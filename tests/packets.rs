@@ -6,7 +6,9 @@ mod support;
 use support::*;
 
 fn same_render(text: &str, sets: &[&str]) {
-    let off = render_text(text, sets, 2);
+    let mut without: Vec<&str> = sets.to_vec();
+    without.push("render.packets=false");
+    let off = render_text(text, &without, 2);
     let mut with: Vec<&str> = sets.to_vec();
     with.push("render.packets=true");
     let on = render_text(text, &with, 2);
@@ -15,8 +17,9 @@ fn same_render(text: &str, sets: &[&str]) {
         // Only summation order differs: relative 1e-5 is hundreds of ulps of slack.
         assert!((*a - *b).abs().max_element() <= 1e-5 * b.max_element().max(1e-3), "{a} vs {b}");
     }
-    // The packet kernel did run.
-    assert!(on.stats.stages.iter().all(|c| c.nodes == 0 || c.prims > 0));
+    // The packet kernel ran with packets on, and only then.
+    let packet_rays = |o: &wavetrace::RenderOutput| o.stats.stages.iter().map(|c| c.packet_rays).sum::<u64>();
+    assert!(packet_rays(&on) > 0 && packet_rays(&off) == 0);
 }
 
 #[test]

@@ -22,7 +22,7 @@ use super::bvh::{subtree, Accel, NodeStack, Traversal, STACK};
 use super::shapes::{intersect_triangle, Shape, NO_LIGHT};
 
 /// The SIMD type the renderer's packets use (chosen by measurement: docs/performance.md).
-pub type Packet = f32x8;
+pub type Packet = f32x16;
 
 /// Rays per packet in the renderer.
 pub const LANES: usize = <Packet as Simd>::LANES;
@@ -34,16 +34,53 @@ pub struct PacketConfig {
     /// Below this many lanes entering a node pair, each of them finishes the pair's
     /// subtree alone (the scalar traversal).
     pub min_active: u32,
-    /// Order bounce and shadow rays by direction octant and origin (Morton code) before
-    /// cutting them into packets (camera rays keep their generation order).
-    pub reorder: bool,
+    /// How bounce rays are ordered before they are cut into packets (camera rays always
+    /// keep their generation order).
+    pub bounce_order: Order,
+    /// How shadow rays are ordered before they are cut into packets.
+    pub shadow_order: Order,
     /// Trace a packet whose rays do not share a direction octant one ray at a time.
     pub split_mixed: bool,
 }
 
 impl PacketConfig {
     /// The renderer's settings (chosen by measurement: docs/performance.md).
-    pub const RENDER: PacketConfig = PacketConfig { min_active: 3, reorder: true, split_mixed: true };
+    pub const RENDER: PacketConfig =
+        PacketConfig { min_active: 0, bounce_order: Order::Morton, shadow_order: Order::Octant, split_mixed: true };
+}
+
+/// How a queue's rays are ordered before they are cut into packets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Order {
+    /// Generation order.
+    Keep,
+    /// Grouped by direction octant (a stable counting sort: generation order within an
+    /// octant, linear time).
+    Octant,
+    /// By direction octant, then the Morton code of the origin (a stable sort).
+    Morton,
+}
+
+impl std::fmt::Display for Order {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(match self {
+            Order::Keep => "keep",
+            Order::Octant => "octant",
+            Order::Morton => "morton",
+        })
+    }
+}
+
+impl Order {
+    /// Parses `keep`, `octant` or `morton`.
+    pub fn parse(s: &str) -> Option<Order> {
+        match s {
+            "keep" => Some(Order::Keep),
+            "octant" => Some(Order::Octant),
+            "morton" => Some(Order::Morton),
+            _ => None,
+        }
+    }
 }
 
 /// Most lanes of any supported packet width (arrays are sized for it).
@@ -157,6 +194,11 @@ pub struct PacketWork {
     pub lanes: u64,
     /// Lane subtrees finished one ray at a time after the packet thinned out.
     pub fallbacks: u64,
+    /// Box tests per lane: each SIMD box test counts once for every lane that entered the
+    /// parent node (comparable with the scalar traversal's node count).
+    pub nodes: u64,
+    /// Primitive tests per lane.
+    pub prims: u64,
 }
 
 /// Direction octant: the three sign bits.
@@ -375,6 +417,7 @@ impl Accel {
         let (mask, _) = lanes.slab(root, S::load(tmax));
         work.steps += 1;
         work.lanes += mask.count_ones() as u64;
+        work.nodes += lanes.o.len() as u64;
         if mask == 0 {
             return;
         }
@@ -384,6 +427,9 @@ impl Accel {
             return;
         }
         let mut stack = NodeStack::new();
+        // The lanes that entered each saved node, and the node pair's parent.
+        let mut saved = [0u32; STACK];
+        let mut parent = mask;
         let mut current = root.first_index as usize;
         loop {
             let t = S::load(tmax);
@@ -393,11 +439,13 @@ impl Accel {
             let active = ma | mb;
             work.steps += 1;
             work.lanes += active.count_ones() as u64;
+            work.nodes += 2 * parent.count_ones() as u64;
             if active != 0 && active.count_ones() < min_active {
                 if !self.alone(nodes, current, lanes, active, tmax, work, &mut leaf) {
                     return;
                 }
                 let Some(next) = stack.next([false, false], a, b) else { return };
+                parent = saved[stack.len()];
                 current = next;
                 continue;
             }
@@ -419,7 +467,17 @@ impl Accel {
                     descend[k] = true;
                 }
             }
+            let depth = stack.len();
             let Some(next) = stack.next(descend, near, far) else { return };
+            parent = match descend {
+                [true, true] => {
+                    saved[depth] = mf;
+                    mn
+                }
+                [true, false] => mn,
+                [false, true] => mf,
+                [false, false] => saved[stack.len()],
+            };
             current = next;
         }
     }
@@ -443,12 +501,14 @@ impl Accel {
             work.fallbacks += 1;
             let ray = Ray::new(lanes.o[l].into(), lanes.d[l].into(), 0.0, tmax[l]);
             let mut go = true;
-            subtree::<false>(nodes, first, ray, &mut Traversal::default(), |r, range, _| {
+            let mut count = Traversal::default();
+            subtree::<true>(nodes, first, ray, &mut count, |r, range, _| {
                 go = leaf(lanes, 1 << l, range, tmax);
                 r.tmax = tmax[l];
                 // A blocked any-hit lane has tmax = -∞: nothing more to find.
                 go && tmax[l] != f32::NEG_INFINITY
             });
+            work.nodes += count.nodes;
             if !go {
                 return false;
             }
@@ -485,7 +545,9 @@ impl Accel {
         let mut best = [(f32::INFINITY, u32::MAX); MAX];
         let prims = &self.prims;
         let tmin_s = S::splat(tmin);
+        let mut tests = 0u64;
         self.walk(&lanes, &mut tmax, min_active, work, |lanes, mask, range, tmax| {
+            tests += mask.count_ones() as u64 * range.len() as u64;
             for id in range {
                 let shape = &prims[id].shape;
                 match *shape {
@@ -514,6 +576,7 @@ impl Accel {
             }
             true
         });
+        work.prims += tests;
         out[..n].copy_from_slice(&best[..n]);
     }
 
@@ -545,12 +608,14 @@ impl Accel {
         let mut open = (1u32 << n) - 1;
         let prims = &self.prims;
         let zero = S::splat(0.0);
+        let mut tests = 0u64;
         self.walk(&lanes, &mut t, min_active, work, |lanes, mask, range, t| {
             let mut mask = mask & open;
             for id in range {
                 if mask == 0 {
                     break;
                 }
+                tests += mask.count_ones() as u64;
                 let p = &prims[id];
                 if p.light != NO_LIGHT {
                     continue;
@@ -574,6 +639,7 @@ impl Accel {
             }
             open != 0
         });
+        work.prims += tests;
         out[..n].copy_from_slice(&blocked[..n]);
     }
 }

@@ -39,7 +39,7 @@ pub struct RenderDesc {
     pub max_depth: u32,
     /// Seed of every random decision (default 1).
     pub seed: u32,
-    /// Trace in 8-wide SIMD packets (default false; see docs/performance.md).
+    /// Trace in SIMD packets (default true; see docs/performance.md).
     pub packets: bool,
     /// Anti-aliasing.
     pub aa: AaDesc,
@@ -56,7 +56,7 @@ impl Default for RenderDesc {
             height: 240,
             max_depth: 6,
             seed: 1,
-            packets: false,
+            packets: true,
             aa: AaDesc::default(),
             shadows: ShadowsDesc::default(),
             dof: DofDesc::default(),

@@ -90,7 +90,7 @@ pub struct Settings {
     /// Lens samples per pixel sample; forced to 1 for a pinhole camera, so a closed
     /// aperture costs no lens sampling.
     pub dof_samples: u32,
-    /// Trace rays in 8-wide packets (same hits; a performance choice).
+    /// Trace rays in SIMD packets (same hits; a performance choice).
     pub packets: bool,
 }
 

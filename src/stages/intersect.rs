@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use crate::geometry::packet::{coherence_key, octant, Packet, PacketConfig, PacketWork, Simd, MAX};
+use crate::geometry::packet::{coherence_key, octant, Order, Packet, PacketConfig, PacketWork, Simd, MAX};
 use crate::geometry::Traversal;
 use crate::queue::{HitQueue, RayQueue, MISS};
 use crate::scene::Scene;
@@ -24,7 +24,7 @@ pub fn intersect(
     order: &mut Vec<(u64, u32)>,
 ) {
     if scene.settings.packets {
-        return packets::<Packet>(scene, rays, hits, work, order, PacketConfig::RENDER);
+        return packets::<Packet>(scene, rays, hits, work, order, PacketConfig::RENDER, count);
     }
     if count {
         run::<true>(scene, rays, hits, work)
@@ -43,28 +43,45 @@ fn run<const COUNT: bool>(scene: &Scene, rays: &RayQueue, hits: &mut HitQueue, w
     }
 }
 
-/// The order packets are formed in: generation order for camera rays, else by
-/// [`coherence_key`] (a stable sort, so the order is deterministic).
+/// The order packets are formed in: `order` receives the ray indices 0..n as `how` says
+/// (every sort is stable, so the order is deterministic).
 pub fn packet_order(
     scene: &Scene,
     n: usize,
     o: impl Fn(usize) -> Vec3,
     d: impl Fn(usize) -> Vec3,
-    keep: bool,
+    how: Order,
     order: &mut Vec<(u64, u32)>,
 ) {
     order.clear();
-    if keep {
-        order.extend((0..n as u32).map(|i| (0, i)));
-        return;
+    match how {
+        Order::Keep => order.extend((0..n as u32).map(|i| (0, i))),
+        Order::Octant => {
+            // Counting sort on the 8 octants.
+            let mut start = [0usize; 9];
+            for i in 0..n {
+                start[octant(d(i)) as usize + 1] += 1;
+            }
+            for k in 1..9 {
+                start[k] += start[k - 1];
+            }
+            order.resize(n, (0, 0));
+            for i in 0..n {
+                let k = octant(d(i)) as usize;
+                order[start[k]] = (k as u64, i as u32);
+                start[k] += 1;
+            }
+        }
+        Order::Morton => {
+            let (lo, hi) = scene.accel.bounds();
+            order.extend((0..n).map(|i| (coherence_key(o(i), d(i), lo, hi), i as u32)));
+            order.sort_by_key(|e| e.0);
+        }
     }
-    let (lo, hi) = scene.accel.bounds();
-    order.extend((0..n).map(|i| (coherence_key(o(i), d(i), lo, hi), i as u32)));
-    order.sort_by_key(|e| e.0);
 }
 
 /// The packet path of [`intersect`]: rays in packets of `S::LANES`, formed and traced as
-/// `cfg` says. Public so that `wavetrace bench` can measure other widths and settings.
+/// `cfg` says; work per lane is added to `work` when `count`. Public so that `wavetrace bench` can measure other widths and settings.
 pub fn packets<S: Simd>(
     scene: &Scene,
     rays: &RayQueue,
@@ -72,6 +89,7 @@ pub fn packets<S: Simd>(
     work: &mut Traversal,
     order: &mut Vec<(u64, u32)>,
     cfg: PacketConfig,
+    count: bool,
 ) {
     let n = rays.len();
     hits.t.clear();
@@ -79,7 +97,8 @@ pub fn packets<S: Simd>(
     hits.prim.clear();
     hits.prim.resize(n, MISS);
     let camera = rays.depth.first().is_some_and(|&d| d == 0);
-    packet_order(scene, n, |i| rays.origin(i), |i| rays.dir(i), camera || !cfg.reorder, order);
+    let how = if camera { Order::Keep } else { cfg.bounce_order };
+    packet_order(scene, n, |i| rays.origin(i), |i| rays.dir(i), how, order);
     let mut pw = PacketWork::default();
     let (mut o, mut d, mut out) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [(0.0f32, 0u32); MAX]);
     for group in order.chunks(S::LANES) {
@@ -105,4 +124,8 @@ pub fn packets<S: Simd>(
     }
     work.packet_steps += pw.steps;
     work.packet_lanes += pw.lanes;
+    if count {
+        work.nodes += pw.nodes;
+        work.prims += pw.prims;
+    }
 }

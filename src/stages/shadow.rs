@@ -1,8 +1,9 @@
 //! Shadow occlusion: any-hit tests of shadow rays. Reads the shadow queue; writes the
 //! contributions of unblocked rays to the film queue.
 //!
-//! With packets on, shadow rays are ordered by direction octant and origin, and traced
-//! a packet at a time when a group shares an octant (one at a time otherwise).
+//! With packets on, shadow rays are grouped by direction octant (they come out of the
+//! shade stage a shading point's samples together, already coherent) and traced a packet
+//! at a time when a group shares an octant (one at a time otherwise).
 
 use glam::Vec3;
 
@@ -24,7 +25,7 @@ pub fn occlusion(
     order: &mut Vec<(u64, u32)>,
 ) -> usize {
     if scene.settings.packets {
-        return packets::<Packet>(scene, shadow, film, work, order, PacketConfig::RENDER);
+        return packets::<Packet>(scene, shadow, film, work, order, PacketConfig::RENDER, count);
     }
     if count {
         run::<true>(scene, shadow, film, work)
@@ -45,7 +46,8 @@ fn run<const COUNT: bool>(scene: &Scene, shadow: &ShadowQueue, film: &mut FilmQu
 }
 
 /// The packet path of [`occlusion`]: shadow rays in packets of `S::LANES`, formed and
-/// traced as `cfg` says. Public so that `wavetrace bench` can measure other settings.
+/// traced as `cfg` says; work per lane is added to `work` when `count`. Public so that
+/// `wavetrace bench` can measure other settings.
 pub fn packets<S: Simd>(
     scene: &Scene,
     shadow: &ShadowQueue,
@@ -53,8 +55,9 @@ pub fn packets<S: Simd>(
     work: &mut Traversal,
     order: &mut Vec<(u64, u32)>,
     cfg: PacketConfig,
+    count: bool,
 ) -> usize {
-    packet_order(scene, shadow.len(), |i| shadow.origin(i), |i| shadow.dir(i), !cfg.reorder, order);
+    packet_order(scene, shadow.len(), |i| shadow.origin(i), |i| shadow.dir(i), cfg.shadow_order, order);
     let mut pw = PacketWork::default();
     let (mut o, mut d, mut t) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [0.0f32; MAX]);
     let mut blocked = [false; MAX];
@@ -83,5 +86,9 @@ pub fn packets<S: Simd>(
     }
     work.packet_steps += pw.steps;
     work.packet_lanes += pw.lanes;
+    if count {
+        work.nodes += pw.nodes;
+        work.prims += pw.prims;
+    }
     lit
 }
