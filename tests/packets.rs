@@ -95,6 +95,7 @@ fn check_width<S: Simd>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig
     let mut out = [(0.0f32, 0u32); MAX];
     let mut occ = [false; MAX];
     let mut rng = Rng(99);
+    let mut wrong = Vec::new();
     for (chunk, (o, d)) in o.chunks(S::LANES).zip(d.chunks(S::LANES)).enumerate() {
         accel.closest_packet::<S>(o, d, 0.0, cfg.min_active, &mut out, &mut work);
         let mut tmax = [0.0f32; MAX];
@@ -108,23 +109,32 @@ fn check_width<S: Simd>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig
         }
         accel.occluded_packet::<S>(o, d, &tmax[..o.len()], cfg.min_active, &mut occ, &mut work);
         for l in 0..o.len() {
-            let at = || format!("{label}, {} lanes, ray {}", S::LANES, chunk * S::LANES + l);
-            match single[l] {
+            let ray = chunk * S::LANES + l;
+            let same = match single[l] {
                 Some((t, p)) => {
-                    assert_eq!(out[l].0.to_bits(), t.to_bits(), "{}: t", at());
                     let q = out[l].1 as usize;
-                    assert!(
-                        q == p as usize || accel.prims[q].shape.intersect(o[l], d[l], 0.0, f32::INFINITY) == t,
-                        "{}: primitive {q} vs {p}",
-                        at()
-                    );
+                    out[l].0.to_bits() == t.to_bits()
+                        && (q == p as usize || accel.prims[q].shape.intersect(o[l], d[l], 0.0, f32::INFINITY) == t)
                 }
-                None => assert_eq!(out[l], (f32::INFINITY, u32::MAX), "{}: miss", at()),
+                None => out[l] == (f32::INFINITY, u32::MAX),
+            };
+            if !same {
+                wrong.push(format!("ray {ray}: packet {:?} scalar {:?}", out[l], single[l]));
             }
             let blocked = accel.occluded::<false>(o[l], d[l], 0.0, tmax[l], &mut Traversal::default());
-            assert_eq!(occ[l], blocked, "{}: any-hit", at());
+            if occ[l] != blocked {
+                wrong.push(format!("ray {ray}: any-hit packet {} scalar {blocked}", occ[l]));
+            }
         }
     }
+    let n = o.len();
+    assert!(
+        wrong.is_empty(),
+        "{label}, {} lanes, {cfg:?}: {} of {n} rays differ: {:?}",
+        S::LANES,
+        wrong.len(),
+        &wrong[..wrong.len().min(5)]
+    );
 }
 
 fn check_accel(accel: &Accel, n: usize, label: &str) {

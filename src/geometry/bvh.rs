@@ -47,6 +47,17 @@ pub(crate) fn slab(b: &obvhs::aabb::Aabb, ray: &Ray) -> f32 {
     }
 }
 
+/// A box is skipped only when its entry distance exceeds the ray's current `tmax` by more
+/// than `tmax · (CULL − 1) + Accel::slack`. The entry distance and a primitive's hit
+/// distance round independently, so a primitive lying on a face of its own box (every
+/// axis-aligned triangle) can have an entry distance past its hit distance: by ulps of t
+/// for distant hits, by ulps of the scene's coordinates for close ones. Culling at `tmax`
+/// exactly (as pbrt does) then loses that hit whenever a slightly farther one was found
+/// first, and the result depends on traversal order. The slack (2⁻¹⁶ of t, plus 2⁻¹⁶ of the
+/// scene's largest coordinate) costs a few extra box visits and keeps the scalar and packet
+/// traversals on the same hits.
+pub(crate) const CULL: f32 = 1.0 + 1.0 / 65536.0;
+
 /// The node indices a traversal still has to visit (fixed size, see [`STACK`]).
 pub(crate) struct NodeStack {
     items: [u32; STACK],
@@ -86,13 +97,15 @@ impl NodeStack {
 }
 
 /// Walks, for one ray, the subtree below an inner node whose two children start at
-/// `first` (children adjacent, nearer child first). Shared by the single-ray traversal and
-/// the packet traversal's fallback for packets whose active lanes have thinned out.
+/// `first` (children adjacent, nearer child first), with the culling `slack` of [`CULL`].
+/// Shared by the single-ray traversal and the packet traversal's fallback for packets
+/// whose active lanes have thinned out.
 /// `leaf` tests a leaf's primitives, may shrink `ray.tmax`, and returns false to stop.
 #[inline(always)]
 pub(crate) fn subtree<const COUNT: bool>(
     nodes: &[Bvh2Node],
     first: usize,
+    slack: f32,
     mut ray: Ray,
     c: &mut Traversal,
     mut leaf: impl FnMut(&mut Ray, std::ops::Range<usize>, &mut Traversal) -> bool,
@@ -111,7 +124,7 @@ pub(crate) fn subtree<const COUNT: bool>(
         }
         let mut descend = [false; 2];
         for (k, (node, t)) in [(near, t_near), (far, t_far)].into_iter().enumerate() {
-            if t >= ray.tmax {
+            if t >= ray.tmax * CULL + slack {
                 continue;
             }
             if node.is_leaf() {
@@ -135,6 +148,8 @@ pub struct Accel {
     pub(crate) bvh: Option<Bvh2>,
     /// Depth of the tree (root = 1), which bounds the traversal stack.
     pub(crate) depth: usize,
+    /// Absolute culling slack (see [`CULL`]).
+    pub(crate) slack: f32,
     /// Seconds the BVH build took.
     pub build_seconds: f64,
 }
@@ -144,14 +159,17 @@ impl Accel {
     pub fn build(prims: Vec<Primitive>) -> Accel {
         let start = Instant::now();
         if prims.is_empty() {
-            return Accel { prims, bvh: None, depth: 0, build_seconds: 0.0 };
+            return Accel { prims, bvh: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
         }
         let mut core = Duration::default();
         let bvh = obvhs::bvh2::builder::build_bvh2(&prims, BvhBuildParams::medium_build(), &mut core);
         // Reorder once so traversal needs no primitive_indices indirection.
         let prims: Vec<Primitive> = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
         let depth = bvh.depth(0);
-        Accel { prims, bvh: Some(bvh), depth, build_seconds: start.elapsed().as_secs_f64() }
+        let root = bvh.nodes[0].aabb();
+        let scale = Vec3::from(root.min).abs().max(Vec3::from(root.max).abs()).max_element();
+        let slack = if scale.is_finite() { scale / 65536.0 } else { 0.0 };
+        Accel { prims, bvh: Some(bvh), depth, slack, build_seconds: start.elapsed().as_secs_f64() }
     }
 
     /// Stack-based traversal of the obvhs `Bvh2` nodes (children adjacent, nearer child
@@ -170,7 +188,7 @@ impl Accel {
         if COUNT {
             c.nodes += 1;
         }
-        if slab(root.aabb(), &ray) >= ray.tmax {
+        if slab(root.aabb(), &ray) >= ray.tmax * CULL + self.slack {
             return;
         }
         if root.is_leaf() {
@@ -178,7 +196,7 @@ impl Accel {
             leaf(&mut ray, first..first + root.prim_count as usize, c);
             return;
         }
-        subtree::<COUNT>(nodes, root.first_index as usize, ray, c, leaf);
+        subtree::<COUNT>(nodes, root.first_index as usize, self.slack, ray, c, leaf);
     }
 
     /// Closest hit along the ray within `(tmin, tmax)`: `(t, primitive index)`, or `None`.

@@ -18,7 +18,7 @@ use obvhs::ray::Ray;
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
 use wide::{f32x16, f32x4, f32x8};
 
-use super::bvh::{subtree, Accel, NodeStack, Traversal, STACK};
+use super::bvh::{subtree, Accel, NodeStack, Traversal, CULL, STACK};
 use super::shapes::{intersect_triangle, Shape, NO_LIGHT};
 
 /// The SIMD type the renderer's packets use (chosen by measurement: docs/performance.md).
@@ -46,7 +46,7 @@ pub struct PacketConfig {
 impl PacketConfig {
     /// The renderer's settings (chosen by measurement: docs/performance.md).
     pub const RENDER: PacketConfig =
-        PacketConfig { min_active: 0, bounce_order: Order::Morton, shadow_order: Order::Octant, split_mixed: true };
+        PacketConfig { min_active: 0, bounce_order: Order::Octant, shadow_order: Order::Octant, split_mixed: true };
 }
 
 /// How a queue's rays are ordered before they are cut into packets.
@@ -279,10 +279,12 @@ struct Lanes<'a, S> {
     /// The shear: d[kx]/d[kz], d[ky]/d[kz], 1/d[kz].
     shear: [S; 3],
     axes: Axes<S>,
+    /// The tree's absolute culling slack.
+    slack: S,
 }
 
 impl<'a, S: Simd> Lanes<'a, S> {
-    fn new(o: &'a [Vec3], d: &'a [Vec3]) -> Self {
+    fn new(o: &'a [Vec3], d: &'a [Vec3], slack: f32) -> Self {
         let mut oa = [[0.0f32; MAX]; 3];
         let mut ia = [[1.0f32; MAX]; 3];
         let mut so = [[0.0f32; MAX]; 3];
@@ -307,11 +309,20 @@ impl<'a, S: Simd> Lanes<'a, S> {
         }
         let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
         let axes = if same { Axes::Same(first) } else { Axes::Mixed(load3(&is[0]), load3(&is[1])) };
-        Lanes { o, d, origin: load3(&oa), inv: load3(&ia), sheared_origin: load3(&so), shear: load3(&sh), axes }
+        Lanes {
+            o,
+            d,
+            origin: load3(&oa),
+            inv: load3(&ia),
+            sheared_origin: load3(&so),
+            shear: load3(&sh),
+            axes,
+            slack: S::splat(slack),
+        }
     }
 
-    /// Lanes (bitmask) whose ray enters the box before their `tmax`, with the entry
-    /// distances. Same arithmetic as the scalar conservative slab test.
+    /// Lanes (bitmask) whose ray enters the box before their `tmax` (with the culling
+    /// slack of [`CULL`]), with the entry distances. Same arithmetic as the scalar traversal's test.
     #[inline(always)]
     fn slab(&self, node: &Bvh2Node, tmax: S) -> (u32, S) {
         const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
@@ -326,7 +337,7 @@ impl<'a, S: Simd> Lanes<'a, S> {
             far = far.min(t1.max(t2));
         }
         let far = far * S::splat(WIDEN);
-        let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(tmax);
+        let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(tmax * S::splat(CULL) + self.slack);
         (hit.bits(), near)
     }
 
@@ -502,7 +513,7 @@ impl Accel {
             let ray = Ray::new(lanes.o[l].into(), lanes.d[l].into(), 0.0, tmax[l]);
             let mut go = true;
             let mut count = Traversal::default();
-            subtree::<true>(nodes, first, ray, &mut count, |r, range, _| {
+            subtree::<true>(nodes, first, self.slack, ray, &mut count, |r, range, _| {
                 go = leaf(lanes, 1 << l, range, tmax);
                 r.tmax = tmax[l];
                 // A blocked any-hit lane has tmax = -∞: nothing more to find.
@@ -539,7 +550,7 @@ impl Accel {
             }
             return;
         }
-        let lanes = Lanes::<S>::new(o, d);
+        let lanes = Lanes::<S>::new(o, d, self.slack);
         let mut tmax = [f32::NEG_INFINITY; MAX];
         tmax[..n].fill(f32::INFINITY);
         let mut best = [(f32::INFINITY, u32::MAX); MAX];
@@ -601,7 +612,7 @@ impl Accel {
             }
             return;
         }
-        let lanes = Lanes::<S>::new(o, d);
+        let lanes = Lanes::<S>::new(o, d, self.slack);
         let mut t = [f32::NEG_INFINITY; MAX];
         t[..n].copy_from_slice(tmax);
         let mut blocked = [false; MAX];
@@ -766,7 +777,7 @@ mod tests {
             Vec3::new(0.0, 0.0, -1.0),
             Vec3::new(0.3, -0.2, -1.0).normalize(),
         ];
-        let lanes = Lanes::<f32x8>::new(&o, &d);
+        let lanes = Lanes::<f32x8>::new(&o, &d, 0.0);
         let mut t = [0.0; MAX];
         lanes.triangle(v0, v1, v2, 0xff).store(&mut t);
         for l in 0..8 {

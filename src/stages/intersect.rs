@@ -3,7 +3,7 @@
 //! With packets on, rays go through the packet kernel in groups that share a direction
 //! octant; a group that does not is traced one ray at a time. Camera rays keep their
 //! generation order (already coherent: a pixel's samples, then its neighbours); bounce
-//! rays are first ordered by octant and origin (Morton code).
+//! rays are first grouped by direction octant (their origins are already in pixel order).
 
 use glam::Vec3;
 
