@@ -1,5 +1,5 @@
 //! Traversal kernels on the bunny (69k triangles) and the ogre (124k, the largest test
-//! mesh): the scalar kernel against packets of 4, 8 and 16 lanes, on the ray sets of
+//! mesh): obvhs's own single-ray traversal and ours against packets of 4, 8 and 16 lanes, on the ray sets of
 //! `wavetrace bench` (coherent primary rays, shadow any-hit rays, incoherent diffuse
 //! bounces), traced through the renderer's own stages on one thread. Throughput is rays
 //! per second (criterion `Throughput::Elements`).
@@ -22,6 +22,7 @@ fn kernels(c: &mut Criterion) {
         for (set_name, set) in &sets {
             g.throughput(Throughput::Elements(set.len() as u64));
             let kernels = [
+                ("obvhs", Kernel::Obvhs),
                 ("scalar", Kernel::Scalar),
                 ("packet4", Kernel::Packet(4, PacketConfig::RENDER)),
                 ("packet8", Kernel::Packet(8, PacketConfig::RENDER)),

@@ -206,6 +206,9 @@ pub fn ray_sets(scene: &mut Scene, max_rays: usize) -> [(&'static str, RaySet); 
 /// A traversal kernel as the stages run it.
 #[derive(Clone, Copy, Debug)]
 pub enum Kernel {
+    /// obvhs's own single-ray traversal (`Bvh2::ray_traverse`, `ray_traverse_miss`), with
+    /// our primitive kernels: the baseline to compare with.
+    Obvhs,
     /// One ray at a time.
     Scalar,
     /// Packets of this many lanes (4, 8 or 16), formed and traced as configured.
@@ -224,6 +227,16 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                 |(hits, order), q| {
                     let w = &mut Traversal::default();
                     match kernel {
+                        Kernel::Obvhs => {
+                            hits.clear();
+                            for i in 0..q.len() {
+                                let (t, p) = scene
+                                    .accel
+                                    .closest_obvhs(q.origin(i), q.dir(i), 0.0, f32::INFINITY)
+                                    .unwrap_or((f32::INFINITY, crate::queue::MISS));
+                                hits.push(t, p);
+                            }
+                        }
                         Kernel::Scalar => intersect::intersect(scene, q, hits, w, false, order),
                         Kernel::Packet(4, c) => intersect::packets::<f32x4>(scene, q, hits, w, order, c, false),
                         Kernel::Packet(16, c) => intersect::packets::<f32x16>(scene, q, hits, w, order, c, false),
@@ -241,6 +254,9 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                     film.clear();
                     let w = &mut Traversal::default();
                     (match kernel {
+                        Kernel::Obvhs => (0..q.len())
+                            .filter(|&i| !scene.accel.occluded_obvhs(q.origin(i), q.dir(i), 0.0, q.tmax[i]))
+                            .count(),
                         Kernel::Scalar => shadow::occlusion(scene, q, film, w, false, order),
                         Kernel::Packet(4, c) => shadow::packets::<f32x4>(scene, q, film, w, order, c, false),
                         Kernel::Packet(16, c) => shadow::packets::<f32x16>(scene, q, film, w, order, c, false),

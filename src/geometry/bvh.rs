@@ -199,6 +199,34 @@ impl Accel {
         subtree::<COUNT>(nodes, root.first_index as usize, self.slack, ray, c, leaf);
     }
 
+    /// [`Accel::closest`] through obvhs's own single-ray traversal (`Bvh2::ray_traverse`):
+    /// the fallback for trees deeper than [`STACK`], and the reference the benchmarks
+    /// compare with. Culls boxes at `tmax` exactly, so on a tie within rounding it may
+    /// return another hit than [`Accel::closest`] (see [`CULL`]).
+    pub fn closest_obvhs(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, u32)> {
+        let bvh = self.bvh.as_ref()?;
+        let prims = &self.prims;
+        let mut hit = RayHit::none();
+        bvh.ray_traverse(Ray::new(o.into(), d.into(), tmin, tmax), &mut hit, |r, id| {
+            prims[id].shape.intersect(o, d, r.tmin, r.tmax)
+        })
+        .then_some((hit.t, hit.primitive_id))
+    }
+
+    /// [`Accel::occluded`] through obvhs's own any-hit traversal (`Bvh2::ray_traverse_miss`).
+    pub fn occluded_obvhs(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else { return false };
+        let prims = &self.prims;
+        !bvh.ray_traverse_miss(Ray::new(o.into(), d.into(), tmin, tmax), |r, id| {
+            let p = &prims[id];
+            if p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax {
+                0.0
+            } else {
+                f32::INFINITY
+            }
+        })
+    }
+
     /// Closest hit along the ray within `(tmin, tmax)`: `(t, primitive index)`, or `None`.
     /// Counts its work in `c` when `COUNT`.
     #[inline]
@@ -215,12 +243,7 @@ impl Accel {
         let prims = &self.prims;
         let mut best = (f32::INFINITY, u32::MAX);
         if self.depth >= STACK {
-            let mut hit = RayHit::none();
-            return bvh
-                .ray_traverse(ray, &mut hit, |r, id| {
-                    prims[id].shape.intersect(r.origin.into(), r.direction.into(), r.tmin, r.tmax)
-                })
-                .then_some((hit.t, hit.primitive_id));
+            return self.closest_obvhs(o, d, tmin, tmax);
         }
         self.traverse::<COUNT>(bvh, ray, c, |r, range, c| {
             if COUNT {
@@ -248,7 +271,7 @@ impl Accel {
         let prims = &self.prims;
         let blocks = |p: &Primitive, r: &Ray| p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax;
         if self.depth >= STACK {
-            return !bvh.ray_traverse_miss(ray, |r, id| if blocks(&prims[id], r) { 0.0 } else { f32::INFINITY });
+            return self.occluded_obvhs(o, d, tmin, tmax);
         }
         let mut hit = false;
         self.traverse::<COUNT>(bvh, ray, c, |r, range, c| {
