@@ -33,7 +33,7 @@ fn push(scene: &Scene, film: Vec2, lens_pattern: u32, lens: u32, slot: u32, w: V
 }
 
 /// Uniform mode: camera rays for the flattened (pixel, sample) indices `ks` of `tile`:
-/// k is pixel k / spp of the tile (row-major) and per-pixel sample j = k % spp, which is
+/// k is pixel k / spp of the tile in [`block_slot`] order and per-pixel sample j = k % spp, which is
 /// AA sample j / dof_samples and lens sample j % dof_samples. Slot: the pixel's index in
 /// the tile. Each ray carries weight 1 / spp, so a pixel's sum is its mean.
 pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
@@ -43,7 +43,7 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
     let w = Vec3::splat(1.0 / spp as f32);
     let tw = tile.x1 - tile.x0;
     for k in ks {
-        let slot = (k / spp) as u32;
+        let slot = block_slot(tile, (k / spp) as u32);
         let j = (k % spp) as u32;
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
@@ -52,6 +52,33 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
         let key = hash(&[s.seed, pixel, j, dim::PATH]);
         push(scene, film, hash(&[s.seed, pixel, aa, dim::LENS]), lens, slot, w, key, rays);
     }
+}
+
+/// Side of the screen blocks camera rays are generated in.
+const BLOCK: u32 = 4;
+
+/// The slot (row-major index in `tile`) of the `q`-th pixel when the tile is walked in 4×4
+/// blocks: blocks row by row, pixels row by row inside a block (edge blocks are smaller).
+/// Consecutive pixels then stay close on screen, so the packets the intersect stage cuts
+/// from camera rays in generation order start coherent (16 consecutive pixels form a
+/// square, not a strip); each pixel's samples stay in sample order, so the image does not
+/// change.
+pub fn block_slot(tile: &Tile, q: u32) -> u32 {
+    let (tw, th) = (tile.x1 - tile.x0, tile.y1 - tile.y0);
+    let band = tw * BLOCK;
+    let (row, h, rest) = if q < (th / BLOCK) * band {
+        (q / band, BLOCK, q % band)
+    } else {
+        (th / BLOCK, th % BLOCK, q - (th / BLOCK) * band)
+    };
+    let full = tw / BLOCK;
+    let (col, bw, inner) = if rest < full * BLOCK * h {
+        (rest / (BLOCK * h), BLOCK, rest % (BLOCK * h))
+    } else {
+        (full, tw % BLOCK, rest - full * BLOCK * h)
+    };
+    let (x, y) = (col * BLOCK + inner % bw, row * BLOCK + inner / bw);
+    y * tw + x
 }
 
 /// Index of pixel corner (cx, cy) in the (W+1)×(H+1) corner grid.
@@ -136,5 +163,33 @@ pub fn generate_refine(scene: &Scene, tile: &Tile, pixels: &[u32], level: u32, k
         let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, hash(&[s.seed, pixel, level, dim::REFINE]));
         let key = hash(&[s.seed, pixel, level, j, dim::REFINE]);
         push(scene, film, hash(&[s.seed, pixel, level, sample, dim::LENS]), lens, slot, w, key, rays);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn block_order_visits_every_pixel_once_in_squares() {
+        for tw in 1..=16 {
+            for th in 1..=16 {
+                let tile = Tile { x0: 32, y0: 16, x1: 32 + tw, y1: 16 + th };
+                let mut seen = vec![false; (tw * th) as usize];
+                for q in 0..tw * th {
+                    let s = block_slot(&tile, q) as usize;
+                    assert!(!seen[s], "{tw}x{th}: slot {s} twice");
+                    seen[s] = true;
+                }
+            }
+        }
+        // A full tile: each run of 16 is one 4×4 square.
+        let tile = Tile { x0: 0, y0: 0, x1: 16, y1: 16 };
+        for run in 0..16 {
+            let xy: Vec<(u32, u32)> =
+                (run * 16..run * 16 + 16).map(|q| block_slot(&tile, q)).map(|s| (s % 16, s / 16)).collect();
+            let (x0, y0) = xy[0];
+            assert!(xy.iter().all(|&(x, y)| x - x0 < 4 && y - y0 < 4), "{xy:?}");
+        }
     }
 }
