@@ -19,7 +19,7 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
 use wide::{f32x16, f32x4, f32x8};
 
 use super::bvh::{subtree, Accel, NodeStack, Traversal, CULL, STACK};
-use super::shapes::{intersect_triangle, Shape, NO_LIGHT};
+use super::shapes::{intersect_triangle, shear_axes, Shape, NO_LIGHT};
 
 /// The SIMD type the renderer's packets use (chosen by measurement: docs/performance.md).
 pub type Packet = f32x16;
@@ -233,30 +233,6 @@ fn safe_inverse(x: f32) -> f32 {
         x.signum() / f32::EPSILON
     } else {
         1.0 / x
-    }
-}
-
-/// The watertight triangle test's axis choice for direction `d`, as the scalar kernel
-/// makes it: `kz` the dominant axis, `kx`, `ky` the others (swapped when `d[kz] < 0`).
-#[inline]
-fn shear_axes(d: Vec3) -> [usize; 3] {
-    let ad = d.abs();
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z {
-            0
-        } else {
-            2
-        }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-    if d[kz] < 0.0 {
-        [ky, kx, kz]
-    } else {
-        [kx, ky, kz]
     }
 }
 

@@ -162,13 +162,11 @@ pub fn intersect_sphere(center: Vec3, radius: f32, o: Vec3, d: Vec3, tmin: f32, 
     }
 }
 
-/// Watertight ray–triangle intersection (Woop, Benthin and Wald, "Watertight
-/// Ray/Triangle Intersection", JCGT 2013). The ray is sheared so it points along +z and
-/// the edge functions are evaluated in 2D; a point exactly on an edge is claimed by both
-/// triangles sharing it (ties at zero recompute in f64), so rays through shared edges and
-/// vertices of a closed mesh never slip through. Hits from both sides count.
+/// The watertight triangle test's frame for direction `d`: `kz` the dominant axis, `kx`,
+/// `ky` the other two, swapped when `d[kz] < 0` so the winding is kept. Shared by the
+/// scalar and the SIMD kernel so both shear exactly alike.
 #[inline]
-pub fn intersect_triangle(v0: Vec3, v1: Vec3, v2: Vec3, o: Vec3, d: Vec3) -> f32 {
+pub(crate) fn shear_axes(d: Vec3) -> [usize; 3] {
     let ad = d.abs();
     let kz = if ad.x > ad.y {
         if ad.x > ad.z {
@@ -181,10 +179,22 @@ pub fn intersect_triangle(v0: Vec3, v1: Vec3, v2: Vec3, o: Vec3, d: Vec3) -> f32
     } else {
         2
     };
-    let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
     if d[kz] < 0.0 {
-        std::mem::swap(&mut kx, &mut ky);
+        [ky, kx, kz]
+    } else {
+        [kx, ky, kz]
     }
+}
+
+/// Watertight ray–triangle intersection (Woop, Benthin and Wald, "Watertight
+/// Ray/Triangle Intersection", JCGT 2013). The ray is sheared so it points along +z and
+/// the edge functions are evaluated in 2D; a point exactly on an edge is claimed by both
+/// triangles sharing it (ties at zero recompute in f64), so rays through shared edges and
+/// vertices of a closed mesh never slip through. Hits from both sides count.
+#[inline]
+pub fn intersect_triangle(v0: Vec3, v1: Vec3, v2: Vec3, o: Vec3, d: Vec3) -> f32 {
+    let [kx, ky, kz] = shear_axes(d);
     let (sx, sy, sz) = (d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
     let (a, b, c) = (v0 - o, v1 - o, v2 - o);
     let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
