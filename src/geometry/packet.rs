@@ -15,7 +15,7 @@
 use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node;
 use obvhs::ray::Ray;
-use std::ops::{Add, BitAnd, BitOr, Div, Mul, Sub};
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Sub};
 use wide::{f32x16, f32x4, f32x8};
 
 use super::bvh::{subtree, Accel, NodeStack, Traversal, CULL, STACK};
@@ -93,6 +93,7 @@ pub trait Simd:
     + Sub<Output = Self>
     + Mul<Output = Self>
     + Div<Output = Self>
+    + Neg<Output = Self>
     + BitAnd<Output = Self>
     + BitOr<Output = Self>
 {
@@ -114,10 +115,18 @@ pub trait Simd:
     fn gt(self, o: Self) -> Self;
     /// Mask of `self < o`.
     fn lt(self, o: Self) -> Self;
+    /// Mask of `self <= o`.
+    fn le(self, o: Self) -> Self;
     /// Mask of `self == o`.
     fn eq(self, o: Self) -> Self;
     /// Mask of finite lanes.
     fn finite(self) -> Self;
+    /// Mask of lanes with the sign bit set.
+    fn negative(self) -> Self;
+    /// Mask of NaN lanes.
+    fn nan(self) -> Self;
+    /// Lane-wise square root.
+    fn sqrt(self) -> Self;
     /// One bit per lane of a mask (lane 0 = bit 0).
     fn bits(self) -> u32;
     /// Lane-wise `mask ? t : f`.
@@ -163,12 +172,28 @@ macro_rules! simd {
                 self.simd_lt(o)
             }
             #[inline(always)]
+            fn le(self, o: Self) -> Self {
+                self.simd_le(o)
+            }
+            #[inline(always)]
             fn eq(self, o: Self) -> Self {
                 self.simd_eq(o)
             }
             #[inline(always)]
             fn finite(self) -> Self {
                 self.is_finite()
+            }
+            #[inline(always)]
+            fn negative(self) -> Self {
+                self.is_sign_negative()
+            }
+            #[inline(always)]
+            fn nan(self) -> Self {
+                self.is_nan()
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
             }
             #[inline(always)]
             fn bits(self) -> u32 {
@@ -249,6 +274,7 @@ struct Lanes<'a, S> {
     o: &'a [Vec3],
     d: &'a [Vec3],
     origin: [S; 3],
+    dir: [S; 3],
     inv: [S; 3],
     /// Origin components in each lane's sheared frame (kx, ky, kz).
     sheared_origin: [S; 3],
@@ -263,6 +289,7 @@ impl<'a, S: Simd> Lanes<'a, S> {
     fn new(o: &'a [Vec3], d: &'a [Vec3], slack: f32) -> Self {
         let mut oa = [[0.0f32; MAX]; 3];
         let mut ia = [[1.0f32; MAX]; 3];
+        let mut da = [[0.0f32; MAX]; 3];
         let mut so = [[0.0f32; MAX]; 3];
         let mut sh = [[1.0f32; MAX]; 3];
         let mut is = [[[0.0f32; MAX]; 3]; 2];
@@ -274,6 +301,7 @@ impl<'a, S: Simd> Lanes<'a, S> {
             same &= k == first;
             for j in 0..3 {
                 oa[j][l] = o[j];
+                da[j][l] = d[j];
                 ia[j][l] = safe_inverse(d[j]);
                 so[j][l] = o[k[j]];
                 is[0][j][l] = if k[j] == 0 { on } else { 0.0 };
@@ -289,6 +317,7 @@ impl<'a, S: Simd> Lanes<'a, S> {
             o,
             d,
             origin: load3(&oa),
+            dir: load3(&da),
             inv: load3(&ia),
             sheared_origin: load3(&so),
             shear: load3(&sh),
@@ -361,6 +390,78 @@ impl<'a, S: Simd> Lanes<'a, S> {
             a[l] = intersect_triangle(v0, v1, v2, self.o[l], self.d[l]);
         }
         S::load(&a)
+    }
+
+    /// `a · b` for a splatted `a`, in glam's order of operations.
+    #[inline(always)]
+    fn dot(a: Vec3, b: &[S; 3]) -> S {
+        S::splat(a.x) * b[0] + S::splat(a.y) * b[1] + S::splat(a.z) * b[2]
+    }
+
+    /// The sphere test for every lane: exactly [`intersect_sphere`](super::shapes::intersect_sphere)'s
+    /// operations, so each lane's distance (infinity for a miss) is the scalar one.
+    #[inline(always)]
+    fn sphere(&self, center: Vec3, radius: f32, tmin: S, tmax: S) -> S {
+        let [dx, dy, dz] = self.dir;
+        let f = [
+            self.origin[0] - S::splat(center.x),
+            self.origin[1] - S::splat(center.y),
+            self.origin[2] - S::splat(center.z),
+        ];
+        let b = -(f[0] * dx + f[1] * dy + f[2] * dz);
+        let l = [f[0] + b * dx, f[1] + b * dy, f[2] + b * dz];
+        let r2 = S::splat(radius * radius);
+        let disc = r2 - (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+        let c = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) - r2;
+        // f32::signum: ±1 by the sign bit, NaN stays NaN.
+        let sign = S::select(b.nan(), b, S::select(b.negative(), S::splat(-1.0), S::splat(1.0)));
+        let q = b + sign * disc.sqrt();
+        let zero = S::splat(0.0);
+        let tangent = q.eq(zero);
+        let (t0, t1) = (S::select(tangent, zero, c / q), S::select(tangent, zero, q));
+        let order = t0.lt(t1);
+        let (near, far) = (S::select(order, t0, t1), S::select(order, t1, t0));
+        let inf = S::splat(f32::INFINITY);
+        let t = S::select(near.gt(tmin) & near.lt(tmax), near, S::select(far.gt(tmin) & far.lt(tmax), far, inf));
+        S::select(disc.lt(zero), inf, t)
+    }
+
+    /// The parallelogram test for every lane: exactly [`intersect_quad`](super::shapes::intersect_quad)'s
+    /// operations.
+    #[inline(always)]
+    fn quad(&self, corner: Vec3, u: Vec3, v: Vec3) -> S {
+        let [dx, dy, dz] = self.dir;
+        let [ox, oy, oz] = self.origin;
+        let n = u.cross(v);
+        let denom = Self::dot(n, &self.dir);
+        let co = [S::splat(corner.x) - ox, S::splat(corner.y) - oy, S::splat(corner.z) - oz];
+        let t = Self::dot(n, &co) / denom;
+        let p = [
+            (ox + t * dx) - S::splat(corner.x),
+            (oy + t * dy) - S::splat(corner.y),
+            (oz + t * dz) - S::splat(corner.z),
+        ];
+        let w = n / n.length_squared();
+        let (vx, vy, vz) = (S::splat(v.x), S::splat(v.y), S::splat(v.z));
+        let (ux, uy, uz) = (S::splat(u.x), S::splat(u.y), S::splat(u.z));
+        let pv = [p[1] * vz - vy * p[2], p[2] * vx - vz * p[0], p[0] * vy - vx * p[1]];
+        let up = [uy * p[2] - p[1] * uz, uz * p[0] - p[2] * ux, ux * p[1] - p[0] * uy];
+        let (a, b) = (Self::dot(w, &pv), Self::dot(w, &up));
+        let (zero, one) = (S::splat(0.0), S::splat(1.0));
+        let inside = a.ge(zero) & a.le(one) & b.ge(zero) & b.le(one);
+        let inf = S::splat(f32::INFINITY);
+        S::select(denom.eq(zero), inf, S::select(inside & denom.finite(), t, inf))
+    }
+
+    /// Each lane's distance to `shape` (infinity for a miss) exactly as the scalar kernel
+    /// computes it; exact for the lanes in `mask`.
+    #[inline(always)]
+    fn shape(&self, shape: &Shape, mask: u32, tmin: S, tmax: S) -> S {
+        match *shape {
+            Shape::Triangle { v0, v1, v2 } => self.triangle(v0, v1, v2, mask),
+            Shape::Sphere { center, radius } => self.sphere(center, radius, tmin, tmax),
+            Shape::Quad { corner, u, v } => self.quad(corner, u, v),
+        }
     }
 }
 
@@ -535,29 +636,28 @@ impl Accel {
         let mut tests = 0u64;
         self.walk(&lanes, &mut tmax, min_active, work, |lanes, mask, range, tmax| {
             tests += mask.count_ones() as u64 * range.len() as u64;
-            for id in range {
-                let shape = &prims[id].shape;
-                match *shape {
-                    Shape::Triangle { v0, v1, v2 } if mask & (mask - 1) != 0 => {
-                        let t = lanes.triangle(v0, v1, v2, mask);
-                        let hits = (t.gt(tmin_s) & t.lt(S::load(tmax))).bits() & mask;
-                        if hits != 0 {
-                            let mut a = [0.0; MAX];
-                            t.store(&mut a);
-                            for l in lanes_of(hits) {
-                                tmax[l] = a[l];
-                                best[l] = (a[l], id as u32);
-                            }
-                        }
+            if mask & (mask - 1) == 0 {
+                // One lane: the scalar kernels.
+                let l = mask.trailing_zeros() as usize;
+                for id in range {
+                    let t = prims[id].shape.intersect(o[l], d[l], tmin, tmax[l]);
+                    if t < tmax[l] {
+                        tmax[l] = t;
+                        best[l] = (t, id as u32);
                     }
-                    _ => {
-                        for l in lanes_of(mask) {
-                            let t = shape.intersect(o[l], d[l], tmin, tmax[l]);
-                            if t < tmax[l] {
-                                tmax[l] = t;
-                                best[l] = (t, id as u32);
-                            }
-                        }
+                }
+                return true;
+            }
+            for id in range {
+                let tm = S::load(tmax);
+                let t = lanes.shape(&prims[id].shape, mask, tmin_s, tm);
+                let hits = (t.gt(tmin_s) & t.lt(tm)).bits() & mask;
+                if hits != 0 {
+                    let mut a = [0.0; MAX];
+                    t.store(&mut a);
+                    for l in lanes_of(hits) {
+                        tmax[l] = a[l];
+                        best[l] = (a[l], id as u32);
                     }
                 }
             }
@@ -607,14 +707,13 @@ impl Accel {
                 if p.light != NO_LIGHT {
                     continue;
                 }
-                let hits = match p.shape {
-                    Shape::Triangle { v0, v1, v2 } if mask & (mask - 1) != 0 => {
-                        let th = lanes.triangle(v0, v1, v2, mask);
-                        (th.gt(zero) & th.lt(S::load(t))).bits() & mask
-                    }
-                    shape => lanes_of(mask)
-                        .filter(|&l| shape.intersect(o[l], d[l], 0.0, t[l]) < t[l])
-                        .fold(0, |m, l| m | 1 << l),
+                let hits = if mask & (mask - 1) == 0 {
+                    let l = mask.trailing_zeros() as usize;
+                    ((p.shape.intersect(o[l], d[l], 0.0, t[l]) < t[l]) as u32) << l
+                } else {
+                    let tm = S::load(t);
+                    let th = lanes.shape(&p.shape, mask, zero, tm);
+                    (th.gt(zero) & th.lt(tm)).bits() & mask
                 };
                 for l in lanes_of(hits) {
                     blocked[l] = true;
@@ -730,7 +829,7 @@ mod tests {
     }
 
     #[test]
-    fn simd_triangle_equals_scalar_kernel_bit_for_bit() {
+    fn simd_kernels_equal_scalar_kernels_bit_for_bit() {
         // Mixed dominant axes in one packet, rays through vertices and edges.
         let (v0, v1, v2) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
         let o = [
@@ -760,5 +859,23 @@ mod tests {
             assert_eq!(t[l].to_bits(), intersect_triangle(v0, v1, v2, o[l], d[l]).to_bits(), "lane {l}");
         }
         assert!(matches!(lanes.axes, Axes::Mixed(..)));
+        // Spheres (from inside, tangent from the centre plane, behind) and parallelograms
+        // (edge-on, through a corner, from behind) against the same lanes.
+        let shapes = [
+            Shape::Sphere { center: Vec3::new(0.2, 0.2, 0.0), radius: 0.5 },
+            Shape::Sphere { center: Vec3::new(1.0, 0.0, 0.5), radius: 1.0 },
+            Shape::Sphere { center: Vec3::new(0.0, 0.0, -2.0), radius: 0.25 },
+            Shape::Quad { corner: Vec3::new(0.0, 0.0, 0.0), u: Vec3::new(1.0, 0.0, 0.0), v: Vec3::new(0.0, 1.0, 0.0) },
+            Shape::Quad { corner: Vec3::new(-1.0, -1.0, 0.5), u: Vec3::new(2.0, 0.0, 0.0), v: Vec3::new(0.0, 0.0, 1.0) },
+        ];
+        for shape in &shapes {
+            for (tmin, tmax) in [(0.0, f32::INFINITY), (0.1, 1.5)] {
+                lanes.shape(shape, 0xff, f32x8::splat(tmin), f32x8::splat(tmax)).store(&mut t);
+                for l in 0..8 {
+                    let t = if t[l] > tmin && t[l] < tmax { t[l] } else { f32::INFINITY };
+                    assert_eq!(t.to_bits(), shape.intersect(o[l], d[l], tmin, tmax).to_bits(), "{shape:?} lane {l}");
+                }
+            }
+        }
     }
 }
