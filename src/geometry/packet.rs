@@ -1,10 +1,9 @@
 //! Packet traversal of the obvhs `Bvh2`: a packet of rays (4, 8 or 16 lanes of `wide`)
 //! walks the tree together; each node pair's boxes are slab-tested for all lanes at once
-//! under an active-lane mask, and a leaf's triangles are tested for all lanes at once with
-//! the watertight kernel of Woop, Benthin and Wald (spheres and parallelograms run the
-//! scalar kernels per lane). When fewer than `min_active` lanes still enter a node pair,
-//! those lanes finish its subtree one ray at a time (the scalar traversal), so thinned-out
-//! packets stop paying for idle lanes.
+//! under an active-lane mask, and a leaf's primitives (watertight triangles after Woop,
+//! Benthin and Wald; spheres; parallelograms) are tested for all its lanes at once. When
+//! fewer than `min_active` lanes still enter a node pair, those lanes may finish its
+//! subtree one ray at a time (the scalar traversal; off in the renderer, measured).
 //!
 //! Exactness: every lane computes the same floating-point operations in the same order as
 //! the scalar kernels (slab test, shear, edge functions, the f64 recomputation of edge
