@@ -24,6 +24,9 @@ pub mod dim {
     pub const REFINE: u32 = 7;
     /// Adaptive shadows: jittered probe positions on a quad light.
     pub const PROBE: u32 = 8;
+    /// Penumbra early stopping: the scramble of the progressive order of a point's
+    /// light samples.
+    pub const STOP_ORDER: u32 = 9;
 }
 
 /// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").
@@ -114,6 +117,46 @@ pub fn cmj(s: u32, n: u32, pattern: u32) -> Vec2 {
     Vec2::new(x.min(ONE_MINUS_EPS), y.min(ONE_MINUS_EPS))
 }
 
+/// The grid cell of sample `s` of `n` of the CMJ pattern `pattern`: (column, row) in the
+/// m×k grid of [`cmj`] (m = round(√n), k = ⌈n/m⌉), and m, k. The `n` samples occupy `n`
+/// distinct cells; this is what [`progressive_key`] orders them by.
+pub fn cmj_cell(s: u32, n: u32, pattern: u32) -> (u32, u32, u32, u32) {
+    debug_assert!(s < n);
+    if n == 1 {
+        return (0, 0, 1, 1);
+    }
+    let m = ((n as f32).sqrt().round() as u32).max(1);
+    let k = n.div_ceil(m);
+    // The same permutation as in `cmj`, so the cell is the one the sample lies in.
+    let c = permute(s, m * k, pattern.wrapping_mul(0x5163_3e2d));
+    (c % m, c / m, m, k)
+}
+
+/// A progressive order of grid cells (column, row) in a grid whose sides are at most
+/// 2^`levels`: sorting cells by this key visits one cell in each quadrant first, then
+/// one in each sixteenth, and so on, so every prefix of the order is spread over the whole
+/// grid. It is the cell's Morton code (base-4 digits, coarsest first) with each digit
+/// XOR-scrambled by a hash of `scramble` and the digits above it (Owen's nested
+/// scrambling), then read backwards (the radical inverse). The scramble picks the cell
+/// within each block at random, so on a 2^L×2^L grid each position in the order is a
+/// uniformly random cell. Distinct cells get distinct keys.
+pub fn progressive_key(col: u32, row: u32, levels: u32, scramble: u32) -> u64 {
+    let mut morton = 0u64;
+    for b in 0..levels {
+        morton |= (((col >> b) & 1) as u64) << (2 * b) | (((row >> b) & 1) as u64) << (2 * b + 1);
+    }
+    let mut key = 0u64;
+    for level in (0..levels).rev() {
+        // Digit `level` (0 finest); the digits above it name the block it splits.
+        let digit = (morton >> (2 * level)) & 3;
+        let above = (morton >> (2 * level + 2)) as u32;
+        let flip = hash(&[scramble, level, above]) as u64 & 3;
+        // Coarsest digit last: reversed, it varies fastest along the order.
+        key |= (digit ^ flip) << (2 * (levels - 1 - level));
+    }
+    key
+}
+
 /// The largest f32 below 1.
 pub const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
 
@@ -186,6 +229,42 @@ mod tests {
                 "n {n}: top tenth holds {last_row}, expected {expect}"
             );
         }
+    }
+
+    #[test]
+    fn cmj_cell_holds_the_sample() {
+        for n in [1u32, 4, 10, 64, 128] {
+            for s in 0..n {
+                let (c, r, m, k) = cmj_cell(s, n, 99);
+                let p = cmj(s, n, 99);
+                assert_eq!(((p.x * m as f32) as u32, (p.y * k as f32) as u32), (c, r), "n {n} s {s}");
+            }
+        }
+    }
+
+    #[test]
+    fn progressive_prefixes_are_stratified() {
+        // 8×8 cells: the first 4 in key order lie one per quadrant, the first 16 one per
+        // 2×2 block, and every cell has its own key.
+        for scramble in 0..50u32 {
+            let mut cells: Vec<(u64, u32, u32)> =
+                (0..64).map(|i| (progressive_key(i % 8, i / 8, 3, mix(scramble)), i % 8, i / 8)).collect();
+            cells.sort();
+            cells.dedup_by_key(|c| c.0);
+            assert_eq!(cells.len(), 64);
+            let quads: std::collections::HashSet<_> = cells[..4].iter().map(|c| (c.1 / 4, c.2 / 4)).collect();
+            assert_eq!(quads.len(), 4);
+            let blocks: std::collections::HashSet<_> = cells[..16].iter().map(|c| (c.1 / 2, c.2 / 2)).collect();
+            assert_eq!(blocks.len(), 16);
+        }
+        // The scramble moves the first cell around: each of the 64 cells comes first
+        // about equally often over many scrambles.
+        let mut first = [0u32; 64];
+        for scramble in 0..6400u32 {
+            let best = (0..64u32).min_by_key(|&i| progressive_key(i % 8, i / 8, 3, mix(scramble))).unwrap();
+            first[best as usize] += 1;
+        }
+        assert!(first.iter().all(|&c| (60..=140).contains(&c)), "{first:?}");
     }
 
     #[test]
