@@ -181,9 +181,11 @@ struct Worker {
     queue: Vec<u32>,
     /// Per tile pixel: the eps of its decisions.
     eps: Vec<f32>,
-    /// DOF-aware AA: blur radius (pixels) of each depth probe of the last focus pass,
-    /// lens-ray prefix sums of the points of a pass, and each pixel's refinement lens count.
+    /// DOF-aware AA: blur radii (pixels) of each depth probe of the last focus pass (for
+    /// the eps, and for the lens count), lens-ray prefix sums of the points of a pass, and
+    /// each pixel's refinement lens count.
     blur: Vec<f32>,
+    blur_lens: Vec<f32>,
     starts: Vec<u64>,
     pixel_lens: Vec<u32>,
     stats: Stats,
@@ -436,7 +438,7 @@ impl Worker {
             + 16 * self.through.slot.capacity()
             + 21 * self.batches.point.capacity()
             + 16 * self.batches.start.capacity()
-            + 4 * (self.eps.capacity() + self.blur.capacity() + self.pixel_lens.capacity())
+            + 4 * (self.eps.capacity() + self.blur.capacity() + self.blur_lens.capacity() + self.pixel_lens.capacity())
             + 8 * self.starts.capacity()
             + 20 * self.points.ray.capacity()
             + 4 * (self.penumbra.capacity() + self.specular.capacity() + self.queue.capacity())
@@ -478,10 +480,13 @@ impl Worker {
     }
 
     /// Traces a pinhole depth probe through film position `film(i)` of each point
-    /// i < `n` and leaves the points' blur radii (pixels) in `self.blur`.
+    /// i < `n` and leaves the points' blur radii (pixels) in `self.blur` (for the eps)
+    /// and `self.blur_lens` (for the lens count).
     fn focus(&mut self, scene: &Scene, n: usize, film: impl Fn(u32) -> Vec2) {
-        self.blur.clear();
-        self.blur.resize(n, 0.0);
+        for b in [&mut self.blur, &mut self.blur_lens] {
+            b.clear();
+            b.resize(n, 0.0);
+        }
         let mut k0 = 0;
         while k0 < n as u64 {
             if self.cancelled() {
@@ -493,7 +498,7 @@ impl Worker {
             self.rays.clear();
             focus::generate(scene, k0..k1, &film, &mut self.rays);
             intersect::intersect(scene, &self.rays, &mut self.hits, &mut self.work, self.count, &mut self.order);
-            focus::blur(scene, &self.rays, &self.hits, k0 as usize, &mut self.blur);
+            focus::blur(scene, &self.rays, &self.hits, k0 as usize, &mut self.blur, &mut self.blur_lens);
             self.stats.dof_probe_rays += k1 - k0;
             self.lap(Stage::Focus, (k1 - k0) as usize, (k1 - k0) as usize, t);
             k0 = k1;
@@ -511,8 +516,8 @@ impl Worker {
         }
     }
 
-    /// The shared corner grid's pass over one grid tile; `blur` is the corners' blur with
-    /// DOF-aware AA.
+    /// The shared corner grid's pass over one grid tile; `blur` is the corners' blur (for
+    /// their lens counts) with DOF-aware AA.
     fn corner_grid_tile(&mut self, scene: &Scene, tile: &Tile, blur: Option<&[f32]>) {
         let dof = scene.settings.dof_samples;
         let gw = scene.settings.width + 1;
@@ -533,8 +538,16 @@ impl Worker {
     }
 
     /// Adaptive AA on one tile; `grid` is the shared corner grid, if corners are shared,
-    /// and `blur` the corners' blur radii (over the whole corner grid) with DOF-aware AA.
-    fn adaptive_tile(&mut self, scene: &Scene, tile: &Tile, grid: Option<&[Vec3]>, blur: Option<&[f32]>, eps: f32) {
+    /// and `blur` the corners' blur radii (over the whole corner grid; for the eps, and
+    /// for the lens counts) with DOF-aware AA.
+    fn adaptive_tile(
+        &mut self,
+        scene: &Scene,
+        tile: &Tile,
+        grid: Option<&[Vec3]>,
+        blur: Option<(&[f32], &[f32])>,
+        eps: f32,
+    ) {
         let s = &scene.settings;
         let AaMode::Adaptive { min_level, max_level, .. } = s.aa_mode else { return };
         let (np, dof) = (tile.pixels(), s.dof_samples);
@@ -547,7 +560,7 @@ impl Worker {
         self.eps.clear();
         self.pixel_lens.clear();
         let dof_aware = s.dof_radius.zip(blur);
-        if let Some((radius, blur)) = dof_aware {
+        if let Some((radius, (sharp, lens))) = dof_aware {
             self.focus(scene, np, |p| {
                 let p = p as usize;
                 Vec2::new((tile.x0 as usize + p % tw) as f32 + 0.5, (tile.y0 as usize + p / tw) as f32 + 0.5)
@@ -556,17 +569,16 @@ impl Worker {
                 return;
             }
             for p in 0..np {
-                let centre = self.blur[p];
-                let (lo, hi) =
-                    (0..4).map(|c| blur[corner(p, c)]).fold((centre, centre), |(lo, hi), r| (lo.min(r), hi.max(r)));
                 // The sharpest point in the pixel decides whether it needs anti-aliasing;
                 // the blurriest decides how many lens rays its refinement points need.
+                let lo = (0..4).map(|c| sharp[corner(p, c)]).fold(self.blur[p], f32::min);
+                let hi = (0..4).map(|c| lens[corner(p, c)]).fold(self.blur_lens[p], f32::max);
                 self.eps.push(focus::pixel_eps(eps, lo, radius));
                 self.pixel_lens.push(focus::lens_samples(hi, dof));
             }
-            let centre_blur = std::mem::take(&mut self.blur);
-            self.lens_starts(np, |p| focus::lens_samples(centre_blur[p], dof) as u64);
-            self.blur = centre_blur;
+            let centre_lens = std::mem::take(&mut self.blur_lens);
+            self.lens_starts(np, |p| focus::lens_samples(centre_lens[p], dof) as u64);
+            self.blur_lens = centre_lens;
         } else {
             self.eps.resize(np, eps);
         }
@@ -589,8 +601,8 @@ impl Worker {
             }
             None => {
                 self.begin_pass(4 * np);
-                if let Some((_, blur)) = dof_aware {
-                    self.lens_starts(4 * np, |k| focus::lens_samples(blur[corner(k / 4, k % 4)], dof) as u64);
+                if let Some((_, (_, lens))) = dof_aware {
+                    self.lens_starts(4 * np, |k| focus::lens_samples(lens[corner(k / 4, k % 4)], dof) as u64);
                 }
                 let starts = std::mem::take(&mut self.starts);
                 let lens = if dof_aware.is_some() { Lens::PerPoint(&starts) } else { Lens::Fixed(dof as u64) };
@@ -733,7 +745,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
 
     // DOF-aware AA: the blur of every pixel corner, from one depth probe each, before
     // any corner or pixel decides its lens rays.
-    let corner_blur = Mutex::new(vec![0.0f32; focus_tiles.len().min(1) * ((w + 1) * (h + 1)) as usize]);
+    let corners = focus_tiles.len().min(1) * ((w + 1) * (h + 1)) as usize;
+    let corner_blur = Mutex::new((vec![0.0f32; corners], vec![0.0f32; corners]));
     let focus_pass = for_tiles(
         &pool,
         &focus_tiles,
@@ -742,10 +755,14 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
             let tw = tile.x1 - tile.x0;
             wk.focus(scene, tile.pixels(), |i| Vec2::new((tile.x0 + i % tw) as f32, (tile.y0 + i / tw) as f32));
         },
-        |wk, tile| copy_tile(&mut corner_blur.lock().unwrap_or_else(|e| e.into_inner()), w + 1, tile, &wk.blur),
+        |wk, tile| {
+            let mut b = corner_blur.lock().unwrap_or_else(|e| e.into_inner());
+            copy_tile(&mut b.0, w + 1, tile, &wk.blur);
+            copy_tile(&mut b.1, w + 1, tile, &wk.blur_lens);
+        },
     );
-    let corner_blur = corner_blur.into_inner().unwrap_or_else(|e| e.into_inner());
-    let blur = s.dof_radius.is_some().then_some(&corner_blur[..]);
+    let (corner_sharp, corner_lens) = corner_blur.into_inner().unwrap_or_else(|e| e.into_inner());
+    let blur = s.dof_radius.is_some().then_some((&corner_sharp[..], &corner_lens[..]));
 
     // Adaptive AA with shared corners: trace the (W+1)×(H+1) corner grid once.
     let grid =
@@ -757,7 +774,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
         &pool,
         &grid_tiles,
         &ctx,
-        |wk, tile| wk.corner_grid_tile(scene, tile, blur),
+        |wk, tile| wk.corner_grid_tile(scene, tile, blur.map(|b| b.1)),
         |wk, tile| {
             let mut g = grid.lock().unwrap_or_else(|e| e.into_inner());
             let (radiance, heat) = &mut *g;

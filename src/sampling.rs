@@ -97,12 +97,23 @@ fn permute(mut i: u32, len: u32, pattern: u32) -> u32 {
 /// k = ⌈n/m⌉); when n = m·k they are also stratified in both 1D projections. Any n ≥ 1
 /// is allowed, and every cell is equally likely to be used, so estimates stay unbiased.
 pub fn cmj(s: u32, n: u32, pattern: u32) -> Vec2 {
+    cmj_cell(s, n, pattern).0
+}
+
+/// The m×k grid of an `n`-sample CMJ pattern: m = round(√n) columns, k = ⌈n/m⌉ rows.
+pub fn cmj_grid(n: u32) -> (u32, u32) {
+    let m = ((n as f32).sqrt().round() as u32).max(1);
+    (m, n.div_ceil(m))
+}
+
+/// [`cmj`]'s sample, and the grid cell it lies in (row-major index in the [`cmj_grid`]):
+/// what [`progressive_key`] orders samples by.
+pub fn cmj_cell(s: u32, n: u32, pattern: u32) -> (Vec2, u32) {
     debug_assert!(s < n);
     if n == 1 {
-        return Vec2::new(to_unit(hash(&[pattern, 1])), to_unit(hash(&[pattern, 2])));
+        return (Vec2::new(to_unit(hash(&[pattern, 1])), to_unit(hash(&[pattern, 2]))), 0);
     }
-    let m = ((n as f32).sqrt().round() as u32).max(1);
-    let k = n.div_ceil(m);
+    let (m, k) = cmj_grid(n);
     // Permute over all m·k cells, not just the first n: when n < m·k the n samples then
     // fill a random subset of the grid instead of always leaving the last row short,
     // which would bias every estimate.
@@ -114,44 +125,29 @@ pub fn cmj(s: u32, n: u32, pattern: u32) -> Vec2 {
     let x = ((s % m) as f32 + (sy as f32 + jx) / k as f32) / m as f32;
     let y = ((s / m) as f32 + (sx as f32 + jy) / m as f32) / k as f32;
     // Rounding in the divisions can give exactly 1.0; keep the half-open interval.
-    Vec2::new(x.min(ONE_MINUS_EPS), y.min(ONE_MINUS_EPS))
+    (Vec2::new(x.min(ONE_MINUS_EPS), y.min(ONE_MINUS_EPS)), s)
 }
 
-/// The grid cell of sample `s` of `n` of the CMJ pattern `pattern`: (column, row) in the
-/// m×k grid of [`cmj`] (m = round(√n), k = ⌈n/m⌉), and m, k. The `n` samples occupy `n`
-/// distinct cells; this is what [`progressive_key`] orders them by.
-pub fn cmj_cell(s: u32, n: u32, pattern: u32) -> (u32, u32, u32, u32) {
-    debug_assert!(s < n);
-    if n == 1 {
-        return (0, 0, 1, 1);
-    }
-    let m = ((n as f32).sqrt().round() as u32).max(1);
-    let k = n.div_ceil(m);
-    // The same permutation as in `cmj`, so the cell is the one the sample lies in.
-    let c = permute(s, m * k, pattern.wrapping_mul(0x5163_3e2d));
-    (c % m, c / m, m, k)
+/// Base-4 digits (Morton levels) needed for a grid of `cols`×`rows` cells.
+pub fn morton_levels(cols: u32, rows: u32) -> u32 {
+    32 - (cols.max(rows).max(1) - 1).leading_zeros()
 }
 
-/// A progressive order of grid cells (column, row) in a grid whose sides are at most
-/// 2^`levels`: sorting cells by this key visits one cell in each quadrant first, then
-/// one in each sixteenth, and so on, so every prefix of the order is spread over the whole
-/// grid. It is the cell's Morton code (base-4 digits, coarsest first) with each digit
-/// XOR-scrambled by a hash of `scramble` and the digits above it (Owen's nested
-/// scrambling), then read backwards (the radical inverse). The scramble picks the cell
-/// within each block at random, so on a 2^L×2^L grid each position in the order is a
-/// uniformly random cell. Distinct cells get distinct keys.
-pub fn progressive_key(col: u32, row: u32, levels: u32, scramble: u32) -> u64 {
-    let mut morton = 0u64;
-    for b in 0..levels {
-        morton |= (((col >> b) & 1) as u64) << (2 * b) | (((row >> b) & 1) as u64) << (2 * b + 1);
-    }
+/// A progressive order of the cells of a grid whose sides are at most 2^`levels`:
+/// sorting cells by this key visits one cell in each quadrant first, then one in each
+/// sixteenth, and so on, so every prefix of the order is spread over the whole grid.
+/// The key is the cell's Morton code (base-4 digits, coarsest first) XORed with the
+/// random digits of `shift` (a random digital shift, which moves every cell of the
+/// order by the same random offset within its block), read backwards (the radical
+/// inverse). On a 2^L×2^L grid each position of the order is then a uniformly random
+/// cell, so a prefix of any fixed length is an unbiased sample. Distinct cells get
+/// distinct keys.
+pub fn progressive_key(col: u32, row: u32, levels: u32, shift: u32) -> u64 {
     let mut key = 0u64;
-    for level in (0..levels).rev() {
-        // Digit `level` (0 finest); the digits above it name the block it splits.
-        let digit = (morton >> (2 * level)) & 3;
-        let above = (morton >> (2 * level + 2)) as u32;
-        let flip = hash(&[scramble, level, above]) as u64 & 3;
-        // Coarsest digit last: reversed, it varies fastest along the order.
+    for level in 0..levels {
+        // Digit `level` of the Morton code (0 finest) becomes digit levels-1-level of the key.
+        let digit = ((col >> level) & 1 | ((row >> level) & 1) << 1) as u64;
+        let flip = ((shift as u64) >> (2 * (level % 16))) & 3;
         key |= (digit ^ flip) << (2 * (levels - 1 - level));
     }
     key
@@ -234,10 +230,11 @@ mod tests {
     #[test]
     fn cmj_cell_holds_the_sample() {
         for n in [1u32, 4, 10, 64, 128] {
+            let (m, k) = cmj_grid(n);
             for s in 0..n {
-                let (c, r, m, k) = cmj_cell(s, n, 99);
-                let p = cmj(s, n, 99);
-                assert_eq!(((p.x * m as f32) as u32, (p.y * k as f32) as u32), (c, r), "n {n} s {s}");
+                let (p, c) = cmj_cell(s, n, 99);
+                assert_eq!(p, cmj(s, n, 99));
+                assert_eq!(((p.x * m as f32) as u32, (p.y * k as f32) as u32), (c % m, c / m), "n {n} s {s}");
             }
         }
     }
@@ -246,9 +243,12 @@ mod tests {
     fn progressive_prefixes_are_stratified() {
         // 8×8 cells: the first 4 in key order lie one per quadrant, the first 16 one per
         // 2×2 block, and every cell has its own key.
-        for scramble in 0..50u32 {
+        assert_eq!(morton_levels(8, 8), 3);
+        assert_eq!(morton_levels(11, 12), 4);
+        assert_eq!(morton_levels(1, 1), 0);
+        for shift in 0..50u32 {
             let mut cells: Vec<(u64, u32, u32)> =
-                (0..64).map(|i| (progressive_key(i % 8, i / 8, 3, mix(scramble)), i % 8, i / 8)).collect();
+                (0..64).map(|i| (progressive_key(i % 8, i / 8, 3, mix(shift)), i % 8, i / 8)).collect();
             cells.sort();
             cells.dedup_by_key(|c| c.0);
             assert_eq!(cells.len(), 64);
@@ -257,11 +257,11 @@ mod tests {
             let blocks: std::collections::HashSet<_> = cells[..16].iter().map(|c| (c.1 / 2, c.2 / 2)).collect();
             assert_eq!(blocks.len(), 16);
         }
-        // The scramble moves the first cell around: each of the 64 cells comes first
-        // about equally often over many scrambles.
+        // The shift moves the first cell around: each of the 64 cells comes first about
+        // equally often over many shifts.
         let mut first = [0u32; 64];
-        for scramble in 0..6400u32 {
-            let best = (0..64u32).min_by_key(|&i| progressive_key(i % 8, i / 8, 3, mix(scramble))).unwrap();
+        for shift in 0..6400u32 {
+            let best = (0..64u32).min_by_key(|&i| progressive_key(i % 8, i / 8, 3, mix(shift))).unwrap();
             first[best as usize] += 1;
         }
         assert!(first.iter().all(|&c| (60..=140).contains(&c)), "{first:?}");

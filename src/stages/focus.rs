@@ -2,15 +2,18 @@
 //! through each pixel corner and centre, the circle of confusion its first hit gives,
 //! and the mapping from that blur to a pixel's eps and to each point's lens samples.
 //!
-//! Reads film points; writes depth-probe rays, then one blur radius (pixels) per point.
-//! Touches no pixel state. The mapping is documented in docs/paper.md.
+//! Reads film points; writes depth-probe rays, then two blur radii (pixels) per point:
+//! the one its eps uses and the one its lens count uses. They differ only at mirrors and
+//! glass, whose surface may be in focus while what they show is not. Touches no pixel
+//! state. The mapping is documented in docs/paper.md.
 
 use glam::Vec2;
 use std::f32::consts::PI;
 use std::ops::Range;
 
-use crate::queue::{HitQueue, RayQueue};
-use crate::scene::Scene;
+use crate::geometry::NO_LIGHT;
+use crate::queue::{HitQueue, RayQueue, MISS};
+use crate::scene::{Material, Scene};
 
 /// Pinhole rays through the film positions `film(i)` of points `range`, for their first
 /// hit's depth only (they are intersected, never shaded). Slot: the point index minus
@@ -25,13 +28,25 @@ pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, ra
     }
 }
 
-/// The blur radius, in pixels, of every probe in `rays` from its hit in `hits`, written
-/// to `blur[first + slot]`.
-pub fn blur(scene: &Scene, rays: &RayQueue, hits: &HitQueue, first: usize, blur: &mut [f32]) {
+/// The blur radii, in pixels, of every probe in `rays` from its hit in `hits`, written to
+/// `sharp[first + slot]` (for the eps) and `lens[first + slot]` (for the lens count).
+/// Both are the circle of confusion of the first hit, except at a mirror or dielectric:
+/// there the surface (and its silhouette) may be in focus while the reflected or
+/// refracted image comes from far away, and through a curved surface the lens rays of
+/// one film point fan out to places the first-hit depth says nothing about. Such a
+/// probe keeps its own blur for the eps but asks for every lens sample.
+pub fn blur(scene: &Scene, rays: &RayQueue, hits: &HitQueue, first: usize, sharp: &mut [f32], lens: &mut [f32]) {
     for i in 0..rays.len() {
         // Depth along the view axis: the thin lens focuses planes, not spheres.
         let z = hits.t[i] * rays.dir(i).dot(scene.camera.forward);
-        blur[first + rays.slot[i] as usize] = coc_pixels(scene, z);
+        let r = coc_pixels(scene, z);
+        let specular = hits.prim[i] != MISS && {
+            let prim = &scene.accel.prims[hits.prim[i] as usize];
+            prim.light == NO_LIGHT && !matches!(scene.materials[prim.material as usize], Material::Diffuse { .. })
+        };
+        let at = first + rays.slot[i] as usize;
+        sharp[at] = r;
+        lens[at] = if specular { f32::INFINITY } else { r };
     }
 }
 

@@ -9,13 +9,18 @@
 //! stopped, then sent to the film in the fixed-n order, scaled by n / (rays traced): a
 //! point that never stops early gives the fixed-n sums bit for bit.
 
-use super::shade::{diffuse_surface, light_pattern, quad_light_samples, SHADOW_TMAX_SCALE};
+use super::shade::{diffuse_surface, quad_light_samples, SHADOW_TMAX_SCALE};
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
-use crate::sampling::{cmj_cell, dim, hash, progressive_key};
+use crate::sampling::{cmj_grid, dim, hash, morton_levels, progressive_key};
 use crate::scene::{PenumbraStop, Scene};
 
 /// Two-sided 95% normal quantile of the Wilson interval.
 const Z95: f32 = 1.959_964;
+
+/// Points a batch takes rays from: the first this many still active. A point stays in
+/// this window from its first batch until it stops, so its rays are reread while they
+/// are still in cache (a wave's whole penumbra queue is megabytes).
+const WINDOW: usize = 64;
 
 /// Early-stopping state of one wave's penumbra points: plain data, one entry per point
 /// (in penumbra-list order) or per ray of the wave's full penumbra ray queue.
@@ -36,8 +41,8 @@ pub struct Batches {
     /// The full queue's rays in the order batches take them: each point's range sorted
     /// by the progressive key of the ray's light cell.
     pub order: Vec<u32>,
-    /// Per ray of the full queue: its progressive key (scratch for the sort).
-    key: Vec<u64>,
+    /// Scratch for the sort: (progressive key, ray) of one point's rays.
+    keys: Vec<(u64, u32)>,
 }
 
 /// Generates the shadow rays of every penumbra point (indices into `points`), in the
@@ -58,33 +63,32 @@ pub fn penumbra(
             v.clear();
         }
         b.lit.clear();
-        b.key.clear();
     }
-    let count = scene.settings.shadow_samples;
+    let (cols, rows) = cmj_grid(scene.settings.shadow_samples);
+    let levels = morton_levels(cols, rows);
     for (i, &k) in penumbra.iter().enumerate() {
         let k = k as usize;
-        let first = shadow.len() as u32;
         if let Some(b) = batches.as_deref_mut() {
-            b.start.push(first);
+            b.start.push(shadow.len() as u32);
         }
         let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
         let li = points.light[k] as usize;
-        let (pattern, scramble) = (light_pattern(surf.key, li), hash(&[surf.key, li as u32, dim::STOP_ORDER]));
-        quad_light_samples(scene, &surf, li, |j, wi, dist, l| {
-            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l);
+        let shift = hash(&[surf.key, li as u32, dim::STOP_ORDER]);
+        if let Some(b) = batches.as_deref_mut() {
+            b.keys.clear();
+        }
+        quad_light_samples(scene, &surf, li, |cell, wi, dist, l| {
             if let Some(b) = batches.as_deref_mut() {
-                let (col, row, m, rows) = cmj_cell(j, count, pattern);
-                let levels = 32 - (m.max(rows) - 1).leading_zeros();
-                b.key.push(progressive_key(col, row, levels, scramble));
+                let key = progressive_key(cell % cols, cell / cols, levels, shift);
+                b.keys.push((key, shadow.len() as u32));
                 b.point.push(i as u32);
             }
+            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l);
         });
         if let Some(b) = batches.as_deref_mut() {
-            let end = shadow.len() as u32;
-            b.order.extend(first..end);
-            let key = &b.key;
-            b.order[first as usize..].sort_unstable_by_key(|&r| key[r as usize]);
-            if end > first {
+            b.keys.sort_unstable();
+            b.order.extend(b.keys.iter().map(|&(_, r)| r));
+            if !b.keys.is_empty() {
                 b.active.push(i as u32);
             }
         }
@@ -97,21 +101,37 @@ pub fn penumbra(
     }
 }
 
-/// Writes the next batch: up to `size` more rays of every active point, in progressive
-/// order, copied from `full` with their slot replaced by their index in `full` (so the
-/// occlusion stage's film entries name the rays that got through).
+/// Writes the next batch: up to `size` more rays of each of the first [`WINDOW`] active
+/// points, in progressive order, copied from `full` with their slot replaced by their
+/// index in `full` (so the occlusion stage's film entries name the rays that got
+/// through). Empty when every point has stopped.
 pub fn next_batch(b: &mut Batches, size: u32, full: &ShadowQueue, batch: &mut ShadowQueue) {
     batch.clear();
-    for &p in &b.active {
+    for &p in b.active.iter().take(WINDOW) {
         let p = p as usize;
         let (start, len) = (b.start[p], b.start[p + 1] - b.start[p]);
         let take = size.min(len - b.taken[p]);
-        for &r in &b.order[(start + b.taken[p]) as usize..(start + b.taken[p] + take) as usize] {
-            let r = r as usize;
-            batch.push(full.origin(r), full.dir(r), full.tmax[r], r as u32, full.radiance(r));
-        }
+        let from = (start + b.taken[p]) as usize;
+        gather(full, &b.order[from..from + take as usize], batch);
         b.taken[p] += take;
     }
+}
+
+/// Appends rays `ids` of `full` to `batch`, field by field, each with its index in
+/// `full` as its slot.
+fn gather(full: &ShadowQueue, ids: &[u32], batch: &mut ShadowQueue) {
+    let field = |dst: &mut Vec<f32>, src: &[f32]| dst.extend(ids.iter().map(|&r| src[r as usize]));
+    field(&mut batch.ox, &full.ox);
+    field(&mut batch.oy, &full.oy);
+    field(&mut batch.oz, &full.oz);
+    field(&mut batch.dx, &full.dx);
+    field(&mut batch.dy, &full.dy);
+    field(&mut batch.dz, &full.dz);
+    field(&mut batch.tmax, &full.tmax);
+    field(&mut batch.lr, &full.lr);
+    field(&mut batch.lg, &full.lg);
+    field(&mut batch.lb, &full.lb);
+    batch.slot.extend_from_slice(ids);
 }
 
 /// Records a traced batch (`through`: the occlusion stage's film entries, slots naming
@@ -122,18 +142,20 @@ pub fn record(b: &mut Batches, through: &FilmQueue, stop: PenumbraStop) -> u64 {
         b.lit[r as usize] = true;
         b.visible[b.point[r as usize] as usize] += 1;
     }
-    let mut early = 0;
-    let (start, taken, visible) = (&b.start, &b.taken, &b.visible);
-    b.active.retain(|&p| {
-        let p = p as usize;
-        let (n, m) = (start[p + 1] - start[p], taken[p]);
-        if m == n {
-            return false;
-        }
-        let settled = wilson_half_width(visible[p], m) < stop.tolerance;
+    // Only the window's points took rays; the others wait their turn.
+    let window = b.active.len().min(WINDOW);
+    let (mut early, mut kept) = (0, 0);
+    for i in 0..window {
+        let p = b.active[i] as usize;
+        let (n, m) = (b.start[p + 1] - b.start[p], b.taken[p]);
+        let settled = m < n && wilson_half_width(b.visible[p], m) < stop.tolerance;
         early += settled as u64;
-        !settled
-    });
+        if m < n && !settled {
+            b.active[kept] = p as u32;
+            kept += 1;
+        }
+    }
+    b.active.drain(kept..window);
     early
 }
 

@@ -10,7 +10,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::NO_LIGHT;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
-use crate::sampling::{cmj, dim, hash};
+use crate::sampling::{cmj_cell, dim, hash};
 use crate::scene::{Light, Material, Scene, ShadowMode};
 
 /// Shadow rays stop this fraction short of the light, so a surface the light lies on
@@ -89,7 +89,8 @@ pub fn light_pattern(key: u32, li: usize) -> u32 {
 }
 
 /// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
-/// (both cosines positive), calling `f(sample index, direction, distance, contribution)`.
+/// (both cosines positive), calling `f(cell, direction, distance, contribution)`, where
+/// `cell` is the sample's cell in the pattern's grid ([`crate::sampling::cmj_cell`]).
 /// Contributions are already divided by the sample count, so unoccluded ones sum to the
 /// estimate.
 #[inline]
@@ -99,7 +100,7 @@ pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
     let pattern = light_pattern(surf.key, li);
     let scale = area / count as f32;
     for j in 0..count {
-        let uv = cmj(j, count, pattern);
+        let (uv, cell) = cmj_cell(j, count, pattern);
         let to = corner + uv.x * u + uv.y * v - surf.o;
         let dist2 = to.length_squared();
         let dist = dist2.sqrt();
@@ -110,7 +111,7 @@ pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
             continue;
         }
         let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
-        f(j, wi, dist, surf.w * brdf * radiance * (cos_x * cos_y * scale / dist2));
+        f(cell, wi, dist, surf.w * brdf * radiance * (cos_x * cos_y * scale / dist2));
     }
 }
 
