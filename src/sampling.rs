@@ -133,24 +133,109 @@ pub fn morton_levels(cols: u32, rows: u32) -> u32 {
     32 - (cols.max(rows).max(1) - 1).leading_zeros()
 }
 
-/// A progressive order of the cells of a grid whose sides are at most 2^`levels`:
-/// sorting cells by this key visits one cell in each quadrant first, then one in each
-/// sixteenth, and so on, so every prefix of the order is spread over the whole grid.
-/// The key is the cell's Morton code (base-4 digits, coarsest first) XORed with the
-/// random digits of `shift` (a random digital shift, which moves every cell of the
-/// order by the same random offset within its block), read backwards (the radical
-/// inverse). On a 2^L×2^L grid each position of the order is then a uniformly random
-/// cell, so a prefix of any fixed length is an unbiased sample. Distinct cells get
-/// distinct keys.
-pub fn progressive_key(col: u32, row: u32, levels: u32, shift: u32) -> u64 {
-    let mut key = 0u64;
-    for level in 0..levels {
-        // Digit `level` of the Morton code (0 finest) becomes digit levels-1-level of the key.
-        let digit = ((col >> level) & 1 | ((row >> level) & 1) << 1) as u64;
-        let flip = ((shift as u64) >> (2 * (level % 16))) & 3;
-        key |= (digit ^ flip) << (2 * (levels - 1 - level));
+/// The cell of a `cols`×`rows` grid over the unit square that contains the centre of
+/// cell (`col`, `row`) of a 2^`levels` × 2^`levels` grid over the same square, with
+/// `levels` = [`morton_levels`]: distinct cells land in distinct cells, and the halves,
+/// quarters, … of this grid are those of the square, whatever `cols` and `rows` are
+/// (11×12 cells for 128 samples).
+pub fn progressive_cell(col: u32, row: u32, cols: u32, rows: u32, levels: u32) -> (u32, u32) {
+    let side = 1u64 << levels;
+    let at = |i: u32, n: u32| ((2 * i as u64 + 1) * side / (2 * n as u64)) as u32;
+    (at(col, cols), at(row, rows))
+}
+
+/// One item of [`progressive_order`]: its cell on the 2^levels grid and what it stands
+/// for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Progressive {
+    /// Cell column on the 2^levels grid ([`progressive_cell`]).
+    pub x: u32,
+    /// Cell row.
+    pub y: u32,
+    /// The caller's index.
+    pub item: u32,
+    /// The cell's Morton code (filled in by [`progressive_order`]).
+    pub morton: u32,
+}
+
+/// Sorts `items` (distinct cells of a 2^`levels` grid) into a progressive order: one in
+/// each quarter of the square first, then one in each sixteenth, and so on, so every
+/// prefix is spread over the whole square. `scratch` is reused memory.
+///
+/// From the finest level up, the four sub-blocks of each block are merged round-robin:
+/// the first item of each (in a sub-block order scrambled by a hash of `scramble` and the
+/// block: Owen's nested scrambling, so each block draws its own), then the second of
+/// each, and so on. On a full 2^L×2^L grid this is the scrambled radical-inverse order,
+/// where each position is a uniformly random cell, so a prefix of any fixed length is an
+/// unbiased sample. On a sparse one (the cells of an 11×12 grid among 16×16) a sub-block
+/// that runs out is skipped, so the quarters still alternate. Items start in Morton
+/// order, which keeps every block contiguous; each merge is linear. Items must have
+/// distinct cells and an `item` other than `u32::MAX`.
+pub fn progressive_order(items: &mut [Progressive], levels: u32, scramble: u32, scratch: &mut Vec<Progressive>) {
+    // Spreads the low 16 bits of v to the even bits (the classic magic-number interleave).
+    let spread = |v: u32| {
+        let mut v = v & 0xffff;
+        v = (v | v << 8) & 0x00ff_00ff;
+        v = (v | v << 4) & 0x0f0f_0f0f;
+        v = (v | v << 2) & 0x3333_3333;
+        (v | v << 1) & 0x5555_5555
+    };
+    for it in items.iter_mut() {
+        it.morton = spread(it.x) | spread(it.y) << 1;
     }
-    key
+    let n = items.len();
+    let cells = 1usize << (2 * levels);
+    if cells <= 8 * n {
+        // Dense enough to place each item at its Morton code instead of sorting.
+        let empty = Progressive { item: u32::MAX, ..Progressive::default() };
+        scratch.clear();
+        scratch.resize(cells, empty);
+        for it in items.iter() {
+            scratch[it.morton as usize] = *it;
+        }
+        let mut k = 0;
+        for it in scratch.iter().filter(|it| it.item != u32::MAX) {
+            items[k] = *it;
+            k += 1;
+        }
+    } else {
+        items.sort_unstable_by_key(|it| it.morton);
+    }
+    for level in 0..levels {
+        let (shift, digit) = (2 * (level + 1), 2 * level);
+        let mut a = 0;
+        while a < n {
+            let block = items[a].morton >> shift;
+            let mut b = a + 1;
+            while b < n && items[b].morton >> shift == block {
+                b += 1;
+            }
+            // The block's four sub-blocks are contiguous runs, in quarter order.
+            let mut bounds = [a; 5];
+            let mut i = a;
+            for q in 0..4 {
+                while i < b && (items[i].morton >> digit) & 3 == q as u32 {
+                    i += 1;
+                }
+                bounds[q + 1] = i;
+            }
+            if b - a > 1 {
+                let flip = (mix(scramble ^ block.wrapping_mul(0x9e37_79b9) ^ level) & 3) as usize;
+                let longest = (0..4).map(|q| bounds[q + 1] - bounds[q]).max().unwrap_or(0);
+                scratch.clear();
+                for t in 0..longest {
+                    for q in 0..4 {
+                        let at = bounds[q ^ flip] + t;
+                        if at < bounds[(q ^ flip) + 1] {
+                            scratch.push(items[at]);
+                        }
+                    }
+                }
+                items[a..b].copy_from_slice(scratch);
+            }
+            a = b;
+        }
+    }
 }
 
 /// The largest f32 below 1.
@@ -239,32 +324,61 @@ mod tests {
         }
     }
 
+    /// The progressive order of a `cols`×`rows` grid: (col, row) per position.
+    fn order(cols: u32, rows: u32, scramble: u32) -> Vec<(u32, u32)> {
+        let levels = morton_levels(cols, rows);
+        let mut items: Vec<Progressive> = (0..cols * rows)
+            .map(|i| {
+                let (x, y) = progressive_cell(i % cols, i / cols, cols, rows, levels);
+                Progressive { x, y, item: i, morton: 0 }
+            })
+            .collect();
+        progressive_order(&mut items, levels, scramble, &mut Vec::new());
+        items.iter().map(|it| (it.item % cols, it.item / cols)).collect()
+    }
+
     #[test]
     fn progressive_prefixes_are_stratified() {
-        // 8×8 cells: the first 4 in key order lie one per quadrant, the first 16 one per
-        // 2×2 block, and every cell has its own key.
         assert_eq!(morton_levels(8, 8), 3);
         assert_eq!(morton_levels(11, 12), 4);
         assert_eq!(morton_levels(1, 1), 0);
-        for shift in 0..50u32 {
-            let mut cells: Vec<(u64, u32, u32)> =
-                (0..64).map(|i| (progressive_key(i % 8, i / 8, 3, mix(shift)), i % 8, i / 8)).collect();
-            cells.sort();
-            cells.dedup_by_key(|c| c.0);
-            assert_eq!(cells.len(), 64);
-            let quads: std::collections::HashSet<_> = cells[..4].iter().map(|c| (c.1 / 4, c.2 / 4)).collect();
-            assert_eq!(quads.len(), 4);
-            let blocks: std::collections::HashSet<_> = cells[..16].iter().map(|c| (c.1 / 2, c.2 / 2)).collect();
-            assert_eq!(blocks.len(), 16);
+        let distinct = |cells: &[(u32, u32)], f: &dyn Fn(&(u32, u32)) -> (u32, u32)| {
+            cells.iter().map(f).collect::<std::collections::HashSet<_>>().len()
+        };
+        for scramble in 0..50u32 {
+            // 8×8: the first 4 lie one per quarter, the first 16 one per 2×2 block.
+            let o = order(8, 8, mix(scramble));
+            assert_eq!(distinct(&o, &|c| *c), 64, "a permutation");
+            assert_eq!(distinct(&o[..4], &|c| (c.0 / 4, c.1 / 4)), 4);
+            assert_eq!(distinct(&o[..16], &|c| (c.0 / 2, c.1 / 2)), 16);
+            // 11×12 (128 samples' grid): the first 4 lie one per quarter of the square
+            // (by cell centre), and the first 16 four per quarter.
+            let o = order(11, 12, mix(scramble));
+            assert_eq!(distinct(&o, &|c| *c), 132);
+            let quarter = |c: &(u32, u32)| ((2 * c.0 + 1) / 11, (2 * c.1 + 1) / 12);
+            assert_eq!(distinct(&o[..4], &quarter), 4, "scramble {scramble}");
+            for q in 0..4 {
+                let n = o[..16].iter().filter(|c| quarter(c) == (q % 2, q / 2)).count();
+                assert_eq!(n, 4, "scramble {scramble}: quarter {q} has {n} of the first 16");
+            }
         }
-        // The shift moves the first cell around: each of the 64 cells comes first about
-        // equally often over many shifts.
+        // The scramble moves the first cell around: each of the 64 cells comes first
+        // about equally often over many scrambles.
         let mut first = [0u32; 64];
-        for shift in 0..6400u32 {
-            let best = (0..64u32).min_by_key(|&i| progressive_key(i % 8, i / 8, 3, mix(shift))).unwrap();
-            first[best as usize] += 1;
+        for scramble in 0..6400u32 {
+            let c = order(8, 8, mix(scramble))[0];
+            first[(c.1 * 8 + c.0) as usize] += 1;
         }
         assert!(first.iter().all(|&c| (60..=140).contains(&c)), "{first:?}");
+        // Each 2×2 block draws its own first cell: the first 16 do not all sit at the same
+        // offset in their blocks (which a single digital shift would give).
+        let same = (0..200u32)
+            .filter(|&scramble| {
+                let o = order(8, 8, mix(scramble));
+                o[..16].iter().all(|c| (c.0 % 2, c.1 % 2) == (o[0].0 % 2, o[0].1 % 2))
+            })
+            .count();
+        assert!(same < 5, "{same} of 200 scrambles put the first 16 at one offset");
     }
 
     #[test]

@@ -30,8 +30,9 @@ pub const MAX_DEPTH: u32 = 64;
 pub const MAX_LEVEL: u32 = 16;
 
 /// Bytes each pixel costs while rendering and writing: film sum, output buffers, the
-/// shared corner grid with its heat counters, and the per-pixel heat counters.
-pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4 + 24 + 16;
+/// shared corner grid with its heat counters, the per-pixel heat counters, and the two
+/// blur radii per corner of DOF-aware anti-aliasing.
+pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4 + 24 + 16 + 8;
 
 /// Where a scene's text came from: mesh paths are relative to `dir`.
 #[derive(Clone, Debug)]

@@ -24,7 +24,7 @@ pub enum Lens<'a> {
     PerPoint(&'a [u64]),
 }
 
-impl Lens<'_> {
+impl<'a> Lens<'a> {
     /// Rays of a pass over `points` points.
     pub fn total(&self, points: usize) -> u64 {
         match *self {
@@ -44,6 +44,46 @@ impl Lens<'_> {
                 ((p as u32), (k - starts[p]) as u32, (starts[p + 1] - starts[p]) as u32)
             }
         }
+    }
+
+    /// Rays `ks` in order, each as [`Lens::split`] gives it: one search for the first,
+    /// then a walk, since the driver hands out consecutive ranges.
+    pub fn rays(self, ks: Range<u64>) -> LensRays<'a> {
+        let (point, ray, count) = if ks.is_empty() { (0, 0, 0) } else { self.split(ks.start) };
+        LensRays { lens: self, left: ks.end.saturating_sub(ks.start), point, ray, count }
+    }
+}
+
+/// The iterator of [`Lens::rays`]: (point, ray of the point, the point's ray count).
+#[derive(Clone, Debug)]
+pub struct LensRays<'a> {
+    lens: Lens<'a>,
+    left: u64,
+    point: u32,
+    ray: u32,
+    count: u32,
+}
+
+impl Iterator for LensRays<'_> {
+    type Item = (u32, u32, u32);
+
+    #[inline]
+    fn next(&mut self) -> Option<(u32, u32, u32)> {
+        if self.left == 0 {
+            return None;
+        }
+        self.left -= 1;
+        let out = (self.point, self.ray, self.count);
+        self.ray += 1;
+        if self.ray == self.count && self.left > 0 {
+            self.point += 1;
+            self.ray = 0;
+            if let Lens::PerPoint(starts) = self.lens {
+                let p = self.point as usize;
+                self.count = (starts[p + 1] - starts[p]) as u32;
+            }
+        }
+        Some(out)
     }
 }
 
@@ -122,8 +162,7 @@ fn corner_ray(scene: &Scene, ci: u32, lens: u32, count: u32, slot: u32, rays: &m
 /// the rectangle). Slot: the corner's index in the rectangle.
 pub fn generate_corner_grid(scene: &Scene, grid: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     let gw = grid.x1 - grid.x0;
-    for k in ks {
-        let (slot, l, count) = lens.split(k);
+    for (slot, l, count) in lens.rays(ks) {
         let (cx, cy) = (grid.x0 + slot % gw, grid.y0 + slot / gw);
         corner_ray(scene, corner_index(scene, cx, cy), l, count, slot, rays);
     }
@@ -134,8 +173,7 @@ pub fn generate_corner_grid(scene: &Scene, grid: &Tile, lens: Lens, ks: Range<u6
 /// 2 bottom-left, 3 bottom-right), each with its lens rays by `lens`. Slot: the point.
 pub fn generate_pixel_corners(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     let tw = tile.x1 - tile.x0;
-    for k in ks {
-        let (slot, l, count) = lens.split(k);
+    for (slot, l, count) in lens.rays(ks) {
         let (p, c) = (slot / 4, slot % 4);
         let (x, y) = (tile.x0 + p % tw + (c & 1), tile.y0 + p / tw + (c >> 1));
         corner_ray(scene, corner_index(scene, x, y), l, count, slot, rays);
@@ -147,8 +185,7 @@ pub fn generate_pixel_corners(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<
 pub fn generate_centres(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     let s = &scene.settings;
     let tw = tile.x1 - tile.x0;
-    for k in ks {
-        let (slot, l, count) = lens.split(k);
+    for (slot, l, count) in lens.rays(ks) {
         let w = Vec3::splat(1.0 / count as f32);
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
@@ -175,8 +212,7 @@ pub fn generate_refine(
     let s = &scene.settings;
     let n = 1u32 << level;
     let tw = tile.x1 - tile.x0;
-    for k in ks {
-        let (i, j, per) = lens.split(k);
+    for (i, j, per) in lens.rays(ks) {
         let slot = pixels[i as usize];
         let count = per >> level;
         let w = Vec3::splat(1.0 / (n as f32 * count as f32));
@@ -186,5 +222,27 @@ pub fn generate_refine(
         let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, hash(&[s.seed, pixel, level, dim::REFINE]));
         let key = hash(&[s.seed, pixel, level, j, dim::REFINE]);
         push(scene, film, hash(&[s.seed, pixel, level, sample, dim::LENS]), l, count, slot, w, key, rays);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lens_rays_walk_as_split_says() {
+        let starts = [0u64, 1, 4, 4 + 70, 4 + 70 + 2];
+        for lens in [Lens::Fixed(3), Lens::Fixed(1), Lens::PerPoint(&starts)] {
+            let total = lens.total(4);
+            for a in 0..total {
+                for b in a..=total.min(a + 9) {
+                    let walked: Vec<_> = lens.rays(a..b).collect();
+                    let split: Vec<_> = (a..b).map(|k| lens.split(k)).collect();
+                    assert_eq!(walked, split, "{lens:?} {a}..{b}");
+                }
+            }
+        }
+        assert_eq!(Lens::PerPoint(&starts).split(3), (1, 2, 3));
+        assert_eq!(Lens::PerPoint(&starts).split(4), (2, 0, 70));
     }
 }

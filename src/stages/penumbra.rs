@@ -3,7 +3,8 @@
 //! modes agree wherever the test is right). Writes a shadow queue for the occlusion stage.
 //!
 //! With early stopping (`render.shadows.tolerance` > 0, the paper's §5 future work) a
-//! point's rays are traced in batches, in a progressive order of their light cells, and
+//! point's rays are traced in batches, in a progressive (Owen-scrambled radical-inverse)
+//! order of their light cells, and
 //! the point stops once the 95% Wilson score interval of its visible fraction is
 //! narrower than ± tolerance. The contributions are held back until every point has
 //! stopped, then sent to the film in the fixed-n order, scaled by n / (rays traced): a
@@ -11,7 +12,7 @@
 
 use super::shade::{diffuse_surface, quad_light_samples, SHADOW_TMAX_SCALE};
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
-use crate::sampling::{cmj_grid, dim, hash, morton_levels, progressive_key};
+use crate::sampling::{cmj_grid, dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
 
 /// Two-sided 95% normal quantile of the Wilson interval.
@@ -41,8 +42,10 @@ pub struct Batches {
     /// The full queue's rays in the order batches take them: each point's range sorted
     /// by the progressive key of the ray's light cell.
     pub order: Vec<u32>,
-    /// Scratch for the sort: (progressive key, ray) of one point's rays.
-    keys: Vec<(u64, u32)>,
+    /// Scratch for the order: one point's rays with their light cells, and the merge
+    /// buffer.
+    cells: Vec<Progressive>,
+    merge: Vec<Progressive>,
 }
 
 /// Generates the shadow rays of every penumbra point (indices into `points`), in the
@@ -73,22 +76,22 @@ pub fn penumbra(
         }
         let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
         let li = points.light[k] as usize;
-        let shift = hash(&[surf.key, li as u32, dim::STOP_ORDER]);
+        let scramble = hash(&[surf.key, li as u32, dim::STOP_ORDER]);
         if let Some(b) = batches.as_deref_mut() {
-            b.keys.clear();
+            b.cells.clear();
         }
         quad_light_samples(scene, &surf, li, |cell, wi, dist, l| {
             if let Some(b) = batches.as_deref_mut() {
-                let key = progressive_key(cell % cols, cell / cols, levels, shift);
-                b.keys.push((key, shadow.len() as u32));
+                let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
+                b.cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
                 b.point.push(i as u32);
             }
             shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l);
         });
         if let Some(b) = batches.as_deref_mut() {
-            b.keys.sort_unstable();
-            b.order.extend(b.keys.iter().map(|&(_, r)| r));
-            if !b.keys.is_empty() {
+            progressive_order(&mut b.cells, levels, scramble, &mut b.merge);
+            b.order.extend(b.cells.iter().map(|c| c.item));
+            if !b.cells.is_empty() {
                 b.active.push(i as u32);
             }
         }
