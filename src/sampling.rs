@@ -193,10 +193,8 @@ pub fn progressive_order(items: &mut [Progressive], levels: u32, scramble: u32, 
         for it in items.iter() {
             scratch[it.morton as usize] = *it;
         }
-        let mut k = 0;
-        for it in scratch.iter().filter(|it| it.item != u32::MAX) {
+        for (k, it) in scratch.iter().filter(|it| it.item != u32::MAX).enumerate() {
             items[k] = *it;
-            k += 1;
         }
     } else {
         items.sort_unstable_by_key(|it| it.morton);
@@ -342,7 +340,8 @@ mod tests {
         assert_eq!(morton_levels(8, 8), 3);
         assert_eq!(morton_levels(11, 12), 4);
         assert_eq!(morton_levels(1, 1), 0);
-        let distinct = |cells: &[(u32, u32)], f: &dyn Fn(&(u32, u32)) -> (u32, u32)| {
+        type Cell = (u32, u32);
+        let distinct = |cells: &[Cell], f: &dyn Fn(&Cell) -> Cell| {
             cells.iter().map(f).collect::<std::collections::HashSet<_>>().len()
         };
         for scramble in 0..50u32 {
