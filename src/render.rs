@@ -3,9 +3,12 @@
 //!
 //! Uniform AA is one pass per tile. Adaptive AA (paper §2.1) is a corner-grid pass over
 //! the whole image (when corners are shared), then per tile a centre pass, the corner
-//! decision, and one pass of the refinement queue per level.
+//! decision, and one pass of the refinement queue per level (`render/adaptive.rs`). DOF-aware AA
+//! adds a pass of depth probes over the corner grid first.
 
-use glam::Vec3;
+mod adaptive;
+
+use glam::{Vec2, Vec3};
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -14,7 +17,8 @@ use std::time::Instant;
 use crate::geometry::Traversal;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
 use crate::scene::{AaMode, Light, Scene, ShadowMode};
-use crate::stages::refine::{self, RefineState};
+use crate::stages::penumbra::Batches;
+use crate::stages::refine::RefineState;
 use crate::stages::{camera, film, intersect, penumbra, scatter, shade, shadow, shadow_corner, Tile};
 use crate::stats::{Stage, Stats};
 use crate::{Error, Result};
@@ -153,6 +157,11 @@ struct Worker {
     points: ShadowPointQueue,
     penumbra: Vec<u32>,
     penumbra_rays: ShadowQueue,
+    /// Penumbra early stopping: per-point state, the batch being traced, and the
+    /// occlusion stage's output for it.
+    batches: Batches,
+    batch: ShadowQueue,
+    through: FilmQueue,
     specular: Vec<u32>,
     film: FilmQueue,
     /// Accumulated radiance per slot of the current pass.
@@ -172,6 +181,15 @@ struct Worker {
     corner_mean: Vec<Vec3>,
     refine: RefineState,
     queue: Vec<u32>,
+    /// Per tile pixel: the eps of its decisions.
+    eps: Vec<f32>,
+    /// DOF-aware AA: blur radii (pixels) of each depth probe of the last focus pass (for
+    /// the eps, and for the lens count), lens-ray prefix sums of the points of a pass, and
+    /// each pixel's refinement lens count.
+    blur: Vec<f32>,
+    blur_lens: Vec<f32>,
+    starts: Vec<u64>,
+    pixel_lens: Vec<u32>,
     stats: Stats,
     /// Traversal work of the stage being run.
     work: Traversal,
@@ -308,21 +326,61 @@ impl Worker {
             }
             t = self.lap(Stage::ShadowCorner, self.points.len(), self.penumbra.len(), t);
 
-            penumbra::penumbra(scene, &self.rays, &self.hits, &self.points, &self.penumbra, &mut self.penumbra_rays);
-            let lit = shadow::occlusion(
+            let stop = scene.settings.penumbra_stop;
+            penumbra::penumbra(
                 scene,
-                &self.penumbra_rays,
-                &mut self.film,
-                &mut self.work,
-                self.count,
-                &mut self.order,
+                &self.rays,
+                &self.hits,
+                &self.points,
+                &self.penumbra,
+                &mut self.penumbra_rays,
+                stop.is_some().then_some(&mut self.batches),
             );
             let p = &mut self.stats.peak;
             p.penumbra_rays = p.penumbra_rays.max(self.penumbra_rays.len() as u64);
-            self.stats.penumbra_rays += self.penumbra_rays.len() as u64;
-            for &s in &self.penumbra_rays.slot {
-                self.slot_heat.rays[s as usize] += 1.0;
-            }
+            let lit = match stop {
+                None => {
+                    for &s in &self.penumbra_rays.slot {
+                        self.slot_heat.rays[s as usize] += 1.0;
+                    }
+                    self.stats.penumbra_rays += self.penumbra_rays.len() as u64;
+                    shadow::occlusion(
+                        scene,
+                        &self.penumbra_rays,
+                        &mut self.film,
+                        &mut self.work,
+                        self.count,
+                        &mut self.order,
+                    )
+                }
+                Some(stop) => {
+                    // Batches until every point has stopped; the film gets the
+                    // contributions afterwards, in the fixed-n order.
+                    loop {
+                        penumbra::next_batch(&mut self.batches, stop.batch, &self.penumbra_rays, &mut self.batch);
+                        if self.batch.is_empty() {
+                            break;
+                        }
+                        self.through.clear();
+                        shadow::occlusion(
+                            scene,
+                            &self.batch,
+                            &mut self.through,
+                            &mut self.work,
+                            self.count,
+                            &mut self.order,
+                        );
+                        self.stats.penumbra_stopped += penumbra::record(&mut self.batches, &self.through, stop);
+                        self.stats.penumbra_rays += self.batch.len() as u64;
+                        for &r in &self.batch.slot {
+                            self.slot_heat.rays[self.penumbra_rays.slot[r as usize] as usize] += 1.0;
+                        }
+                    }
+                    let traced: u32 = self.batches.taken.iter().sum();
+                    self.stats.penumbra_saved_rays += self.penumbra_rays.len() as u64 - traced as u64;
+                    penumbra::resolve(&self.batches, &self.penumbra_rays, &mut self.film)
+                }
+            };
             t = self.lap(Stage::Penumbra, self.penumbra.len(), lit, t);
         }
 
@@ -378,6 +436,12 @@ impl Worker {
             + 8 * self.hits.t.capacity()
             + sh(&self.shadow)
             + sh(&self.penumbra_rays)
+            + sh(&self.batch)
+            + 16 * self.through.slot.capacity()
+            + 21 * self.batches.point.capacity()
+            + 16 * self.batches.start.capacity()
+            + 4 * (self.eps.capacity() + self.blur.capacity() + self.blur_lens.capacity() + self.pixel_lens.capacity())
+            + 8 * self.starts.capacity()
             + 20 * self.points.ray.capacity()
             + 4 * (self.penumbra.capacity() + self.specular.capacity() + self.queue.capacity())
             + 16 * self.film.slot.capacity()
@@ -415,66 +479,6 @@ impl Worker {
         self.run(scene, tile.pixels() as u64 * spp, Kind::Camera, |ks, rays| camera::generate(scene, tile, ks, rays));
         self.out.copy_from_slice(&self.sums);
         self.collect_heat(1);
-    }
-
-    /// Adaptive AA on one tile; `grid` is the shared corner grid, if corners are shared.
-    fn adaptive_tile(&mut self, scene: &Scene, tile: &Tile, grid: Option<&[Vec3]>, eps: f32, levels: (u32, u32)) {
-        let (min_level, max_level) = levels;
-        let s = &scene.settings;
-        let (np, dof) = (tile.pixels(), s.dof_samples as u64);
-        let tw = (tile.x1 - tile.x0) as usize;
-
-        self.begin_pass(np);
-        self.run(scene, np as u64 * dof, Kind::Camera, |ks, rays| camera::generate_centres(scene, tile, ks, rays));
-        self.centre.clone_from(&self.sums);
-        self.collect_heat(1);
-
-        self.corner_mean.clear();
-        match grid {
-            Some(grid) => {
-                let gw = s.width as usize + 1;
-                for p in 0..np {
-                    let (x, y) = (tile.x0 as usize + p % tw, tile.y0 as usize + p / tw);
-                    let c = |dx: usize, dy: usize| grid[(y + dy) * gw + x + dx];
-                    self.corner_mean.push((c(0, 0) + c(1, 0) + c(0, 1) + c(1, 1)) * 0.25);
-                }
-            }
-            None => {
-                self.begin_pass(4 * np);
-                self.run(scene, 4 * np as u64 * dof, Kind::Corner, |ks, rays| {
-                    camera::generate_pixel_corners(scene, tile, ks, rays)
-                });
-                self.corner_mean.extend(self.sums.chunks_exact(4).map(|c| (c[0] + c[1] + c[2] + c[3]) * 0.25));
-                self.collect_heat(4);
-            }
-        }
-
-        let t = Instant::now();
-        refine::start(eps, &self.centre, &self.corner_mean, &mut self.refine, &mut self.queue, &mut self.out);
-        self.lap(Stage::Refine, np, self.queue.len(), t);
-        self.stats.aa_pixels += np as u64;
-        self.stats.aa_refined_pixels += self.queue.len() as u64;
-        self.stats.aa_uniform_rays += np as u64 * (1u64 << max_level) * dof;
-
-        for level in 2..=max_level {
-            if self.queue.is_empty() {
-                break;
-            }
-            let queue = std::mem::take(&mut self.queue);
-            self.begin_pass(np);
-            let total = queue.len() as u64 * (1u64 << level) * dof;
-            self.run(scene, total, Kind::Refine, |ks, rays| {
-                camera::generate_refine(scene, tile, &queue, level, ks, rays)
-            });
-            self.queue = queue;
-            self.collect_heat(1);
-            let t = Instant::now();
-            let before = self.queue.len();
-            let may_stop = level >= min_level;
-            refine::step(eps, level, may_stop, &self.sums, &mut self.refine, &mut self.queue, &mut self.out);
-            self.lap(Stage::Refine, before, self.queue.len(), t);
-        }
-        self.heat.level.copy_from_slice(&self.refine.level);
     }
 }
 
@@ -563,11 +567,33 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let pixel_tiles = tiles(w, h);
     let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
     let grid_tiles = if shared_grid { tiles(w + 1, h + 1) } else { Vec::new() };
+    let focus_tiles = if s.dof_radius.is_some() { tiles(w + 1, h + 1) } else { Vec::new() };
     if let Some(pb) = &opts.progress {
-        pb.set_length((pixel_tiles.len() + grid_tiles.len()) as u64);
+        pb.set_length((pixel_tiles.len() + grid_tiles.len() + focus_tiles.len()) as u64);
     }
     let start = Instant::now();
     let ctx = Pass { opts, wave: wave_size(scene), start, rays: std::sync::atomic::AtomicU64::new(0) };
+
+    // DOF-aware AA: the blur of every pixel corner, from one depth probe each, before
+    // any corner or pixel decides its lens rays.
+    let corners = focus_tiles.len().min(1) * ((w + 1) * (h + 1)) as usize;
+    let corner_blur = Mutex::new((vec![0.0f32; corners], vec![0.0f32; corners]));
+    let focus_pass = for_tiles(
+        &pool,
+        &focus_tiles,
+        &ctx,
+        |wk, tile| {
+            let tw = tile.x1 - tile.x0;
+            wk.focus(scene, tile.pixels(), |i| Vec2::new((tile.x0 + i % tw) as f32, (tile.y0 + i / tw) as f32));
+        },
+        |wk, tile| {
+            let mut b = corner_blur.lock().unwrap_or_else(|e| e.into_inner());
+            copy_tile(&mut b.0, w + 1, tile, &wk.blur);
+            copy_tile(&mut b.1, w + 1, tile, &wk.blur_lens);
+        },
+    );
+    let (corner_sharp, corner_lens) = corner_blur.into_inner().unwrap_or_else(|e| e.into_inner());
+    let blur = s.dof_radius.is_some().then_some((&corner_sharp[..], &corner_lens[..]));
 
     // Adaptive AA with shared corners: trace the (W+1)×(H+1) corner grid once.
     let grid =
@@ -575,17 +601,11 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     if shared_grid {
         grid.lock().unwrap_or_else(|e| e.into_inner()).1.reset(((w + 1) * (h + 1)) as usize);
     }
-    let mut per_thread = for_tiles(
+    let grid_pass = for_tiles(
         &pool,
         &grid_tiles,
         &ctx,
-        |wk, tile| {
-            let dof = s.dof_samples as u64;
-            wk.begin_pass(tile.pixels());
-            wk.run(scene, tile.pixels() as u64 * dof, Kind::Corner, |ks, rays| {
-                camera::generate_corner_grid(scene, tile, ks, rays)
-            });
-        },
+        |wk, tile| wk.corner_grid_tile(scene, tile, blur.map(|b| b.1)),
         |wk, tile| {
             let mut g = grid.lock().unwrap_or_else(|e| e.into_inner());
             let (radiance, heat) = &mut *g;
@@ -614,8 +634,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
             wk.begin_tile(tile.pixels());
             match s.aa_mode {
                 AaMode::Uniform => wk.uniform_tile(scene, tile),
-                AaMode::Adaptive { eps, min_level, max_level, .. } => {
-                    wk.adaptive_tile(scene, tile, shared_grid.then_some(&grid[..]), eps, (min_level, max_level))
+                AaMode::Adaptive { eps, .. } => {
+                    wk.adaptive_tile(scene, tile, shared_grid.then_some(&grid[..]), blur, eps)
                 }
             }
         },
@@ -652,12 +672,11 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
         }
     }
 
-    // Thread i of the grid pass and thread i of the pixel pass are the same pool thread.
-    if per_thread.is_empty() {
-        per_thread = main;
-    } else {
-        for (a, b) in per_thread.iter_mut().zip(main) {
-            // The two passes' workers live one after the other: peak bytes, not the sum.
+    // Thread i of every pass is the same pool thread.
+    let mut per_thread = focus_pass;
+    for pass in [grid_pass, main] {
+        for (a, b) in per_thread.iter_mut().zip(pass) {
+            // The passes' workers live one after the other: peak bytes, not the sum.
             let bytes = a.0.queue_bytes.max(b.0.queue_bytes);
             a.0.merge(&b.0);
             a.0.queue_bytes = bytes;
@@ -667,6 +686,6 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let mut stats = Stats::default();
     per_thread.iter().for_each(|t| stats.merge(&t.0));
     let (per_thread, spans) = per_thread.into_iter().unzip();
-    let partial = stats.tiles < (tiles(w, h).len() + grid_tiles.len()) as u64;
+    let partial = stats.tiles < (pixel_tiles.len() + grid_tiles.len() + focus_tiles.len()) as u64;
     Ok(RenderOutput { image: Image { width: w, height: h, pixels }, heat, stats, per_thread, seconds, spans, partial })
 }

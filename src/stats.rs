@@ -26,11 +26,15 @@ pub enum Stage {
     Penumbra,
     /// Adaptive AA: the decisions that fill the refinement queue.
     Refine,
+    /// DOF-aware adaptive AA: pinhole depth probes through corners and centres, and
+    /// their circles of confusion.
+    Focus,
 }
 
 impl Stage {
     /// All stages in pipeline order.
-    pub const ALL: [Stage; 9] = [
+    pub const ALL: [Stage; 10] = [
+        Stage::Focus,
         Stage::Camera,
         Stage::Intersect,
         Stage::Shade,
@@ -54,6 +58,7 @@ impl Stage {
             Stage::ShadowCorner => "shadow_corner",
             Stage::Penumbra => "penumbra",
             Stage::Refine => "refine",
+            Stage::Focus => "focus",
         }
     }
 }
@@ -83,7 +88,7 @@ pub struct StageCounters {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Stats {
     /// Per-stage counters, indexed by `Stage as usize`.
-    pub stages: [StageCounters; 9],
+    pub stages: [StageCounters; 10],
     /// Camera rays: uniform-mode samples, or adaptive pixel centres.
     pub camera_rays: u64,
     /// Adaptive AA: rays through pixel corners.
@@ -98,6 +103,8 @@ pub struct Stats {
     pub penumbra_rays: u64,
     /// Reflection and refraction rays traced.
     pub secondary_rays: u64,
+    /// DOF-aware AA: pinhole depth probes (intersected, never shaded).
+    pub dof_probe_rays: u64,
     /// Tiles rendered (pixel tiles and corner-grid tiles).
     pub tiles: u64,
     /// Adaptive AA: pixels decided.
@@ -113,6 +120,10 @@ pub struct Stats {
     pub penumbra_points: u64,
     /// Adaptive shadows: shadow rays uniform mode would cast for the same points.
     pub shadow_uniform_rays: u64,
+    /// Penumbra early stopping: points that stopped before all their rays.
+    pub penumbra_stopped: u64,
+    /// Penumbra early stopping: rays of the fixed-n method not traced.
+    pub penumbra_saved_rays: u64,
     /// Longest each queue got, in entries (merged: the maximum over workers).
     pub peak: QueuePeaks,
     /// Bytes the worker's queues and buffers held at the end (merged: the sum over
@@ -182,6 +193,7 @@ impl Stats {
         self.shadow_corner_rays += o.shadow_corner_rays;
         self.penumbra_rays += o.penumbra_rays;
         self.secondary_rays += o.secondary_rays;
+        self.dof_probe_rays += o.dof_probe_rays;
         self.tiles += o.tiles;
         self.aa_pixels += o.aa_pixels;
         self.aa_refined_pixels += o.aa_refined_pixels;
@@ -189,14 +201,17 @@ impl Stats {
         self.shadow_points += o.shadow_points;
         self.penumbra_points += o.penumbra_points;
         self.shadow_uniform_rays += o.shadow_uniform_rays;
+        self.penumbra_stopped += o.penumbra_stopped;
+        self.penumbra_saved_rays += o.penumbra_saved_rays;
     }
 
     /// Rays by kind, with their names in the report. The kinds are disjoint.
-    pub fn kinds(&self) -> [(&'static str, u64); 7] {
+    pub fn kinds(&self) -> [(&'static str, u64); 8] {
         [
             ("camera", self.camera_rays),
             ("aa_corner", self.aa_corner_rays),
             ("aa_refine", self.aa_refine_rays),
+            ("dof_probe", self.dof_probe_rays),
             ("shadow", self.shadow_rays),
             ("shadow_corner", self.shadow_corner_rays),
             ("penumbra", self.penumbra_rays),
@@ -242,6 +257,9 @@ pub struct Report {
     /// The shadow-corner and penumbra queues, when shadows are adaptive.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adaptive_shadows: Option<QueueReport>,
+    /// Penumbra early stopping, when `render.shadows.tolerance` is on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub penumbra_early_stop: Option<EarlyStopReport>,
     /// Per-stage counters, seconds summed over threads.
     pub stages: BTreeMap<&'static str, StageCounters>,
     /// Per ray BVH work of the stages that trace rays (absent when counters were off).
@@ -280,6 +298,19 @@ impl QueueReport {
     fn new(entered: u64, refined: u64, rays: u64, uniform_rays: u64) -> QueueReport {
         QueueReport { entered, refined, rays, uniform_rays, saved: uniform_rays as i64 - rays as i64 }
     }
+}
+
+/// What early stopping did in the penumbra queue.
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct EarlyStopReport {
+    /// Penumbra points (point × quad light pairs).
+    pub points: u64,
+    /// Of those, the points that stopped before all `samples` rays.
+    pub stopped: u64,
+    /// Penumbra rays traced.
+    pub rays: u64,
+    /// Rays the fixed-n penumbra stage would have traced for the same points, minus `rays`.
+    pub saved: u64,
 }
 
 /// Scene facts in the report.
@@ -349,21 +380,28 @@ impl Report {
             mrays_per_s: if seconds > 0.0 { total_rays as f64 / seconds / 1e6 } else { 0.0 },
             rays: total.kinds().into_iter().collect(),
             adaptive_aa: matches!(settings.aa_mode, AaMode::Adaptive { .. }).then(|| {
-                let rays = t.camera_rays + t.aa_corner_rays + t.aa_refine_rays;
+                let rays = t.camera_rays + t.aa_corner_rays + t.aa_refine_rays + t.dof_probe_rays;
                 QueueReport::new(t.aa_pixels, t.aa_refined_pixels, rays, t.aa_uniform_rays)
             }),
             adaptive_shadows: matches!(settings.shadow_mode, ShadowMode::Adaptive(_)).then(|| {
                 let rays = t.shadow_corner_rays + t.penumbra_rays;
                 QueueReport::new(t.shadow_points, t.penumbra_points, rays, t.shadow_uniform_rays)
             }),
+            penumbra_early_stop: settings.penumbra_stop.map(|_| EarlyStopReport {
+                points: t.penumbra_points,
+                stopped: t.penumbra_stopped,
+                rays: t.penumbra_rays,
+                saved: t.penumbra_saved_rays,
+            }),
             stages: Stage::ALL.iter().map(|&s| (s.name(), *total.stage(s))).collect(),
-            traversal: [Stage::Intersect, Stage::Shadow, Stage::ShadowCorner, Stage::Penumbra]
+            traversal: [Stage::Focus, Stage::Intersect, Stage::Shadow, Stage::ShadowCorner, Stage::Penumbra]
                 .iter()
                 .filter_map(|&st| {
                     let c = total.stage(st);
                     // Rays traced by the stage: its input, except shadow-corner and
                     // penumbra, whose inputs are points.
                     let rays = match st {
+                        Stage::Focus => total.dof_probe_rays,
                         Stage::ShadowCorner => total.shadow_corner_rays,
                         Stage::Penumbra => total.penumbra_rays,
                         _ => c.rays_in,
@@ -452,6 +490,16 @@ impl Report {
                     100.0 * q.saved as f64 / q.uniform_rays.max(1) as f64
                 );
             }
+        }
+        if let Some(e) = &self.penumbra_early_stop {
+            s += &format!(
+                "penumbra early stop: {} of {} points stopped early, {} rays traced, {} saved ({:.1}%)\n",
+                e.stopped,
+                e.points,
+                e.rays,
+                e.saved,
+                100.0 * e.saved as f64 / (e.rays + e.saved).max(1) as f64
+            );
         }
         s += &format!(
             "total {:>22} rays, {:.3} s wall, {:.2} Mrays/s, {} threads\n",

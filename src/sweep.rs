@@ -87,31 +87,53 @@ impl Default for SweepOptions {
     }
 }
 
-/// A point's sampling modes, for grouping: adaptive when AA or shadows are adaptive.
+/// A point's sampling modes, for grouping: adaptive when AA or shadows are adaptive, and
+/// the paper's §5 extensions apart, so that each gets its own series and Pareto front.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "lowercase")]
 pub enum Mode {
     /// Uniform AA and uniform shadows.
+    #[serde(rename = "uniform")]
     Uniform,
-    /// Adaptive AA, adaptive shadows, or both.
+    /// Adaptive AA, adaptive shadows, or both, without the extensions below.
+    #[serde(rename = "adaptive")]
     Adaptive,
+    /// Adaptive AA with `dof_aware` in effect (an open aperture).
+    #[serde(rename = "dof-aware")]
+    DofAware,
+    /// Adaptive shadows with penumbra early stopping (`tolerance` > 0).
+    #[serde(rename = "early-stop")]
+    EarlyStop,
+    /// Both extensions.
+    #[serde(rename = "dof-aware+early-stop")]
+    DofAwareEarlyStop,
 }
 
 impl Mode {
+    /// Every mode, in series (colour) order.
+    pub const ALL: [Mode; 5] =
+        [Mode::Uniform, Mode::Adaptive, Mode::DofAware, Mode::EarlyStop, Mode::DofAwareEarlyStop];
+
     /// The label in the CSV, the JSON and the plots.
     pub fn label(self) -> &'static str {
         match self {
             Mode::Uniform => "uniform",
             Mode::Adaptive => "adaptive",
+            Mode::DofAware => "dof-aware",
+            Mode::EarlyStop => "early-stop",
+            Mode::DofAwareEarlyStop => "dof-aware+early-stop",
         }
     }
 
     /// The mode of a loaded scene's settings.
     pub fn of(s: &Settings) -> Mode {
-        if matches!(s.aa_mode, AaMode::Adaptive { .. }) || matches!(s.shadow_mode, ShadowMode::Adaptive(_)) {
-            Mode::Adaptive
-        } else {
-            Mode::Uniform
+        match (s.dof_radius.is_some(), s.penumbra_stop.is_some()) {
+            (true, true) => Mode::DofAwareEarlyStop,
+            (true, false) => Mode::DofAware,
+            (false, true) => Mode::EarlyStop,
+            _ if matches!(s.aa_mode, AaMode::Adaptive { .. }) || matches!(s.shadow_mode, ShadowMode::Adaptive(_)) => {
+                Mode::Adaptive
+            }
+            _ => Mode::Uniform,
         }
     }
 }
@@ -549,7 +571,7 @@ pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
 
 /// Marks each point's place on its mode's Pareto fronts.
 fn mark_pareto(rows: &mut [Point]) {
-    for mode in [Mode::Uniform, Mode::Adaptive] {
+    for mode in Mode::ALL {
         let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].mode == mode).collect();
         let by_rays =
             pareto_front(&idx.iter().map(|&i| (rows[i].total_rays as f64, rows[i].metrics.rmse)).collect::<Vec<_>>());
@@ -637,10 +659,11 @@ impl SweepResult {
     fn plot(&self, path: &Path, x: impl Fn(&Point) -> f64, x_label: &str) -> Result<()> {
         let by_seconds = path.ends_with(SECONDS_PLOT);
         let labels = point_labels(&self.points);
-        // Both modes always, an empty one included, so uniform is blue and adaptive orange
-        // in every plot.
-        let series: Vec<Series> = [Mode::Uniform, Mode::Adaptive]
+        // Uniform and adaptive always, an empty one included, so uniform is blue and
+        // adaptive orange in every plot; the extensions only when the sweep has them.
+        let series: Vec<Series> = Mode::ALL
             .iter()
+            .filter(|&&m| m <= Mode::Adaptive || self.points.iter().any(|p| p.mode == m))
             .map(|&mode| {
                 let idx: Vec<usize> = (0..self.points.len()).filter(|&i| self.points[i].mode == mode).collect();
                 let pts: Vec<&Point> = idx.iter().map(|&i| &self.points[i]).collect();

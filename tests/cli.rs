@@ -232,6 +232,55 @@ fn unknown_mode_and_zero_samples() {
 }
 
 #[test]
+fn dof_aware_and_early_stopping_fields_are_checked() {
+    let aa = "[render.aa]\nmode = \"adaptive\"\ndof_aware = true\n";
+    bad_scene("[render.aa]\n", &format!("{aa}dof_radius = 0\n"), &["scene.toml:7:", "render.aa.dof_radius", "> 0"]);
+    bad_scene("[render.aa]\n", &format!("{aa}dof_radius = -2\n"), &["scene.toml:7:", "render.aa.dof_radius"]);
+    bad_scene("[render.aa]\n", &format!("{aa}dof_awre = true\n"), &["scene.toml:", "dof_awre"]);
+    bad_scene("[render.aa]\n", "[render.aa]\ndof_aware = \"yes\"\n", &["scene.toml:5:", "invalid type"]);
+    for bad in ["tolerance = 1.5", "tolerance = -0.1"] {
+        bad_scene(
+            "[render.shadows]\n",
+            &format!("[render.shadows]\n{bad}\n"),
+            &["scene.toml:7:", "render.shadows.tolerance"],
+        );
+    }
+    bad_scene("[render.shadows]\n", "[render.shadows]\nbatch = 0\n", &["scene.toml:7:", "render.shadows.batch"]);
+    bad_scene("[render.shadows]\n", "[render.shadows]\nbatch = -4\n", &["scene.toml:7:"]);
+    // The same through --set, which the message names.
+    let case = Case::new();
+    case.write("scene.toml", GOOD);
+    for (set, needle) in [
+        ("render.shadows.tolerance=2", "(--set render.shadows.tolerance=2): field `render.shadows.tolerance`"),
+        ("render.shadows.batch=0", "field `render.shadows.batch`"),
+        ("render.aa.dof_radius=0", "field `render.aa.dof_radius`"),
+    ] {
+        let extra = if set.starts_with("render.aa") { "render.aa.mode=adaptive" } else { "render.seed=1" };
+        let o = case.run(&["scene.toml", "-o", "b.png", "--set", extra, "--set", set]);
+        assert_eq!(o.status.code(), Some(2), "{set}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{set}: {}", stderr(&o));
+    }
+    assert!(!case.path("b.png").exists());
+    // Valid values render.
+    let o = case.run(&[
+        "scene.toml",
+        "-o",
+        "ok.png",
+        "--set",
+        "render.aa.mode=adaptive",
+        "--set",
+        "render.aa.dof_aware=true",
+        "--set",
+        "render.shadows.mode=adaptive",
+        "--set",
+        "render.shadows.tolerance=0.05",
+        "--set",
+        "render.shadows.batch=4",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
 fn missing_and_malformed_obj() {
     let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"m.obj\"\nmaterial = \"white\"\n";
     // Missing file.

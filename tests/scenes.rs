@@ -1,4 +1,5 @@
-//! Every scene in scenes/ loads and renders (tiny), and each pays only for what it uses.
+//! Every scene in scenes/ (and its subfolders, such as scenes/paper/) loads and renders
+//! (tiny), and each pays only for what it uses.
 
 mod support;
 
@@ -17,15 +18,26 @@ fn tiny(name: &str) -> wavetrace::RenderOutput {
     render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).expect("render")
 }
 
+/// The .toml files under `dir` (relative to scenes/), subfolders included.
+fn scene_files(dir: &Path, out: &mut Vec<String>) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for e in std::fs::read_dir(root.join(dir)).unwrap() {
+        let path = dir.join(e.unwrap().file_name());
+        if root.join(&path).is_dir() {
+            scene_files(&path, out);
+        } else if path.extension().is_some_and(|x| x == "toml") {
+            out.push(path.to_string_lossy().into_owned());
+        }
+    }
+}
+
 #[test]
 fn every_scene_renders_something() {
-    let mut names: Vec<String> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".toml"))
-        .collect();
+    let mut names = Vec::new();
+    scene_files(Path::new(""), &mut names);
     names.sort();
     assert!(names.len() >= 5, "{names:?}");
+    assert!(names.iter().filter(|n| n.starts_with("paper")).count() >= 7, "the paper's scenes: {names:?}");
     for name in names {
         let out = tiny(&name);
         assert!(out.image.pixels.iter().all(|p| p.is_finite()), "{name}: non-finite pixel");

@@ -865,7 +865,11 @@ mod tests {
             Shape::Sphere { center: Vec3::new(1.0, 0.0, 0.5), radius: 1.0 },
             Shape::Sphere { center: Vec3::new(0.0, 0.0, -2.0), radius: 0.25 },
             Shape::Quad { corner: Vec3::new(0.0, 0.0, 0.0), u: Vec3::new(1.0, 0.0, 0.0), v: Vec3::new(0.0, 1.0, 0.0) },
-            Shape::Quad { corner: Vec3::new(-1.0, -1.0, 0.5), u: Vec3::new(2.0, 0.0, 0.0), v: Vec3::new(0.0, 0.0, 1.0) },
+            Shape::Quad {
+                corner: Vec3::new(-1.0, -1.0, 0.5),
+                u: Vec3::new(2.0, 0.0, 0.0),
+                v: Vec3::new(0.0, 0.0, 1.0),
+            },
         ];
         for shape in &shapes {
             for (tmin, tmax) in [(0.0, f32::INFINITY), (0.1, 1.5)] {

@@ -82,11 +82,26 @@ pub struct AaDesc {
     pub max_level: u32,
     /// Adaptive: trace the pixel-corner grid once and share it (default true).
     pub share_corners: bool,
+    /// Adaptive, open aperture: raise each pixel's eps with its blur and scale each
+    /// point's lens samples with it (the paper's §5 proposal; default false).
+    pub dof_aware: bool,
+    /// Adaptive with `dof_aware`: the circle-of-confusion radius, in pixels, from which a
+    /// pixel is not refined for anti-aliasing at all (default 2).
+    pub dof_radius: f32,
 }
 
 impl Default for AaDesc {
     fn default() -> Self {
-        AaDesc { mode: "uniform".into(), samples: 16, eps: 0.01, min_level: 4, max_level: 6, share_corners: true }
+        AaDesc {
+            mode: "uniform".into(),
+            samples: 16,
+            eps: 0.01,
+            min_level: 4,
+            max_level: 6,
+            share_corners: true,
+            dof_aware: false,
+            dof_radius: 2.0,
+        }
     }
 }
 
@@ -103,11 +118,17 @@ pub struct ShadowsDesc {
     /// "corners+center", "jittered" or "3x3" (default "3x3": corners, edge midpoints and
     /// centre, which the measurements in docs/adaptive.md favour).
     pub probe: String,
+    /// Adaptive: stop a penumbra point's samples once the 95% Wilson interval of its
+    /// visible fraction is narrower than ± this (default 0: off, always `samples`).
+    pub tolerance: f32,
+    /// Adaptive with a tolerance: shadow rays per penumbra point between two tests
+    /// (default 16).
+    pub batch: u32,
 }
 
 impl Default for ShadowsDesc {
     fn default() -> Self {
-        ShadowsDesc { mode: "uniform".into(), samples: 16, probe: "3x3".into() }
+        ShadowsDesc { mode: "uniform".into(), samples: 16, probe: "3x3".into(), tolerance: 0.0, batch: 16 }
     }
 }
 

@@ -7,7 +7,9 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::format::*;
-use super::{AaMode, Camera, Light, Material, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
+use super::{
+    AaMode, Camera, Light, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode,
+};
 use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::{Error, Result};
 
@@ -28,8 +30,9 @@ pub const MAX_DEPTH: u32 = 64;
 pub const MAX_LEVEL: u32 = 16;
 
 /// Bytes each pixel costs while rendering and writing: film sum, output buffers, the
-/// shared corner grid with its heat counters, and the per-pixel heat counters.
-pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4 + 24 + 16;
+/// shared corner grid with its heat counters, the per-pixel heat counters, and the two
+/// blur radii per corner of DOF-aware anti-aliasing.
+pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4 + 24 + 16 + 8;
 
 /// Where a scene's text came from: mesh paths are relative to `dir`.
 #[derive(Clone, Debug)]
@@ -325,6 +328,9 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
                     format!("min_level ({}) must be in 2..=max_level ({})", r.aa.min_level, r.aa.max_level),
                 ));
             }
+            if r.aa.dof_radius <= 0.0 {
+                return Err(ctx.fail("render.aa.dof_radius", format!("{} must be > 0", r.aa.dof_radius)));
+            }
             AaMode::Adaptive {
                 eps: r.aa.eps,
                 min_level: r.aa.min_level,
@@ -362,7 +368,11 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
             ))
         }
     };
+    if !(0.0..=1.0).contains(&r.shadows.tolerance) {
+        return Err(ctx.fail("render.shadows.tolerance", format!("{} is not in [0, 1]", r.shadows.tolerance)));
+    }
     for (path, n) in [
+        ("render.shadows.batch", r.shadows.batch),
         ("render.aa.samples", r.aa.samples),
         ("render.shadows.samples", r.shadows.samples),
         ("render.dof.samples", r.dof.samples),
@@ -379,6 +389,10 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     if per_pixel * dof_samples as u64 > u32::MAX as u64 {
         return Err(ctx.fail("render.dof.samples", "samples per pixel × render.dof.samples exceeds 2^32"));
     }
+    let adaptive_aa = matches!(aa_mode, AaMode::Adaptive { .. });
+    let dof_radius = (adaptive_aa && r.aa.dof_aware && cam.aperture > 0.0).then_some(r.aa.dof_radius);
+    let penumbra_stop = (matches!(shadow_mode, ShadowMode::Adaptive(_)) && r.shadows.tolerance > 0.0)
+        .then_some(PenumbraStop { tolerance: r.shadows.tolerance, batch: r.shadows.batch });
     Ok(Settings {
         width: r.width,
         height: r.height,
@@ -390,6 +404,8 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         shadow_samples: r.shadows.samples,
         dof_samples,
         packets: r.packets,
+        dof_radius,
+        penumbra_stop,
     })
 }
 

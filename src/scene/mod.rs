@@ -92,6 +92,22 @@ pub struct Settings {
     pub dof_samples: u32,
     /// Trace rays in SIMD packets (same hits; a performance choice).
     pub packets: bool,
+    /// DOF-aware adaptive AA: the blur radius (pixels) from which a pixel is not refined.
+    /// `Some` only when it has an effect: adaptive AA, `dof_aware`, an open aperture.
+    pub dof_radius: Option<f32>,
+    /// Early stopping of penumbra points; `Some` only with adaptive shadows and a
+    /// tolerance above 0.
+    pub penumbra_stop: Option<PenumbraStop>,
+}
+
+/// Early stopping of a penumbra point's shadow rays (`render.shadows.tolerance`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PenumbraStop {
+    /// Stop when the half-width of the 95% Wilson interval of the visible fraction is
+    /// below this.
+    pub tolerance: f32,
+    /// Shadow rays per point between two tests.
+    pub batch: u32,
 }
 
 /// A thin-lens camera with an orthonormal basis.

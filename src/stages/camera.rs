@@ -13,18 +13,102 @@ use crate::queue::RayQueue;
 use crate::sampling::{cmj, concentric_disk, dim, hash};
 use crate::scene::Scene;
 
+/// How many lens rays each point of a pass gets, and how a flattened ray index splits
+/// into (point, ray of the point).
+#[derive(Clone, Copy, Debug)]
+pub enum Lens<'a> {
+    /// Every point gets this many rays.
+    Fixed(u64),
+    /// Point i gets rays `starts[i]..starts[i + 1]` of the pass (prefix sums, one more
+    /// entry than points): DOF-aware AA, where each point has its own lens count.
+    PerPoint(&'a [u64]),
+}
+
+impl<'a> Lens<'a> {
+    /// Rays of a pass over `points` points.
+    pub fn total(&self, points: usize) -> u64 {
+        match *self {
+            Lens::Fixed(n) => points as u64 * n,
+            Lens::PerPoint(starts) => starts[points],
+        }
+    }
+
+    /// The point of flattened ray `k`, the ray's index within the point, and the
+    /// point's ray count.
+    #[inline]
+    pub fn split(&self, k: u64) -> (u32, u32, u32) {
+        match *self {
+            Lens::Fixed(n) => ((k / n) as u32, (k % n) as u32, n as u32),
+            Lens::PerPoint(starts) => {
+                let p = starts.partition_point(|&s| s <= k) - 1;
+                ((p as u32), (k - starts[p]) as u32, (starts[p + 1] - starts[p]) as u32)
+            }
+        }
+    }
+
+    /// Rays `ks` in order, each as [`Lens::split`] gives it: one search for the first,
+    /// then a walk, since the driver hands out consecutive ranges.
+    pub fn rays(self, ks: Range<u64>) -> LensRays<'a> {
+        let (point, ray, count) = if ks.is_empty() { (0, 0, 0) } else { self.split(ks.start) };
+        LensRays { lens: self, left: ks.end.saturating_sub(ks.start), point, ray, count }
+    }
+}
+
+/// The iterator of [`Lens::rays`]: (point, ray of the point, the point's ray count).
+#[derive(Clone, Debug)]
+pub struct LensRays<'a> {
+    lens: Lens<'a>,
+    left: u64,
+    point: u32,
+    ray: u32,
+    count: u32,
+}
+
+impl Iterator for LensRays<'_> {
+    type Item = (u32, u32, u32);
+
+    #[inline]
+    fn next(&mut self) -> Option<(u32, u32, u32)> {
+        if self.left == 0 {
+            return None;
+        }
+        self.left -= 1;
+        let out = (self.point, self.ray, self.count);
+        self.ray += 1;
+        if self.ray == self.count && self.left > 0 {
+            self.point += 1;
+            self.ray = 0;
+            if let Lens::PerPoint(starts) = self.lens {
+                let p = self.point as usize;
+                self.count = (starts[p + 1] - starts[p]) as u32;
+            }
+        }
+        Some(out)
+    }
+}
+
 /// Pushes one camera ray through film position `film` (pixels). `lens_pattern` and
-/// `lens` pick the lens sample (ignored for a pinhole).
+/// `lens` pick lens sample `lens` of `lens_count` (ignored for a pinhole).
 #[allow(clippy::too_many_arguments)]
 #[inline]
-fn push(scene: &Scene, film: Vec2, lens_pattern: u32, lens: u32, slot: u32, w: Vec3, key: u32, rays: &mut RayQueue) {
+fn push(
+    scene: &Scene,
+    film: Vec2,
+    lens_pattern: u32,
+    lens: u32,
+    lens_count: u32,
+    slot: u32,
+    w: Vec3,
+    key: u32,
+    rays: &mut RayQueue,
+) {
     let s = &scene.settings;
     let cam = &scene.camera;
     let d = cam.pinhole_dir(film, s.width, s.height);
     if cam.aperture > 0.0 {
         // Thin lens: every ray through the same film point meets on the focus plane.
         let focus = cam.position + d * (cam.focus_distance / d.dot(cam.forward));
-        let l = cam.aperture * concentric_disk(cmj(lens, s.dof_samples, lens_pattern));
+        let l = cam.aperture * concentric_disk(cmj(lens, lens_count, lens_pattern));
         let o = cam.position + l.x * cam.right + l.y * cam.up;
         rays.push(o, (focus - o).normalize(), slot, w, 0, key);
     } else {
@@ -50,7 +134,7 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
         let (aa, lens) = (j / dof, j % dof);
         let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, hash(&[s.seed, pixel, dim::PIXEL]));
         let key = hash(&[s.seed, pixel, j, dim::PATH]);
-        push(scene, film, hash(&[s.seed, pixel, aa, dim::LENS]), lens, slot, w, key, rays);
+        push(scene, film, hash(&[s.seed, pixel, aa, dim::LENS]), lens, dof, slot, w, key, rays);
     }
 }
 
@@ -87,82 +171,106 @@ pub fn corner_index(scene: &Scene, cx: u32, cy: u32) -> u32 {
     cy * (scene.settings.width + 1) + cx
 }
 
-/// Pushes the `lens`-th ray through grid corner `ci`. A corner's rays depend only on
-/// its index, so a shared corner and a per-pixel copy of it give the same radiance.
+/// Pushes lens ray `lens` of `count` through grid corner `ci`. A corner's rays depend
+/// only on its index (and its lens count, which depends only on the corner too), so a
+/// shared corner and a per-pixel copy of it give the same radiance.
 #[inline]
-fn corner_ray(scene: &Scene, ci: u32, lens: u32, slot: u32, rays: &mut RayQueue) {
+fn corner_ray(scene: &Scene, ci: u32, lens: u32, count: u32, slot: u32, rays: &mut RayQueue) {
     let s = &scene.settings;
     let (cx, cy) = (ci % (s.width + 1), ci / (s.width + 1));
-    let w = Vec3::splat(1.0 / s.dof_samples as f32);
+    let w = Vec3::splat(1.0 / count as f32);
     let key = hash(&[s.seed, ci, lens, dim::CORNER]);
-    push(scene, Vec2::new(cx as f32, cy as f32), hash(&[s.seed, ci, dim::CORNER]), lens, slot, w, key, rays);
+    let film = Vec2::new(cx as f32, cy as f32);
+    push(scene, film, hash(&[s.seed, ci, dim::CORNER]), lens, count, slot, w, key, rays);
 }
 
 /// Adaptive AA, shared corners: rays through the corners of `grid`, a rectangle of the
-/// corner grid. Flattened index k: corner k / dof_samples (row-major in the rectangle),
-/// lens sample k % dof_samples. Slot: the corner's index in the rectangle.
-pub fn generate_corner_grid(scene: &Scene, grid: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
-    let dof = scene.settings.dof_samples as u64;
+/// corner grid. Flattened index k: corner and lens sample by `lens` (corners row-major in
+/// the rectangle). Slot: the corner's index in the rectangle.
+pub fn generate_corner_grid(scene: &Scene, grid: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     let gw = grid.x1 - grid.x0;
-    for k in ks {
-        let slot = (k / dof) as u32;
+    for (slot, l, count) in lens.rays(ks) {
         let (cx, cy) = (grid.x0 + slot % gw, grid.y0 + slot / gw);
-        corner_ray(scene, corner_index(scene, cx, cy), (k % dof) as u32, slot, rays);
+        corner_ray(scene, corner_index(scene, cx, cy), l, count, slot, rays);
     }
 }
 
 /// Adaptive AA, unshared corners (the paper's 5 rays per pixel): the four corners of
-/// every pixel of `tile`. Flattened index k: pixel k / (4·dof), corner (k / dof) % 4.
-/// Slot: 4 × (pixel index in the tile) + corner (0 top-left, 1 top-right, 2 bottom-left,
-/// 3 bottom-right).
-pub fn generate_pixel_corners(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
-    let dof = scene.settings.dof_samples as u64;
+/// every pixel of `tile`. Points are 4 × pixel + corner (0 top-left, 1 top-right,
+/// 2 bottom-left, 3 bottom-right), each with its lens rays by `lens`. Slot: the point.
+pub fn generate_pixel_corners(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     let tw = tile.x1 - tile.x0;
-    for k in ks {
-        let slot = (k / dof) as u32;
+    for (slot, l, count) in lens.rays(ks) {
         let (p, c) = (slot / 4, slot % 4);
         let (x, y) = (tile.x0 + p % tw + (c & 1), tile.y0 + p / tw + (c >> 1));
-        corner_ray(scene, corner_index(scene, x, y), (k % dof) as u32, slot, rays);
+        corner_ray(scene, corner_index(scene, x, y), l, count, slot, rays);
     }
 }
 
-/// Adaptive AA: rays through the centre of every pixel of `tile`. Flattened index k:
-/// pixel k / dof_samples. Slot: the pixel's index in the tile.
-pub fn generate_centres(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
+/// Adaptive AA: rays through the centre of every pixel of `tile`, each pixel's lens rays
+/// by `lens`. Slot: the pixel's index in the tile.
+pub fn generate_centres(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     let s = &scene.settings;
-    let dof = s.dof_samples as u64;
-    let w = Vec3::splat(1.0 / dof as f32);
     let tw = tile.x1 - tile.x0;
-    for k in ks {
-        let (slot, lens) = ((k / dof) as u32, (k % dof) as u32);
+    for (slot, l, count) in lens.rays(ks) {
+        let w = Vec3::splat(1.0 / count as f32);
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
-        let key = hash(&[s.seed, pixel, lens, dim::CENTRE]);
+        let key = hash(&[s.seed, pixel, l, dim::CENTRE]);
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-        push(scene, film, hash(&[s.seed, pixel, dim::CENTRE]), lens, slot, w, key, rays);
+        push(scene, film, hash(&[s.seed, pixel, dim::CENTRE]), l, count, slot, w, key, rays);
     }
 }
 
-/// Adaptive AA, refinement level `level`: 2^level stratified rays in each listed pixel
-/// (`pixels` are indices in the tile). Flattened index k: listed pixel k / (2^level·dof).
-/// Slot: the pixel's index in the tile; weight 1 / (2^level·dof), so a slot sums to the
-/// level's estimate.
-pub fn generate_refine(scene: &Scene, tile: &Tile, pixels: &[u32], level: u32, ks: Range<u64>, rays: &mut RayQueue) {
+/// Adaptive AA, refinement level `level`: 2^level stratified points in each listed pixel
+/// (`pixels` are indices in the tile). `lens` splits the flattened index into listed
+/// pixel i and its ray j, of 2^level × (its lens count) rays: sample j / lens count, lens
+/// ray j % lens count. Slot: the pixel's index in the tile; weight
+/// 1 / (2^level · lens count), so a slot sums to the level's estimate.
+pub fn generate_refine(
+    scene: &Scene,
+    tile: &Tile,
+    pixels: &[u32],
+    level: u32,
+    lens: Lens,
+    ks: Range<u64>,
+    rays: &mut RayQueue,
+) {
     let s = &scene.settings;
-    let dof = s.dof_samples;
     let n = 1u32 << level;
-    let per = n as u64 * dof as u64;
-    let w = Vec3::splat(1.0 / (n as f32 * dof as f32));
     let tw = tile.x1 - tile.x0;
-    for k in ks {
-        let slot = pixels[(k / per) as usize];
-        let j = (k % per) as u32;
-        let (sample, lens) = (j / dof, j % dof);
+    for (i, j, per) in lens.rays(ks) {
+        let slot = pixels[i as usize];
+        let count = per >> level;
+        let w = Vec3::splat(1.0 / (n as f32 * count as f32));
+        let (sample, l) = (j / count, j % count);
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
         let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, hash(&[s.seed, pixel, level, dim::REFINE]));
         let key = hash(&[s.seed, pixel, level, j, dim::REFINE]);
-        push(scene, film, hash(&[s.seed, pixel, level, sample, dim::LENS]), lens, slot, w, key, rays);
+        push(scene, film, hash(&[s.seed, pixel, level, sample, dim::LENS]), l, count, slot, w, key, rays);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lens_rays_walk_as_split_says() {
+        let starts = [0u64, 1, 4, 4 + 70, 4 + 70 + 2];
+        for lens in [Lens::Fixed(3), Lens::Fixed(1), Lens::PerPoint(&starts)] {
+            let total = lens.total(4);
+            for a in 0..total {
+                for b in a..=total.min(a + 9) {
+                    let walked: Vec<_> = lens.rays(a..b).collect();
+                    let split: Vec<_> = (a..b).map(|k| lens.split(k)).collect();
+                    assert_eq!(walked, split, "{lens:?} {a}..{b}");
+                }
+            }
+        }
+        assert_eq!(Lens::PerPoint(&starts).split(3), (1, 2, 3));
+        assert_eq!(Lens::PerPoint(&starts).split(4), (2, 0, 70));
     }
 }
 

@@ -2,9 +2,13 @@
 //! queue(s) to its output queue(s); it keeps no state between calls.
 //!
 //! camera → intersect → shade → { shadow → film ; scatter → intersect → … }
+//!
+//! Adaptive AA adds `refine` (and `focus` for DOF-aware AA); adaptive shadows add
+//! `shadow_corner` and `penumbra`.
 
 pub mod camera;
 pub mod film;
+pub mod focus;
 pub mod intersect;
 pub mod penumbra;
 pub mod refine;

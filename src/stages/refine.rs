@@ -36,10 +36,11 @@ pub fn display_diff(a: Vec3, b: Vec3) -> f32 {
 }
 
 /// The first decision. Pixels whose centre differs from their corner mean by more than
-/// `eps` are put in `queue` (tile pixel indices, ascending); the others get their final
-/// value in `out`.
+/// their `eps` (one per tile pixel: `render.aa.eps`, or more for a blurred pixel with
+/// DOF-aware AA) are put in `queue` (tile pixel indices, ascending); the others get their
+/// final value in `out`.
 pub fn start(
-    eps: f32,
+    eps: &[f32],
     centre: &[Vec3],
     corner_mean: &[Vec3],
     state: &mut RefineState,
@@ -57,7 +58,7 @@ pub fn start(
     state.level.resize(n, 0);
     queue.clear();
     for p in 0..n {
-        if display_diff(centre[p], corner_mean[p]) > eps {
+        if display_diff(centre[p], corner_mean[p]) > eps[p] {
             queue.push(p as u32);
         } else {
             out[p] = centre[p] * (2.0 / 3.0) + corner_mean[p] * (1.0 / 3.0);
@@ -67,10 +68,10 @@ pub fn start(
 
 /// The decision after level `level`: `estimates[p]` holds the level's mean for each
 /// queued pixel p. Every queued pixel's samples are added to its value in `out`; when
-/// `may_stop`, pixels whose estimate agrees with the previous one within `eps` leave
-/// `queue`.
+/// `may_stop`, pixels whose estimate agrees with the previous one within their `eps`
+/// leave `queue`.
 pub fn step(
-    eps: f32,
+    eps: &[f32],
     level: u32,
     may_stop: bool,
     estimates: &[Vec3],
@@ -86,7 +87,7 @@ pub fn step(
         state.count[p] += n;
         state.level[p] = level as u8;
         out[p] = state.sum[p] / state.count[p] as f32;
-        let settled = may_stop && display_diff(e, state.prev[p]) <= eps;
+        let settled = may_stop && display_diff(e, state.prev[p]) <= eps[p];
         state.prev[p] = e;
         !settled
     });
@@ -108,13 +109,14 @@ mod tests {
         let centre = [Vec3::ZERO, Vec3::ONE];
         let corners = [Vec3::splat(0.001), Vec3::ZERO];
         let (mut st, mut q, mut out) = (RefineState::default(), Vec::new(), [Vec3::splat(-1.0); 2]);
-        start(0.05, &centre, &corners, &mut st, &mut q, &mut out);
+        let eps = [0.05; 2];
+        start(&eps, &centre, &corners, &mut st, &mut q, &mut out);
         assert_eq!(q, vec![1], "only the pixel whose centre differs");
         assert!((out[0] - Vec3::splat(0.001 / 3.0)).length() < 1e-7);
         // Level 2 differs from the corner mean (0): stays. Level 3 agrees with level 2: leaves.
-        step(0.05, 2, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
+        step(&eps, 2, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
         assert_eq!(q, vec![1]);
-        step(0.05, 3, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
+        step(&eps, 3, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
         assert!(q.is_empty());
         assert_eq!(st.count[1], 12);
         assert_eq!(st.level[1], 3);

@@ -10,7 +10,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::NO_LIGHT;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
-use crate::sampling::{cmj, dim, hash};
+use crate::sampling::{cmj_cell, dim, hash};
 use crate::scene::{Light, Material, Scene, ShadowMode};
 
 /// Shadow rays stop this fraction short of the light, so a surface the light lies on
@@ -82,17 +82,25 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
     })
 }
 
-/// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
-/// (both cosines positive), calling `f(direction, distance, contribution)`. Contributions
-/// are already divided by the sample count, so unoccluded ones sum to the estimate.
+/// The CMJ pattern of quad light `li`'s samples seen from a point whose path key is `key`.
 #[inline]
-pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(Vec3, f32, Vec3)) {
+pub fn light_pattern(key: u32, li: usize) -> u32 {
+    hash(&[key, li as u32, dim::LIGHT])
+}
+
+/// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
+/// (both cosines positive), calling `f(cell, direction, distance, contribution)`, where
+/// `cell` is the sample's cell in the pattern's grid ([`crate::sampling::cmj_cell`]).
+/// Contributions are already divided by the sample count, so unoccluded ones sum to the
+/// estimate.
+#[inline]
+pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(u32, Vec3, f32, Vec3)) {
     let Light::Quad { corner, u, v, normal, area, radiance } = scene.lights[li] else { return };
     let count = scene.settings.shadow_samples;
-    let pattern = hash(&[surf.key, li as u32, dim::LIGHT]);
+    let pattern = light_pattern(surf.key, li);
     let scale = area / count as f32;
     for j in 0..count {
-        let uv = cmj(j, count, pattern);
+        let (uv, cell) = cmj_cell(j, count, pattern);
         let to = corner + uv.x * u + uv.y * v - surf.o;
         let dist2 = to.length_squared();
         let dist = dist2.sqrt();
@@ -103,7 +111,7 @@ pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
             continue;
         }
         let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
-        f(wi, dist, surf.w * brdf * radiance * (cos_x * cos_y * scale / dist2));
+        f(cell, wi, dist, surf.w * brdf * radiance * (cos_x * cos_y * scale / dist2));
     }
 }
 
@@ -215,7 +223,7 @@ pub fn shade(
                     if surf.specular == Vec3::ZERO && above {
                         n = scene.settings.shadow_samples as u64;
                     } else {
-                        quad_light_samples(scene, &surf, li, |_, _, l| {
+                        quad_light_samples(scene, &surf, li, |_, _, _, l| {
                             sum += l;
                             n += 1;
                         });
@@ -230,7 +238,7 @@ pub fn shade(
                     points.push(i as u32, li as u32, sum);
                     uniform_equivalent += n;
                 }
-                Light::Quad { .. } => quad_light_samples(scene, &surf, li, |wi, dist, l| {
+                Light::Quad { .. } => quad_light_samples(scene, &surf, li, |_, wi, dist, l| {
                     shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l)
                 }),
             }
