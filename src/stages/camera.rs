@@ -272,11 +272,6 @@ mod tests {
         assert_eq!(Lens::PerPoint(&starts).split(3), (1, 2, 3));
         assert_eq!(Lens::PerPoint(&starts).split(4), (2, 0, 70));
     }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
 
     #[test]
     fn block_order_visits_every_pixel_once_in_squares() {

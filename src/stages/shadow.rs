@@ -61,7 +61,9 @@ pub fn packets<S: Simd>(
     let mut pw = PacketWork::default();
     let (mut o, mut d, mut t) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [0.0f32; MAX]);
     let mut blocked = [false; MAX];
-    let mut lit = 0;
+    // Unblocked rays reach the film in queue order, not packet order, so the film sums
+    // in the same order as the single-ray path: packets change no pixel's bits.
+    let mut reaches = vec![false; shadow.len()];
     for group in order.chunks(S::LANES) {
         let k = group.len();
         for (l, &(_, i)) in group.iter().enumerate() {
@@ -78,11 +80,13 @@ pub fn packets<S: Simd>(
             }
         }
         for (l, &(_, i)) in group.iter().enumerate() {
-            if !blocked[l] {
-                film.push(shadow.slot[i as usize], shadow.radiance(i as usize));
-                lit += 1;
-            }
+            reaches[i as usize] = !blocked[l];
         }
+    }
+    let mut lit = 0;
+    for (i, _) in reaches.iter().enumerate().filter(|r| *r.1) {
+        film.push(shadow.slot[i], shadow.radiance(i));
+        lit += 1;
     }
     work.packet_steps += pw.steps;
     work.packet_lanes += pw.lanes;
