@@ -237,7 +237,7 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                                 hits.push(t, p);
                             }
                         }
-                        Kernel::Scalar => intersect::intersect(scene, q, hits, w, false, order),
+                        Kernel::Scalar => intersect::single::<false>(scene, q, hits, w),
                         Kernel::Packet(4, c) => intersect::packets::<f32x4>(scene, q, hits, w, order, c, false),
                         Kernel::Packet(16, c) => intersect::packets::<f32x16>(scene, q, hits, w, order, c, false),
                         Kernel::Packet(_, c) => intersect::packets::<f32x8>(scene, q, hits, w, order, c, false),
@@ -257,7 +257,7 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                         Kernel::Obvhs => (0..q.len())
                             .filter(|&i| !scene.accel.occluded_obvhs(q.origin(i), q.dir(i), 0.0, q.tmax[i]))
                             .count(),
-                        Kernel::Scalar => shadow::occlusion(scene, q, film, w, false, order),
+                        Kernel::Scalar => shadow::single::<false>(scene, q, film, w),
                         Kernel::Packet(4, c) => shadow::packets::<f32x4>(scene, q, film, w, order, c, false),
                         Kernel::Packet(16, c) => shadow::packets::<f32x16>(scene, q, film, w, order, c, false),
                         Kernel::Packet(_, c) => shadow::packets::<f32x8>(scene, q, film, w, order, c, false),
@@ -282,8 +282,6 @@ pub fn run(scene: &mut Scene, opts: &BenchOptions) -> Result<BenchReport> {
         .build()
         .map_err(|e| Error::Internal(format!("cannot start {} threads: {e}", opts.threads)))?;
     let sets = ray_sets(scene, opts.max_rays);
-    let saved = scene.settings.packets;
-    scene.settings.packets = false;
     let mut out = Vec::new();
     for (name, set) in &sets {
         let mut checksums = Vec::new();
@@ -304,7 +302,6 @@ pub fn run(scene: &mut Scene, opts: &BenchOptions) -> Result<BenchReport> {
             )));
         }
     }
-    scene.settings.packets = saved;
     Ok(BenchReport { bvh_build_seconds: scene.accel.build_seconds, threads: opts.threads, sets: out })
 }
 

@@ -27,13 +27,15 @@ pub fn intersect(
         return packets::<Packet>(scene, rays, hits, work, order, PacketConfig::RENDER, count);
     }
     if count {
-        run::<true>(scene, rays, hits, work)
+        single::<true>(scene, rays, hits, work)
     } else {
-        run::<false>(scene, rays, hits, work)
+        single::<false>(scene, rays, hits, work)
     }
 }
 
-fn run<const COUNT: bool>(scene: &Scene, rays: &RayQueue, hits: &mut HitQueue, work: &mut Traversal) {
+/// The single-ray path of [`intersect`] (public so that `wavetrace bench` can measure it
+/// whatever `render.packets` says).
+pub fn single<const COUNT: bool>(scene: &Scene, rays: &RayQueue, hits: &mut HitQueue, work: &mut Traversal) {
     hits.clear();
     for i in 0..rays.len() {
         match scene.accel.closest::<COUNT>(rays.origin(i), rays.dir(i), 0.0, f32::INFINITY, work) {

@@ -28,13 +28,20 @@ pub fn occlusion(
         return packets::<Packet>(scene, shadow, film, work, order, PacketConfig::RENDER, count);
     }
     if count {
-        run::<true>(scene, shadow, film, work)
+        single::<true>(scene, shadow, film, work)
     } else {
-        run::<false>(scene, shadow, film, work)
+        single::<false>(scene, shadow, film, work)
     }
 }
 
-fn run<const COUNT: bool>(scene: &Scene, shadow: &ShadowQueue, film: &mut FilmQueue, work: &mut Traversal) -> usize {
+/// The single-ray path of [`occlusion`] (public so that `wavetrace bench` can measure it
+/// whatever `render.packets` says).
+pub fn single<const COUNT: bool>(
+    scene: &Scene,
+    shadow: &ShadowQueue,
+    film: &mut FilmQueue,
+    work: &mut Traversal,
+) -> usize {
     let mut lit = 0;
     for i in 0..shadow.len() {
         if !scene.accel.occluded::<COUNT>(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i], work) {
