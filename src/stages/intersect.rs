@@ -83,7 +83,8 @@ pub fn packet_order(
 }
 
 /// The packet path of [`intersect`]: rays in packets of `S::LANES`, formed and traced as
-/// `cfg` says; work per lane is added to `work` when `count`. Public so that `wavetrace bench` can measure other widths and settings.
+/// `cfg` says; work per lane is added to `work` when `count`. Public so that
+/// `wavetrace bench` can measure other widths and settings.
 pub fn packets<S: Simd>(
     scene: &Scene,
     rays: &RayQueue,
