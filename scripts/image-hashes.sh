@@ -26,8 +26,9 @@ modes=(
   "dofaware-earlystop|render.aa.mode=adaptive render.aa.dof_aware=true render.shadows.mode=adaptive render.shadows.tolerance=0.05"
   "scalar-both|render.packets=false render.aa.mode=adaptive render.shadows.mode=adaptive"
 )
-# Timings and the per-thread split (which thread took which tile) vary run to run.
-strip='del(.seconds, .mrays_per_s, .per_thread, .scene.bvh_seconds, .scene.load_seconds)
+# Timings, the per-thread split (which thread took which tile) and the queues' allocated
+# bytes (capacities grow with the tiles a worker happened to take) vary run to run.
+strip='del(.seconds, .mrays_per_s, .per_thread, .queue_bytes, .scene.bvh_seconds, .scene.load_seconds)
        | .stages |= map_values(del(.seconds))'
 
 for scene in scenes/*.toml scenes/paper/*.toml; do
