@@ -163,7 +163,7 @@ pub fn ray_sets(scene: &mut Scene, max_rays: usize) -> [(&'static str, RaySet); 
         shade::shade(scene, &rays, &hits, &mut sq, &mut points, &mut spec, &mut film);
         for i in 0..rays.len() {
             primary.push((rays.origin(i), rays.dir(i)));
-            if let Some(surf) = shade::diffuse_surface(scene, &rays, &hits, i) {
+            if let Some(surf) = crate::surface::diffuse_surface(scene, &rays, &hits, i) {
                 let (u1, u2) = (to_unit(hash(&[surf.key, 0, dim::BENCH])), to_unit(hash(&[surf.key, 1, dim::BENCH])));
                 bounces.push((surf.o, cosine_direction(surf.n, u1, u2)));
             }

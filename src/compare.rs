@@ -6,18 +6,9 @@ use glam::Vec3;
 use serde::Serialize;
 use std::path::Path;
 
-use crate::render::Image;
+use crate::color::{srgb_decode, srgb_encode};
+use crate::film::Image;
 use crate::{Error, Result};
-
-/// The inverse of the sRGB transfer function.
-#[inline]
-pub fn srgb_decode(v: f32) -> f32 {
-    if v <= 0.04045 {
-        v / 12.92
-    } else {
-        ((v + 0.055) / 1.055).powf(2.4)
-    }
-}
 
 /// Reads a PNG (decoded from sRGB) or an EXR (already linear) as linear RGB.
 pub fn load_linear(path: &Path) -> Result<Image> {
@@ -79,9 +70,7 @@ pub fn metrics(test: &Image, reference: &Image) -> Result<Metrics> {
     }
     let n = (3 * test.pixels.len()).max(1) as f64;
     let mse = se / n;
-    let ldr = |img: &Image| -> Vec<[f32; 3]> {
-        img.pixels.iter().map(|p| p.to_array().map(crate::output::srgb_encode)).collect()
-    };
+    let ldr = |img: &Image| -> Vec<[f32; 3]> { img.pixels.iter().map(|p| p.to_array().map(srgb_encode)).collect() };
     let (w, h) = (test.width as usize, test.height as usize);
     let flip = crate::flip::mean_flip(&ldr(reference), &ldr(test), w, h, crate::flip::ppd_default()) as f64;
     Ok(Metrics { rmse: mse.sqrt(), rel_mse: rel / n, psnr: 10.0 * (1.0 / mse).log10(), flip })
@@ -133,7 +122,7 @@ mod tests {
     #[test]
     fn srgb_round_trip() {
         for v in [0.0f32, 0.001, 0.2, 0.5, 1.0] {
-            assert!((srgb_decode(crate::output::srgb_encode(v)) - v).abs() < 1e-5);
+            assert!((srgb_decode(srgb_encode(v)) - v).abs() < 1e-5);
         }
     }
 }

@@ -25,6 +25,8 @@
 use glam::Vec3;
 use std::f32::consts::PI;
 
+use crate::color::srgb_decode;
+
 /// Exponent compressing the HyAB colour difference (`q_c` in the paper).
 pub const QC: f32 = 0.7;
 /// Fraction of the maximum colour error below which errors map to `[0, PT]`.
@@ -64,20 +66,10 @@ pub fn ppd_default() -> f32 {
 // Colour transforms
 // ---------------------------------------------------------------------------
 
-/// Decodes one sRGB-encoded channel to linear.
-#[inline]
-pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
 /// Decodes an sRGB-encoded colour to linear RGB.
 #[inline]
 pub fn srgb_to_linear_rgb(srgb: Vec3) -> Vec3 {
-    Vec3::new(srgb_to_linear(srgb.x), srgb_to_linear(srgb.y), srgb_to_linear(srgb.z))
+    Vec3::new(srgb_decode(srgb.x), srgb_decode(srgb.y), srgb_decode(srgb.z))
 }
 
 /// Linear sRGB-primaries RGB to CIE XYZ, D65 white.
@@ -582,13 +574,13 @@ mod tests {
 
     #[test]
     fn srgb_decoding_matches_known_values() {
-        assert_close(srgb_to_linear(0.5), 0.214_041, 1e-5, "sRGB 0.5");
-        assert_eq!(srgb_to_linear(0.0), 0.0);
-        assert_close(srgb_to_linear(1.0), 1.0, 1e-6, "sRGB 1");
+        assert_close(srgb_decode(0.5), 0.214_041, 1e-5, "sRGB 0.5");
+        assert_eq!(srgb_decode(0.0), 0.0);
+        assert_close(srgb_decode(1.0), 1.0, 1e-6, "sRGB 1");
         // Linear toe below the 0.04045 threshold.
-        assert_close(srgb_to_linear(0.04), 0.04 / 12.92, 1e-9, "sRGB 0.04");
+        assert_close(srgb_decode(0.04), 0.04 / 12.92, 1e-9, "sRGB 0.04");
         // The two branches meet at the threshold.
-        assert_close(srgb_to_linear(0.040_451), srgb_to_linear(0.04045), 1e-6, "continuity");
+        assert_close(srgb_decode(0.040_451), srgb_decode(0.04045), 1e-6, "continuity");
     }
 
     #[test]

@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 
-use crate::output::to_display8;
-use crate::render::{Heat, Image};
+use crate::color::to_display8;
+use crate::film::{Heat, Image};
 
 /// The heatmaps `--heatmap KIND=PATH` can write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -7,11 +7,14 @@
 #![warn(missing_docs)]
 
 pub mod bench;
+pub mod color;
 pub mod compare;
 pub mod error;
+pub mod film;
 pub mod flip;
 pub mod geometry;
 pub mod heatmap;
+pub mod light;
 pub mod output;
 pub mod plot;
 pub mod queue;
@@ -20,6 +23,7 @@ pub mod sampling;
 pub mod scene;
 pub mod stages;
 pub mod stats;
+pub mod surface;
 pub mod sweep;
 
 pub use error::{Error, Result};

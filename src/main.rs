@@ -7,7 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use wavetrace::geometry::packet::{Order, PacketConfig};
+use wavetrace::geometry::order::Order;
+use wavetrace::geometry::packet::PacketConfig;
 use wavetrace::heatmap::{self, HeatmapKind};
 use wavetrace::output::{check_folder, check_image_path, check_png_path, write_image, write_png, write_text};
 use wavetrace::scene::{load, SceneSource};

@@ -6,7 +6,8 @@ use glam::Vec3;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use crate::render::Image;
+use crate::color::to_display8;
+use crate::film::Image;
 use crate::{Error, Result};
 
 /// Image file formats, picked by the output's extension.
@@ -47,23 +48,6 @@ fn parent(path: &Path) -> PathBuf {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     }
-}
-
-/// The sRGB transfer function of a linear value clamped to [0, 1].
-#[inline]
-pub fn srgb_encode(linear: f32) -> f32 {
-    let c = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
-    if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// The 8-bit display value the PNG stores for a linear value.
-#[inline]
-pub fn to_display8(linear: f32) -> u8 {
-    (srgb_encode(linear) * 255.0 + 0.5) as u8
 }
 
 /// 8-bit sRGB bytes of an image, RGB interleaved.

@@ -14,13 +14,14 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
+use crate::film::{copy_tile, Heat, Image};
 use crate::geometry::Traversal;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
 use crate::scene::{AaMode, Light, Scene, ShadowMode};
 use crate::stages::penumbra::Batches;
 use crate::stages::refine::RefineState;
 use crate::stages::{camera, film, intersect, penumbra, scatter, shade, shadow, shadow_corner, Tile};
-use crate::stats::{Stage, Stats};
+use crate::stats::{Span, Stage, Stats};
 use crate::{Error, Result};
 
 /// Tile edge in pixels: small enough to balance load, large enough for coherent waves.
@@ -64,42 +65,6 @@ pub struct RenderOptions {
     /// Set from elsewhere (a Ctrl-C handler) to stop: tiles already finished are kept,
     /// the one in progress is dropped, and the output is marked partial.
     pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
-}
-
-/// One stage call on one thread, for the Chrome trace.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Span {
-    /// The stage.
-    pub stage: Stage,
-    /// Start, microseconds since the render began.
-    pub start_us: f64,
-    /// Duration in microseconds.
-    pub dur_us: f64,
-}
-
-/// A linear RGB image.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Image {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// Radiance per pixel, row-major from the top-left.
-    pub pixels: Vec<Vec3>,
-}
-
-/// Where the rays went, per pixel: the data behind the heatmaps.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Heat {
-    /// Rays of every kind whose radiance went to the pixel (a shared corner's rays are
-    /// split evenly between the pixels that share it).
-    pub rays: Vec<f32>,
-    /// Last adaptive refinement level cast in the pixel; 0 when never refined.
-    pub level: Vec<u8>,
-    /// Shading points × quad lights that entered the shadow-corner queue.
-    pub points: Vec<f32>,
-    /// Of those, the ones that entered the penumbra queue.
-    pub penumbra: Vec<f32>,
 }
 
 /// What a render produces.
@@ -540,15 +505,6 @@ struct Pass<'a> {
     wave: u64,
     start: Instant,
     rays: std::sync::atomic::AtomicU64,
-}
-
-/// Copies a tile's rows from `src` (tile-local, row-major) into `dst` (raster of width `width`).
-fn copy_tile<T: Copy>(dst: &mut [T], width: u32, tile: &Tile, src: &[T]) {
-    let tw = (tile.x1 - tile.x0) as usize;
-    for (row, y) in (tile.y0..tile.y1).enumerate() {
-        let at = (y * width + tile.x0) as usize;
-        dst[at..at + tw].copy_from_slice(&src[row * tw..(row + 1) * tw]);
-    }
 }
 
 /// Renders `scene`.

@@ -63,6 +63,17 @@ impl Stage {
     }
 }
 
+/// One stage call on one thread, for the Chrome trace.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    /// The stage.
+    pub stage: Stage,
+    /// Start, microseconds since the render began.
+    pub start_us: f64,
+    /// Duration in microseconds.
+    pub dur_us: f64,
+}
+
 /// Counters of one stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct StageCounters {
@@ -530,7 +541,7 @@ impl Report {
 
 /// A Chrome trace-event JSON document (chrome://tracing, Perfetto) with one complete
 /// ("X") event per stage span; thread ids are worker indices.
-pub fn chrome_trace(spans: &[Vec<crate::render::Span>]) -> String {
+pub fn chrome_trace(spans: &[Vec<Span>]) -> String {
     let events: Vec<serde_json::Value> = spans
         .iter()
         .enumerate()

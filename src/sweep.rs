@@ -23,9 +23,9 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 use crate::compare::{load_linear, metrics, Metrics};
+use crate::film::Image;
 use crate::output::{check_folder, write_image, write_text};
 use crate::plot::{pareto_front, scatter_plot, Series};
-use crate::render::Image;
 use crate::scene::{load, AaMode, SceneSource, Settings, ShadowMode};
 use crate::{render, Error, RenderOptions, Result};
 

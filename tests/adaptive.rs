@@ -5,7 +5,7 @@ mod support;
 
 use glam::Vec3;
 use support::*;
-use wavetrace::render::Image;
+use wavetrace::film::Image;
 use wavetrace::{render, RenderOptions};
 
 /// A plane under a small, distant quad light, seen at an angle: smooth, unoccluded.
@@ -239,7 +239,7 @@ fn adaptive_aa_converges_to_the_uniform_reference() {
         sets.extend_from_slice(extra);
         let mut img = render_text(BLOCKS, &sets, 2).image;
         for p in &mut img.pixels {
-            *p = Vec3::from_array(p.to_array().map(wavetrace::output::srgb_encode));
+            *p = Vec3::from_array(p.to_array().map(wavetrace::color::srgb_encode));
         }
         img
     };

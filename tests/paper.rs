@@ -6,7 +6,7 @@
 mod support;
 
 use support::*;
-use wavetrace::render::Image;
+use wavetrace::film::Image;
 use wavetrace::stats::{Report, SceneReport};
 use wavetrace::sweep::Mode;
 

@@ -214,7 +214,7 @@ fn reference_problems_are_input_errors() {
     assert!(input_error(sweep::run(&o)).contains("missing.exr"));
 
     let small = dir.path().join("small.exr");
-    let img = wavetrace::render::Image { width: 8, height: 8, pixels: vec![glam::Vec3::ONE; 64] };
+    let img = wavetrace::film::Image { width: 8, height: 8, pixels: vec![glam::Vec3::ONE; 64] };
     wavetrace::output::write_image(&small, &img).unwrap();
     o.reference = Reference::File(small);
     let msg = input_error(sweep::run(&o));

@@ -2,6 +2,7 @@
 
 pub mod bvh;
 pub mod offset;
+pub mod order;
 pub mod packet;
 pub mod shapes;
 

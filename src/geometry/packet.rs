@@ -18,6 +18,7 @@ use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Sub};
 use wide::{f32x16, f32x4, f32x8};
 
 use super::bvh::{subtree, Accel, NodeStack, Traversal, CULL, STACK};
+use super::order::Order;
 use super::shapes::{intersect_triangle, shear_axes, Shape, NO_LIGHT};
 
 /// The SIMD type the renderer's packets use (chosen by measurement: docs/performance.md).
@@ -46,40 +47,6 @@ impl PacketConfig {
     /// The renderer's settings (chosen by measurement: docs/performance.md).
     pub const RENDER: PacketConfig =
         PacketConfig { min_active: 0, bounce_order: Order::Octant, shadow_order: Order::Octant, split_mixed: true };
-}
-
-/// How a queue's rays are ordered before they are cut into packets.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Order {
-    /// Generation order.
-    Keep,
-    /// Grouped by direction octant (a stable counting sort: generation order within an
-    /// octant, linear time).
-    Octant,
-    /// By direction octant, then the Morton code of the origin (a stable sort).
-    Morton,
-}
-
-impl std::fmt::Display for Order {
-    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        f.write_str(match self {
-            Order::Keep => "keep",
-            Order::Octant => "octant",
-            Order::Morton => "morton",
-        })
-    }
-}
-
-impl Order {
-    /// Parses `keep`, `octant` or `morton`.
-    pub fn parse(s: &str) -> Option<Order> {
-        match s {
-            "keep" => Some(Order::Keep),
-            "octant" => Some(Order::Octant),
-            "morton" => Some(Order::Morton),
-            _ => None,
-        }
-    }
 }
 
 /// Most lanes of any supported packet width (arrays are sized for it).
@@ -223,31 +190,6 @@ pub struct PacketWork {
     pub nodes: u64,
     /// Primitive tests per lane.
     pub prims: u64,
-}
-
-/// Direction octant: the three sign bits.
-#[inline]
-pub fn octant(d: Vec3) -> u32 {
-    (d.x < 0.0) as u32 | ((d.y < 0.0) as u32) << 1 | ((d.z < 0.0) as u32) << 2
-}
-
-/// Spreads the low 10 bits of `v` to every third bit (for a 30-bit Morton code).
-#[inline]
-fn spread(mut v: u32) -> u32 {
-    v &= 0x3ff;
-    v = (v | (v << 16)) & 0x0300_00ff;
-    v = (v | (v << 8)) & 0x0300_f00f;
-    v = (v | (v << 4)) & 0x030c_30c3;
-    (v | (v << 2)) & 0x0924_9249
-}
-
-/// Sort key that puts coherent rays next to each other: direction octant first, then the
-/// Morton code of the origin on a 1024³ grid over `(lo, hi)`.
-#[inline]
-pub fn coherence_key(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> u64 {
-    let q = ((o - lo) / (hi - lo).max(Vec3::splat(1e-30)) * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
-    let m = spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2;
-    (octant(d) as u64) << 32 | m as u64
 }
 
 /// obvhs's `safe_inverse`, so lanes divide exactly as the scalar rays do.

@@ -7,7 +7,8 @@
 
 use glam::Vec3;
 
-use crate::geometry::packet::{coherence_key, octant, Order, Packet, PacketConfig, PacketWork, Simd, MAX};
+use crate::geometry::order::{octant, packet_order, Order};
+use crate::geometry::packet::{Packet, PacketConfig, PacketWork, Simd, MAX};
 use crate::geometry::Traversal;
 use crate::queue::{HitQueue, RayQueue, MISS};
 use crate::scene::Scene;
@@ -45,43 +46,6 @@ pub fn single<const COUNT: bool>(scene: &Scene, rays: &RayQueue, hits: &mut HitQ
     }
 }
 
-/// The order packets are formed in: `order` receives the ray indices 0..n as `how` says
-/// (every sort is stable, so the order is deterministic).
-pub fn packet_order(
-    scene: &Scene,
-    n: usize,
-    o: impl Fn(usize) -> Vec3,
-    d: impl Fn(usize) -> Vec3,
-    how: Order,
-    order: &mut Vec<(u64, u32)>,
-) {
-    order.clear();
-    match how {
-        Order::Keep => order.extend((0..n as u32).map(|i| (0, i))),
-        Order::Octant => {
-            // Counting sort on the 8 octants.
-            let mut start = [0usize; 9];
-            for i in 0..n {
-                start[octant(d(i)) as usize + 1] += 1;
-            }
-            for k in 1..9 {
-                start[k] += start[k - 1];
-            }
-            order.resize(n, (0, 0));
-            for i in 0..n {
-                let k = octant(d(i)) as usize;
-                order[start[k]] = (k as u64, i as u32);
-                start[k] += 1;
-            }
-        }
-        Order::Morton => {
-            let (lo, hi) = scene.accel.bounds();
-            order.extend((0..n).map(|i| (coherence_key(o(i), d(i), lo, hi), i as u32)));
-            order.sort_by_key(|e| e.0);
-        }
-    }
-}
-
 /// The packet path of [`intersect`]: rays in packets of `S::LANES`, formed and traced as
 /// `cfg` says; work per lane is added to `work` when `count`. Public so that
 /// `wavetrace bench` can measure other widths and settings.
@@ -101,7 +65,7 @@ pub fn packets<S: Simd>(
     hits.prim.resize(n, MISS);
     let camera = rays.depth.first().is_some_and(|&d| d == 0);
     let how = if camera { Order::Keep } else { cfg.bounce_order };
-    packet_order(scene, n, |i| rays.origin(i), |i| rays.dir(i), how, order);
+    packet_order(&scene.accel, n, |i| rays.origin(i), |i| rays.dir(i), how, order);
     let mut pw = PacketWork::default();
     let (mut o, mut d, mut out) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [(0.0f32, 0u32); MAX]);
     for group in order.chunks(S::LANES) {

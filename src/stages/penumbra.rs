@@ -10,10 +10,11 @@
 //! stopped, then sent to the film in the fixed-n order, scaled by n / (rays traced): a
 //! point that never stops early gives the fixed-n sums bit for bit.
 
-use super::shade::{diffuse_surface, quad_light_samples, SHADOW_TMAX_SCALE};
+use crate::light::{quad_light_samples, SHADOW_TMAX_SCALE};
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
 use crate::sampling::{cmj_grid, dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
+use crate::surface::diffuse_surface;
 
 /// Two-sided 95% normal quantile of the Wilson interval.
 const Z95: f32 = 1.959_964;

@@ -12,7 +12,7 @@
 
 use glam::Vec3;
 
-use crate::output::srgb_encode;
+use crate::color::srgb_encode;
 
 /// Per-pixel state of adaptive AA in one tile: plain data, one entry per tile pixel.
 #[derive(Default, Debug, Clone)]

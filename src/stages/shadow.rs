@@ -7,8 +7,8 @@
 
 use glam::Vec3;
 
-use super::intersect::packet_order;
-use crate::geometry::packet::{octant, Packet, PacketConfig, PacketWork, Simd, MAX};
+use crate::geometry::order::{octant, packet_order};
+use crate::geometry::packet::{Packet, PacketConfig, PacketWork, Simd, MAX};
 use crate::geometry::Traversal;
 use crate::queue::{FilmQueue, ShadowQueue};
 use crate::scene::Scene;
@@ -64,7 +64,7 @@ pub fn packets<S: Simd>(
     cfg: PacketConfig,
     count: bool,
 ) -> usize {
-    packet_order(scene, shadow.len(), |i| shadow.origin(i), |i| shadow.dir(i), cfg.shadow_order, order);
+    packet_order(&scene.accel, shadow.len(), |i| shadow.origin(i), |i| shadow.dir(i), cfg.shadow_order, order);
     let mut pw = PacketWork::default();
     let (mut o, mut d, mut t) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [0.0f32; MAX]);
     let mut blocked = [false; MAX];

@@ -5,11 +5,12 @@
 
 use glam::Vec3;
 
-use super::shade::{diffuse_surface, SHADOW_TMAX_SCALE};
 use crate::geometry::Traversal;
+use crate::light::SHADOW_TMAX_SCALE;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue};
 use crate::sampling::{dim, hash, to_unit};
 use crate::scene::{Light, Probe, Scene};
+use crate::surface::diffuse_surface;
 
 /// The probe targets on quad light `li` for a shading point with path key `key`; the
 /// first `probe.rays()` entries are used.

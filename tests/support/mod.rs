@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use std::path::Path;
-use wavetrace::render::Image;
+use wavetrace::film::Image;
 use wavetrace::scene::{load, SceneSource};
 use wavetrace::{render, RenderOptions, RenderOutput, Scene};
 

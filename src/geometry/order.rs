@@ -1,0 +1,102 @@
+//! The order a queue's rays are cut into packets in: coherent rays next to each other,
+//! by a stable sort, so the order (and every result) is deterministic.
+
+use glam::Vec3;
+
+use super::Accel;
+
+/// How a queue's rays are ordered before they are cut into packets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Order {
+    /// Generation order.
+    Keep,
+    /// Grouped by direction octant (a stable counting sort: generation order within an
+    /// octant, linear time).
+    Octant,
+    /// By direction octant, then the Morton code of the origin (a stable sort).
+    Morton,
+}
+
+impl std::fmt::Display for Order {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(match self {
+            Order::Keep => "keep",
+            Order::Octant => "octant",
+            Order::Morton => "morton",
+        })
+    }
+}
+
+impl Order {
+    /// Parses `keep`, `octant` or `morton`.
+    pub fn parse(s: &str) -> Option<Order> {
+        match s {
+            "keep" => Some(Order::Keep),
+            "octant" => Some(Order::Octant),
+            "morton" => Some(Order::Morton),
+            _ => None,
+        }
+    }
+}
+
+/// Direction octant: the three sign bits.
+#[inline]
+pub fn octant(d: Vec3) -> u32 {
+    (d.x < 0.0) as u32 | ((d.y < 0.0) as u32) << 1 | ((d.z < 0.0) as u32) << 2
+}
+
+/// Spreads the low 10 bits of `v` to every third bit (for a 30-bit Morton code).
+#[inline]
+fn spread(mut v: u32) -> u32 {
+    v &= 0x3ff;
+    v = (v | (v << 16)) & 0x0300_00ff;
+    v = (v | (v << 8)) & 0x0300_f00f;
+    v = (v | (v << 4)) & 0x030c_30c3;
+    (v | (v << 2)) & 0x0924_9249
+}
+
+/// Sort key that puts coherent rays next to each other: direction octant first, then the
+/// Morton code of the origin on a 1024³ grid over `(lo, hi)`.
+#[inline]
+pub fn coherence_key(o: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> u64 {
+    let q = ((o - lo) / (hi - lo).max(Vec3::splat(1e-30)) * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+    let m = spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2;
+    (octant(d) as u64) << 32 | m as u64
+}
+
+/// The order packets are formed in: `order` receives the ray indices 0..n as `how` says
+/// (every sort is stable, so the order is deterministic).
+pub fn packet_order(
+    accel: &Accel,
+    n: usize,
+    o: impl Fn(usize) -> Vec3,
+    d: impl Fn(usize) -> Vec3,
+    how: Order,
+    order: &mut Vec<(u64, u32)>,
+) {
+    order.clear();
+    match how {
+        Order::Keep => order.extend((0..n as u32).map(|i| (0, i))),
+        Order::Octant => {
+            // Counting sort on the 8 octants.
+            let mut start = [0usize; 9];
+            for i in 0..n {
+                start[octant(d(i)) as usize + 1] += 1;
+            }
+            for k in 1..9 {
+                start[k] += start[k - 1];
+            }
+            order.resize(n, (0, 0));
+            for i in 0..n {
+                let k = octant(d(i)) as usize;
+                order[start[k]] = (k as u64, i as u32);
+                start[k] += 1;
+            }
+        }
+        Order::Morton => {
+            let (lo, hi) = accel.bounds();
+            order.extend((0..n).map(|i| (coherence_key(o(i), d(i), lo, hi), i as u32)));
+            order.sort_by_key(|e| e.0);
+        }
+    }
+}

@@ -1,0 +1,79 @@
+//! Quad-light sampling shared by the stages that light a diffuse point: the stratified
+//! samples of uniform mode and of the penumbra, the exact irradiance of the adaptive
+//! test's lit points, and where shadow rays stop.
+
+use glam::Vec3;
+
+use crate::sampling::{cmj_cell, dim, hash};
+use crate::scene::{Light, Scene};
+use crate::surface::{diffuse_brdf, Surface};
+
+/// Shadow rays stop this fraction short of the light, so a surface the light lies on
+/// (a lamp flush with a ceiling) does not shadow it.
+pub const SHADOW_TMAX_SCALE: f32 = 1.0 - 1e-4;
+
+/// The CMJ pattern of quad light `li`'s samples seen from a point whose path key is `key`.
+#[inline]
+pub fn light_pattern(key: u32, li: usize) -> u32 {
+    hash(&[key, li as u32, dim::LIGHT])
+}
+
+/// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
+/// (both cosines positive), calling `f(cell, direction, distance, contribution)`, where
+/// `cell` is the sample's cell in the pattern's grid ([`crate::sampling::cmj_cell`]).
+/// Contributions are already divided by the sample count, so unoccluded ones sum to the
+/// estimate.
+#[inline]
+pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(u32, Vec3, f32, Vec3)) {
+    let Light::Quad { corner, u, v, normal, area, radiance } = scene.lights[li] else { return };
+    let count = scene.settings.shadow_samples;
+    let pattern = light_pattern(surf.key, li);
+    let scale = area / count as f32;
+    for j in 0..count {
+        let (uv, cell) = cmj_cell(j, count, pattern);
+        let to = corner + uv.x * u + uv.y * v - surf.o;
+        let dist2 = to.length_squared();
+        let dist = dist2.sqrt();
+        let wi = to / dist;
+        let cos_x = surf.n.dot(wi);
+        let cos_y = -normal.dot(wi);
+        if cos_x <= 0.0 || cos_y <= 0.0 {
+            continue;
+        }
+        let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
+        f(cell, wi, dist, surf.w * brdf * radiance * (cos_x * cos_y * scale / dist2));
+    }
+}
+
+/// Irradiance at `o` (unit normal `n`) from a parallelogram of unit radiance with
+/// corners `c, c+u, c+u+v, c+v`, by Lambert's polygon formula
+/// E = ½ Σ θ_k (n · γ_k), with the polygon first clipped to the hemisphere above `o`.
+/// Angles come from atan2, which keeps its precision for small, distant lights.
+pub fn quad_irradiance(o: Vec3, n: Vec3, c: Vec3, u: Vec3, v: Vec3) -> f32 {
+    let quad = [c - o, c + u - o, c + u + v - o, c + v - o];
+    // Sutherland–Hodgman against the tangent plane: at most 5 vertices remain.
+    let mut poly = [Vec3::ZERO; 5];
+    let mut len = 0;
+    for k in 0..4 {
+        let (a, b) = (quad[k], quad[(k + 1) % 4]);
+        let (da, db) = (n.dot(a), n.dot(b));
+        if da > 0.0 {
+            poly[len] = a;
+            len += 1;
+        }
+        if (da > 0.0) != (db > 0.0) {
+            poly[len] = a + (b - a) * (da / (da - db));
+            len += 1;
+        }
+    }
+    let mut sum = 0.0;
+    for k in 0..len {
+        let (a, b) = (poly[k].normalize(), poly[(k + 1) % len].normalize());
+        let cross = a.cross(b);
+        let sin = cross.length();
+        if sin > 0.0 {
+            sum += sin.atan2(a.dot(b)) * n.dot(cross / sin);
+        }
+    }
+    0.5 * sum.abs()
+}

@@ -1,0 +1,75 @@
+//! Diffuse shading points: the surface a ray hit and its BRDF, computed in one place for
+//! the shade, shadow-corner and penumbra stages so that they agree bit for bit.
+
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+use crate::geometry::offset::offset_ray_origin;
+use crate::geometry::NO_LIGHT;
+use crate::queue::{HitQueue, RayQueue};
+use crate::scene::{Material, Scene};
+
+/// Lambert plus normalised Phong: `color/π + specular·(n+2)/(2π)·max(0, r·wo)^n`,
+/// with `r` the mirror direction of `wi` about `n`.
+#[inline]
+pub fn diffuse_brdf(color: Vec3, specular: Vec3, shininess: f32, n: Vec3, wi: Vec3, wo: Vec3) -> Vec3 {
+    let mut f = color * FRAC_1_PI;
+    if specular != Vec3::ZERO {
+        let r = 2.0 * n.dot(wi) * n - wi;
+        let c = r.dot(wo).max(0.0);
+        f += specular * ((shininess + 2.0) / (2.0 * PI) * c.powf(shininess));
+    }
+    f
+}
+
+/// A diffuse shading point: what direct lighting needs, computed in one place for the
+/// shade, shadow-corner and penumbra stages so they agree bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    /// Ray origin for shadow rays: the hit point offset off the surface.
+    pub o: Vec3,
+    /// Unit normal on the side the ray arrived from.
+    pub n: Vec3,
+    /// Unit direction back along the incoming ray.
+    pub wo: Vec3,
+    /// Albedo.
+    pub color: Vec3,
+    /// Phong reflectance.
+    pub specular: Vec3,
+    /// Phong exponent.
+    pub shininess: f32,
+    /// Path throughput of the incoming ray.
+    pub w: Vec3,
+    /// Accumulation slot of the incoming ray.
+    pub slot: u32,
+    /// Path key of the incoming ray.
+    pub key: u32,
+}
+
+/// The diffuse surface that ray `i` hit, or `None` if it hit something else.
+#[inline]
+pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
+    let prim = scene.accel.prims.get(hits.prim[i] as usize)?;
+    if prim.light != NO_LIGHT {
+        return None;
+    }
+    let Material::Diffuse { color, specular, shininess } = scene.materials[prim.material as usize] else {
+        return None;
+    };
+    let d = rays.dir(i);
+    let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
+    let ng = prim.shape.normal(x).normalize();
+    // Diffuse surfaces are two-sided: light the side the ray arrived on.
+    let n = if ng.dot(d) < 0.0 { ng } else { -ng };
+    Some(Surface {
+        o: offset_ray_origin(x, err, n),
+        n,
+        wo: -d,
+        color,
+        specular,
+        shininess,
+        w: rays.weight(i),
+        slot: rays.slot[i],
+        key: rays.key[i],
+    })
+}
