@@ -15,8 +15,8 @@ fn kernels(c: &mut Criterion) {
     for name in ["bunny", "ogre"] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.toml"));
         let source = SceneSource::from_file(&path).expect("scene file");
-        let mut scene = load(&source, &["render.aa.samples=1".into()]).expect("scene");
-        let sets = ray_sets(&mut scene, 1 << 18);
+        let scene = load(&source, &["render.aa.samples=1".into()]).expect("scene");
+        let sets = ray_sets(&scene, 1 << 18);
         let mut g = c.benchmark_group(format!("traversal/{name}"));
         g.sample_size(10);
         for (set_name, set) in &sets {

@@ -17,16 +17,17 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
-use wide::{f32x16, f32x4, f32x8};
 
 use crate::error::{Error, Result};
+use crate::film::tiles;
 use crate::geometry::packet::{PacketConfig, LANES};
-use crate::geometry::Traversal;
-use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
-use crate::render::tiles;
+use crate::geometry::tracer::{Coherence, Kernel as TracerKernel, Tracer, Width};
+use crate::light::uniform_shadow_rays;
+use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, to_unit};
-use crate::scene::{Scene, ShadowMode};
-use crate::stages::{camera, intersect, shade, shadow};
+use crate::scene::Scene;
+use crate::stages::{camera, intersect, shadow};
+use crate::surface::diffuse_surface;
 
 /// Rays per chunk: one render wave of camera rays.
 pub const CHUNK: usize = 4096;
@@ -78,8 +79,9 @@ pub struct BenchReport {
 
 /// A fixed set of rays: closest-hit ones in a ray queue, or any-hit shadow segments.
 pub enum RaySet {
-    /// Closest-hit rays (camera or bounce).
-    Closest(Vec<RayQueue>),
+    /// Closest-hit rays (camera or bounce), and which they are (it decides the packet
+    /// order, as in the renderer).
+    Closest(Vec<RayQueue>, Coherence),
     /// Shadow rays.
     AnyHit(Vec<ShadowQueue>),
 }
@@ -88,7 +90,7 @@ impl RaySet {
     /// Number of rays.
     pub fn len(&self) -> usize {
         match self {
-            RaySet::Closest(c) => c.iter().map(|q| q.len()).sum(),
+            RaySet::Closest(c, _) => c.iter().map(|q| q.len()).sum(),
             RaySet::AnyHit(c) => c.iter().map(|q| q.len()).sum(),
         }
     }
@@ -137,55 +139,40 @@ fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     (r * phi.cos() * t + r * phi.sin() * b + (1.0 - u1).max(0.0).sqrt() * n).normalize()
 }
 
-/// Builds the three ray sets of `scene` (shading in uniform shadow mode whatever the
-/// scene says, so the shadow set is the renderer's uniform shadow queue).
-pub fn ray_sets(scene: &mut Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
-    let saved = (scene.settings.shadow_mode, scene.settings.packets);
-    scene.settings.shadow_mode = ShadowMode::Uniform;
-    scene.settings.packets = false;
-    let s = scene.settings.clone();
+/// Builds the three ray sets of `scene` (the shadow set is uniform mode's shadow rays
+/// whatever the scene's shadow mode).
+pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
+    let s = &scene.settings;
     let spp = s.aa_samples as u64 * s.dof_samples as u64;
     let (mut primary, mut shadows, mut bounces) =
         (Thinned::new(max_rays), Thinned::new(max_rays), Thinned::new(max_rays));
-    let (mut rays, mut hits, mut sq, mut points, mut spec, mut film) = (
-        RayQueue::default(),
-        HitQueue::default(),
-        ShadowQueue::default(),
-        ShadowPointQueue::default(),
-        Vec::new(),
-        FilmQueue::default(),
-    );
-    let mut order = Vec::new();
+    let (mut rays, mut hits, mut shadow) = (RayQueue::default(), HitQueue::default(), Vec::new());
+    let mut tracer = Tracer::new(&scene.accel, TracerKernel::Scalar, false);
     for tile in tiles(s.width, s.height) {
-        rays.clear();
         camera::generate(scene, &tile, 0..tile.pixels() as u64 * spp, &mut rays);
-        intersect::intersect(scene, &rays, &mut hits, &mut Traversal::default(), false, &mut order);
-        shade::shade(scene, &rays, &hits, &mut sq, &mut points, &mut spec, &mut film);
+        intersect::intersect(&mut tracer, &rays, Coherence::Camera, &mut hits);
+        shadow.clear();
         for i in 0..rays.len() {
             primary.push((rays.origin(i), rays.dir(i)));
-            if let Some(surf) = crate::surface::diffuse_surface(scene, &rays, &hits, i) {
+            if let Some(surf) = diffuse_surface(scene, &rays, &hits, i) {
                 let (u1, u2) = (to_unit(hash(&[surf.key, 0, dim::BENCH])), to_unit(hash(&[surf.key, 1, dim::BENCH])));
                 bounces.push((surf.o, cosine_direction(surf.n, u1, u2)));
+                for li in 0..scene.lights.len() {
+                    uniform_shadow_rays(scene, &surf, li, |wi, tmax, _| shadow.push((surf.o, wi, tmax)));
+                }
             }
         }
-        for i in 0..sq.len() {
-            shadows.push((sq.origin(i), sq.dir(i), sq.tmax[i]));
-        }
+        shadow.iter().for_each(|&r| shadows.push(r));
     }
-    (scene.settings.shadow_mode, scene.settings.packets) = saved;
-    let closest = |items: Vec<(Vec3, Vec3)>, depth: u32| {
-        RaySet::Closest(
-            items
-                .chunks(CHUNK)
-                .map(|c| {
-                    let mut q = RayQueue::default();
-                    for (k, &(o, d)) in c.iter().enumerate() {
-                        q.push(o, d, k as u32, Vec3::ONE, depth, 0);
-                    }
-                    q
-                })
-                .collect(),
-        )
+    let closest = |items: Vec<(Vec3, Vec3)>, coherence: Coherence| {
+        let chunk = |c: &[(Vec3, Vec3)]| {
+            let mut q = RayQueue::default();
+            for (k, &(o, d)) in c.iter().enumerate() {
+                q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0);
+            }
+            q
+        };
+        RaySet::Closest(items.chunks(CHUNK).map(chunk).collect(), coherence)
     };
     let any_hit = RaySet::AnyHit(
         shadows
@@ -200,10 +187,14 @@ pub fn ray_sets(scene: &mut Scene, max_rays: usize) -> [(&'static str, RaySet); 
             })
             .collect(),
     );
-    [("primary", closest(primary.items, 0)), ("shadow", any_hit), ("secondary", closest(bounces.items, 1))]
+    [
+        ("primary", closest(primary.items, Coherence::Camera)),
+        ("shadow", any_hit),
+        ("secondary", closest(bounces.items, Coherence::Bounce)),
+    ]
 }
 
-/// A traversal kernel as the stages run it.
+/// A traversal kernel to measure: the renderer's ones, or obvhs's own as a baseline.
 #[derive(Clone, Copy, Debug)]
 pub enum Kernel {
     /// obvhs's own single-ray traversal (`Bvh2::ray_traverse`, `ray_traverse_miss`), with
@@ -215,19 +206,34 @@ pub enum Kernel {
     Packet(usize, PacketConfig),
 }
 
+impl Kernel {
+    /// The tracer kernel, for the renderer's kernels.
+    fn tracer(self) -> Option<TracerKernel> {
+        match self {
+            Kernel::Obvhs => None,
+            Kernel::Scalar => Some(TracerKernel::Scalar),
+            Kernel::Packet(4, c) => Some(TracerKernel::Packet(Width::X4, c)),
+            Kernel::Packet(16, c) => Some(TracerKernel::Packet(Width::X16, c)),
+            Kernel::Packet(_, c) => Some(TracerKernel::Packet(Width::X8, c)),
+        }
+    }
+}
+
 /// Traces `set` once on `pool` with `kernel`; returns the seconds and a checksum of the
 /// results (hits with their distances, or unblocked rays) so kernels can be compared.
 pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kernel) -> (f64, u64) {
     let start = Instant::now();
+    // Each thread builds its own tracer (its scratch is per thread); no counters.
+    let tracer = || kernel.tracer().map(|k| Tracer::new(&scene.accel, k, false));
     let sum: u64 = pool.install(|| match set {
-        RaySet::Closest(chunks) => chunks
+        RaySet::Closest(chunks, coherence) => chunks
             .par_iter()
             .map_init(
-                || (HitQueue::default(), Vec::new()),
-                |(hits, order), q| {
-                    let w = &mut Traversal::default();
-                    match kernel {
-                        Kernel::Obvhs => {
+                || (tracer(), HitQueue::default()),
+                |(tracer, hits), q| {
+                    match tracer {
+                        Some(tracer) => intersect::intersect(tracer, q, *coherence, hits),
+                        None => {
                             hits.clear();
                             for i in 0..q.len() {
                                 let (t, p) = scene
@@ -237,10 +243,6 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                                 hits.push(t, p);
                             }
                         }
-                        Kernel::Scalar => intersect::single::<false>(scene, q, hits, w),
-                        Kernel::Packet(4, c) => intersect::packets::<f32x4>(scene, q, hits, w, order, c, false),
-                        Kernel::Packet(16, c) => intersect::packets::<f32x16>(scene, q, hits, w, order, c, false),
-                        Kernel::Packet(_, c) => intersect::packets::<f32x8>(scene, q, hits, w, order, c, false),
                     }
                     hits.t.iter().filter(|t| t.is_finite()).map(|t| t.to_bits() as u64).sum::<u64>()
                 },
@@ -249,18 +251,14 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
         RaySet::AnyHit(chunks) => chunks
             .par_iter()
             .map_init(
-                || (FilmQueue::default(), Vec::new()),
-                |(film, order), q| {
+                || (tracer(), FilmQueue::default()),
+                |(tracer, film), q| {
                     film.clear();
-                    let w = &mut Traversal::default();
-                    (match kernel {
-                        Kernel::Obvhs => (0..q.len())
+                    (match tracer {
+                        Some(tracer) => shadow::occlusion(tracer, q, film),
+                        None => (0..q.len())
                             .filter(|&i| !scene.accel.occluded_obvhs(q.origin(i), q.dir(i), 0.0, q.tmax[i]))
                             .count(),
-                        Kernel::Scalar => shadow::single::<false>(scene, q, film, w),
-                        Kernel::Packet(4, c) => shadow::packets::<f32x4>(scene, q, film, w, order, c, false),
-                        Kernel::Packet(16, c) => shadow::packets::<f32x16>(scene, q, film, w, order, c, false),
-                        Kernel::Packet(_, c) => shadow::packets::<f32x8>(scene, q, film, w, order, c, false),
                     }) as u64
                 },
             )
@@ -270,7 +268,7 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
 }
 
 /// Measures every set with the scalar and the packet kernel.
-pub fn run(scene: &mut Scene, opts: &BenchOptions) -> Result<BenchReport> {
+pub fn run(scene: &Scene, opts: &BenchOptions) -> Result<BenchReport> {
     if opts.threads == 0 || opts.reps == 0 || opts.max_rays == 0 {
         return Err(Error::input("--threads, --reps and --max-rays must be at least 1"));
     }

@@ -77,3 +77,27 @@ pub fn quad_irradiance(o: Vec3, n: Vec3, c: Vec3, u: Vec3, v: Vec3) -> f32 {
     }
     0.5 * sum.abs()
 }
+
+/// Visits the shadow rays uniform mode casts from `surf` to light `li`: one to a point
+/// light, `shadows.samples` stratified ones to a quad light (those that can contribute),
+/// none to a dark light. Calls `f(direction, tmax, contribution)`.
+#[inline]
+pub fn uniform_shadow_rays(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(Vec3, f32, Vec3)) {
+    match scene.lights[li] {
+        // A dark light adds nothing: it costs no shadow rays either.
+        Light::Point { intensity, .. } | Light::Quad { radiance: intensity, .. } if intensity == Vec3::ZERO => {}
+        Light::Point { position, intensity } => {
+            let to = position - surf.o;
+            let dist2 = to.length_squared();
+            let dist = dist2.sqrt();
+            let wi = to / dist;
+            let cos = surf.n.dot(wi);
+            if cos <= 0.0 || dist2 == 0.0 {
+                return;
+            }
+            let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
+            f(wi, dist * SHADOW_TMAX_SCALE, surf.w * brdf * intensity * (cos / dist2));
+        }
+        Light::Quad { .. } => quad_light_samples(scene, surf, li, |_, wi, dist, l| f(wi, dist * SHADOW_TMAX_SCALE, l)),
+    }
+}

@@ -248,7 +248,7 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         Some(path) => SceneSource::from_file(path)?,
         None => SceneSource::default_scene(),
     };
-    let mut scene = load(&source, &args.sets)?;
+    let scene = load(&source, &args.sets)?;
     let packet = PacketConfig {
         min_active: args.min_active,
         bounce_order: args.bounce_order,
@@ -256,7 +256,7 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         split_mixed: args.split_mixed,
     };
     let opts = BenchOptions { threads, reps: args.reps, max_rays: args.max_rays, lanes: args.lanes, packet };
-    let report = bench::run(&mut scene, &opts)?;
+    let report = bench::run(&scene, &opts)?;
     if args.json {
         say(&serde_json::to_string(&report).map_err(|e| Error::Internal(e.to_string()))?);
     } else {

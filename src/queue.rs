@@ -1,356 +1,401 @@
-//! Structure-of-arrays ray queues: plain data that stages read and write.
+//! Structure-of-arrays queues: plain data that stages read and write.
 //!
-//! A queue is one `Vec` per field with `push`, `len`, `clear`; it holds no logic
-//! beyond keeping its fields the same length. Workers own their queues and reuse
-//! them across waves, so steady-state rendering allocates nothing per ray.
+//! Every queue is declared once with [`soa!`]: one `Vec` per field, and the generated
+//! `push`, `len`, `is_empty`, `clear`, `bytes`, `append_range` and `gather`. A queue
+//! holds no logic beyond keeping its fields the same length. Workers own their queues
+//! and reuse them across waves, so steady-state rendering allocates nothing per ray.
+//!
+//! **Who clears a queue.** A stage clears each queue it fills before it writes, so its
+//! output never depends on what an earlier wave left there. The one exception is the
+//! film queue, which collects the contributions of several stages of one wave (shade,
+//! shadow, shadow corners, penumbra): the driver clears it when a wave begins, and those
+//! stages only append to it.
 
 use glam::Vec3;
 
-/// Rays to be intersected with the scene (camera rays and reflection/refraction rays).
-#[derive(Default, Debug, Clone)]
-pub struct RayQueue {
-    /// Origin x.
-    pub ox: Vec<f32>,
-    /// Origin y.
-    pub oy: Vec<f32>,
-    /// Origin z.
-    pub oz: Vec<f32>,
-    /// Direction x (unit length).
-    pub dx: Vec<f32>,
-    /// Direction y.
-    pub dy: Vec<f32>,
-    /// Direction z.
-    pub dz: Vec<f32>,
-    /// Accumulation slot the ray's radiance goes to (a pixel, a pixel corner or a
-    /// refinement estimate, depending on the pass that started the path).
-    pub slot: Vec<u32>,
-    /// Path throughput red: the weight of this ray's radiance in the pixel estimate.
-    pub wr: Vec<f32>,
-    /// Path throughput green.
-    pub wg: Vec<f32>,
-    /// Path throughput blue.
-    pub wb: Vec<f32>,
-    /// Number of reflection/refraction bounces before this ray (0 for camera rays).
-    pub depth: Vec<u32>,
-    /// Path key: a hash naming this path uniquely within the pixel, for sampling.
-    pub key: Vec<u32>,
+use crate::sampling::Progressive;
+
+/// Declares a structure-of-arrays queue: the struct with one public `Vec` per field,
+/// and its methods. `push(...)` lists the pushed values: `name: T => field` stores one
+/// field, `name: Vec3 => x, y, z` stores a vector in three `f32` fields; `get(...)`
+/// lists the `Vec3` fields read back as one value by `name(i)`. Like the item lists of
+/// pbrt-v4's `soa` definitions, the field list is the only place a queue's layout is
+/// written.
+macro_rules! soa {
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident {
+            $( $(#[$fmeta:meta])* $field:ident : $ty:ty, )+
+        }
+        push( $( $arg:ident : $aty:ty => $($col:ident),+ );+ $(;)? )
+        $( get( $( $get:ident => $gx:ident, $gy:ident, $gz:ident );+ $(;)? ) )?
+    ) => {
+        $(#[$meta])*
+        #[derive(Default, Debug, Clone, PartialEq)]
+        pub struct $name {
+            $( $(#[$fmeta])* pub $field: Vec<$ty>, )+
+        }
+
+        impl $name {
+            /// Appends one entry.
+            #[inline]
+            #[allow(clippy::too_many_arguments)] // one argument per value of the entry
+            pub fn push(&mut self, $( $arg: $aty ),+) {
+                $( soa!(@put self, $arg, $($col),+); )+
+            }
+
+            /// Number of entries.
+            #[inline]
+            pub fn len(&self) -> usize {
+                soa!(@first self, $($field),+).len()
+            }
+
+            /// True when the queue holds no entry.
+            #[inline]
+            pub fn is_empty(&self) -> bool {
+                self.len() == 0
+            }
+
+            /// Removes every entry, keeping the capacity.
+            pub fn clear(&mut self) {
+                $( self.$field.clear(); )+
+            }
+
+            /// Bytes held by the queue's buffers (capacity, not length).
+            pub fn bytes(&self) -> usize {
+                0 $( + self.$field.capacity() * std::mem::size_of::<$ty>() )+
+            }
+
+            /// Appends entries `range` of `src`.
+            pub fn append_range(&mut self, src: &$name, range: std::ops::Range<usize>) {
+                $( self.$field.extend_from_slice(&src.$field[range.clone()]); )+
+            }
+
+            /// Appends entries `ids` of `src`, in that order.
+            pub fn gather(&mut self, src: &$name, ids: &[u32]) {
+                $( self.$field.extend(ids.iter().map(|&i| src.$field[i as usize])); )+
+            }
+
+            $($(
+                /// Field group of entry `i` as a vector.
+                #[inline]
+                pub fn $get(&self, i: usize) -> Vec3 {
+                    Vec3::new(self.$gx[i], self.$gy[i], self.$gz[i])
+                }
+            )+)?
+        }
+    };
+    (@put $s:ident, $v:ident, $c:ident) => { $s.$c.push($v) };
+    (@put $s:ident, $v:ident, $x:ident, $y:ident, $z:ident) => {{
+        $s.$x.push($v.x);
+        $s.$y.push($v.y);
+        $s.$z.push($v.z);
+    }};
+    (@first $s:ident, $f:ident $(, $rest:ident)*) => { $s.$f };
 }
 
-impl RayQueue {
-    /// Appends a ray.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    pub fn push(&mut self, o: Vec3, d: Vec3, slot: u32, w: Vec3, depth: u32, key: u32) {
-        self.ox.push(o.x);
-        self.oy.push(o.y);
-        self.oz.push(o.z);
-        self.dx.push(d.x);
-        self.dy.push(d.y);
-        self.dz.push(d.z);
-        self.slot.push(slot);
-        self.wr.push(w.x);
-        self.wg.push(w.y);
-        self.wb.push(w.z);
-        self.depth.push(depth);
-        self.key.push(key);
+soa! {
+    /// Rays to be intersected with the scene (camera rays and reflection/refraction rays).
+    pub struct RayQueue {
+        /// Origin x.
+        ox: f32,
+        /// Origin y.
+        oy: f32,
+        /// Origin z.
+        oz: f32,
+        /// Direction x (unit length).
+        dx: f32,
+        /// Direction y.
+        dy: f32,
+        /// Direction z.
+        dz: f32,
+        /// Accumulation slot the ray's radiance goes to (a pixel, a pixel corner or a
+        /// refinement estimate, depending on the pass that started the path).
+        slot: u32,
+        /// Path throughput red: the weight of this ray's radiance in the pixel estimate.
+        wr: f32,
+        /// Path throughput green.
+        wg: f32,
+        /// Path throughput blue.
+        wb: f32,
+        /// Number of reflection/refraction bounces before this ray (0 for camera rays).
+        depth: u32,
+        /// Path key: a hash naming this path uniquely within the pixel, for sampling.
+        key: u32,
     }
-
-    /// Number of rays.
-    #[inline]
-    pub fn len(&self) -> usize {
-        self.ox.len()
-    }
-
-    /// True when the queue holds no ray.
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.ox.is_empty()
-    }
-
-    /// Removes all rays, keeping the capacity.
-    pub fn clear(&mut self) {
-        self.ox.clear();
-        self.oy.clear();
-        self.oz.clear();
-        self.dx.clear();
-        self.dy.clear();
-        self.dz.clear();
-        self.slot.clear();
-        self.wr.clear();
-        self.wg.clear();
-        self.wb.clear();
-        self.depth.clear();
-        self.key.clear();
-    }
-
-    /// Appends rays `range` of `src`.
-    pub fn append_range(&mut self, src: &RayQueue, range: std::ops::Range<usize>) {
-        self.ox.extend_from_slice(&src.ox[range.clone()]);
-        self.oy.extend_from_slice(&src.oy[range.clone()]);
-        self.oz.extend_from_slice(&src.oz[range.clone()]);
-        self.dx.extend_from_slice(&src.dx[range.clone()]);
-        self.dy.extend_from_slice(&src.dy[range.clone()]);
-        self.dz.extend_from_slice(&src.dz[range.clone()]);
-        self.slot.extend_from_slice(&src.slot[range.clone()]);
-        self.wr.extend_from_slice(&src.wr[range.clone()]);
-        self.wg.extend_from_slice(&src.wg[range.clone()]);
-        self.wb.extend_from_slice(&src.wb[range.clone()]);
-        self.depth.extend_from_slice(&src.depth[range.clone()]);
-        self.key.extend_from_slice(&src.key[range]);
-    }
-
-    /// Origin of ray `i`.
-    #[inline]
-    pub fn origin(&self, i: usize) -> Vec3 {
-        Vec3::new(self.ox[i], self.oy[i], self.oz[i])
-    }
-
-    /// Direction of ray `i`.
-    #[inline]
-    pub fn dir(&self, i: usize) -> Vec3 {
-        Vec3::new(self.dx[i], self.dy[i], self.dz[i])
-    }
-
-    /// Throughput of ray `i`.
-    #[inline]
-    pub fn weight(&self, i: usize) -> Vec3 {
-        Vec3::new(self.wr[i], self.wg[i], self.wb[i])
-    }
-
-    /// Bytes held by the queue's buffers (capacity, not length).
-    pub fn bytes(&self) -> usize {
-        // Twelve 4-byte fields that grow together.
-        12 * 4 * self.ox.capacity()
-    }
+    push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; slot: u32 => slot; w: Vec3 => wr, wg, wb;
+         depth: u32 => depth; key: u32 => key)
+    get(origin => ox, oy, oz; dir => dx, dy, dz; weight => wr, wg, wb)
 }
 
-/// Closest hits of a [`RayQueue`], one entry per ray, in the same order.
-#[derive(Default, Debug, Clone)]
-pub struct HitQueue {
-    /// Distance along the ray; infinite for a miss.
-    pub t: Vec<f32>,
-    /// Index of the primitive hit (in the scene's primitive order), or [`MISS`].
-    pub prim: Vec<u32>,
+soa! {
+    /// Closest hits of a [`RayQueue`], one entry per ray, in the same order.
+    pub struct HitQueue {
+        /// Distance along the ray; infinite for a miss.
+        t: f32,
+        /// Index of the primitive hit (in the scene's primitive order), or [`MISS`].
+        prim: u32,
+    }
+    push(t: f32 => t; prim: u32 => prim)
 }
 
 /// Primitive index of a ray that hit nothing.
 pub const MISS: u32 = u32::MAX;
 
-impl HitQueue {
-    /// Appends a hit (or a miss with `prim == MISS`).
-    #[inline]
-    pub fn push(&mut self, t: f32, prim: u32) {
-        self.t.push(t);
-        self.prim.push(prim);
+soa! {
+    /// Shadow rays: segments towards a light, each carrying the radiance it adds to its
+    /// pixel if nothing blocks it.
+    pub struct ShadowQueue {
+        /// Origin x.
+        ox: f32,
+        /// Origin y.
+        oy: f32,
+        /// Origin z.
+        oz: f32,
+        /// Direction x (unit length).
+        dx: f32,
+        /// Direction y.
+        dy: f32,
+        /// Direction z.
+        dz: f32,
+        /// Segment length: occluders beyond it do not count.
+        tmax: f32,
+        /// Accumulation slot the contribution goes to.
+        slot: u32,
+        /// Unoccluded contribution red (already weighted by path throughput and sample count).
+        lr: f32,
+        /// Contribution green.
+        lg: f32,
+        /// Contribution blue.
+        lb: f32,
     }
-
-    /// Number of entries.
-    #[inline]
-    pub fn len(&self) -> usize {
-        self.t.len()
-    }
-
-    /// True when empty.
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.t.is_empty()
-    }
-
-    /// Removes all entries, keeping the capacity.
-    pub fn clear(&mut self) {
-        self.t.clear();
-        self.prim.clear();
-    }
+    push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; tmax: f32 => tmax; slot: u32 => slot; l: Vec3 => lr, lg, lb)
+    get(origin => ox, oy, oz; dir => dx, dy, dz; radiance => lr, lg, lb)
 }
 
-/// Shadow rays: segments towards a light, each carrying the radiance it adds to its
-/// pixel if nothing blocks it.
+soa! {
+    /// Radiance ready to be added to pixels: background, emitters seen directly or through
+    /// mirrors, and unoccluded shadow contributions.
+    pub struct FilmQueue {
+        /// Accumulation slot.
+        slot: u32,
+        /// Radiance red.
+        r: f32,
+        /// Radiance green.
+        g: f32,
+        /// Radiance blue.
+        b: f32,
+    }
+    push(slot: u32 => slot; l: Vec3 => r, g, b)
+    get(radiance => r, g, b)
+}
+
+soa! {
+    /// Shading points waiting for the adaptive shadow test of one quad light (the shadow
+    /// corner queue): each names a ray of the current wave (whose hit is the point) and a
+    /// light, with the light's contribution if nothing blocked it.
+    pub struct ShadowPointQueue {
+        /// Index of the ray (and hit) in the current wave.
+        ray: u32,
+        /// Index of the quad light.
+        light: u32,
+        /// Accumulation slot of the ray.
+        slot: u32,
+        /// Unoccluded contribution red.
+        ur: f32,
+        /// Unoccluded contribution green.
+        ug: f32,
+        /// Unoccluded contribution blue.
+        ub: f32,
+    }
+    push(ray: u32 => ray; light: u32 => light; slot: u32 => slot; unoccluded: Vec3 => ur, ug, ub)
+    get(unoccluded => ur, ug, ub)
+}
+
+soa! {
+    /// Indices into another queue, ascending: the specular hits of a wave (rays), the
+    /// penumbra points (entries of the shadow-point queue), the pixels still refined
+    /// (tile pixels), the penumbra points still sampling.
+    pub struct IndexQueue {
+        /// The index.
+        index: u32,
+    }
+    push(index: u32 => index)
+}
+
+soa! {
+    /// Adaptive AA: per-pixel state of one tile, one entry per tile pixel.
+    pub struct RefineQueue {
+        /// The estimate the next level is compared with.
+        prev: Vec3,
+        /// Sum of refinement samples' radiance (each level's mean times its sample count).
+        sum: Vec3,
+        /// Refinement samples cast so far.
+        count: u32,
+        /// Last refinement level cast; 0 for a pixel never refined.
+        level: u8,
+    }
+    push(prev: Vec3 => prev; sum: Vec3 => sum; count: u32 => count; level: u8 => level)
+}
+
+soa! {
+    /// The penumbra points of one wave, in penumbra-list order: where each one's rays
+    /// lie in the penumbra ray queue, and (with early stopping) how far it got.
+    pub struct PenumbraPointQueue {
+        /// First ray of the point in the penumbra ray queue (and in the batch order).
+        start: u32,
+        /// One past its last ray.
+        end: u32,
+        /// Rays traced so far.
+        taken: u32,
+        /// Of those, rays that reached the light.
+        visible: u32,
+    }
+    push(start: u32 => start; end: u32 => end; taken: u32 => taken; visible: u32 => visible)
+}
+
+soa! {
+    /// Penumbra early stopping, per ray of the penumbra ray queue.
+    pub struct PenumbraRayQueue {
+        /// The point (index in [`PenumbraPointQueue`]) the ray belongs to.
+        point: u32,
+        /// Traced and unblocked.
+        lit: bool,
+        /// The ray traced in this position: each point's range holds its rays sorted by
+        /// the progressive key of their light cells, the order batches take them in.
+        order: u32,
+    }
+    push(point: u32 => point; lit: bool => lit; order: u32 => order)
+}
+
+/// The penumbra stage's queues: its full ray queue and, with early stopping, the batch
+/// being traced and its state. Grouped because the stage owns all of them.
 #[derive(Default, Debug, Clone)]
-pub struct ShadowQueue {
-    /// Origin x.
-    pub ox: Vec<f32>,
-    /// Origin y.
-    pub oy: Vec<f32>,
-    /// Origin z.
-    pub oz: Vec<f32>,
-    /// Direction x (unit length).
-    pub dx: Vec<f32>,
-    /// Direction y.
-    pub dy: Vec<f32>,
-    /// Direction z.
-    pub dz: Vec<f32>,
-    /// Segment length: occluders beyond it do not count.
-    pub tmax: Vec<f32>,
-    /// Accumulation slot the contribution goes to.
-    pub slot: Vec<u32>,
-    /// Unoccluded contribution red (already weighted by path throughput and sample count).
-    pub lr: Vec<f32>,
-    /// Contribution green.
-    pub lg: Vec<f32>,
-    /// Contribution blue.
-    pub lb: Vec<f32>,
+pub struct PenumbraQueues {
+    /// Every penumbra point's stratified shadow rays, in uniform mode's order.
+    pub rays: ShadowQueue,
+    /// Per point: its range of `rays` and its early-stopping counts.
+    pub points: PenumbraPointQueue,
+    /// Per ray: early-stopping state.
+    pub per_ray: PenumbraRayQueue,
+    /// Points still sampling.
+    pub active: IndexQueue,
+    /// The batch being traced (slots name rays of `rays`).
+    pub batch: ShadowQueue,
+    /// The occlusion stage's output for the batch.
+    pub through: FilmQueue,
+    /// Scratch for the progressive order: one point's rays with their light cells.
+    pub cells: Vec<Progressive>,
+    /// Scratch for the progressive order's merge.
+    pub merge: Vec<Progressive>,
 }
 
-impl ShadowQueue {
-    /// Appends a shadow ray.
-    #[inline]
-    pub fn push(&mut self, o: Vec3, d: Vec3, tmax: f32, slot: u32, l: Vec3) {
-        self.ox.push(o.x);
-        self.oy.push(o.y);
-        self.oz.push(o.z);
-        self.dx.push(d.x);
-        self.dy.push(d.y);
-        self.dz.push(d.z);
-        self.tmax.push(tmax);
-        self.slot.push(slot);
-        self.lr.push(l.x);
-        self.lg.push(l.y);
-        self.lb.push(l.z);
-    }
-
-    /// Number of shadow rays.
-    #[inline]
-    pub fn len(&self) -> usize {
-        self.ox.len()
-    }
-
-    /// True when empty.
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.ox.is_empty()
-    }
-
-    /// Removes all rays, keeping the capacity.
-    pub fn clear(&mut self) {
-        self.ox.clear();
-        self.oy.clear();
-        self.oz.clear();
-        self.dx.clear();
-        self.dy.clear();
-        self.dz.clear();
-        self.tmax.clear();
-        self.slot.clear();
-        self.lr.clear();
-        self.lg.clear();
-        self.lb.clear();
-    }
-
-    /// Origin of ray `i`.
-    #[inline]
-    pub fn origin(&self, i: usize) -> Vec3 {
-        Vec3::new(self.ox[i], self.oy[i], self.oz[i])
-    }
-
-    /// Direction of ray `i`.
-    #[inline]
-    pub fn dir(&self, i: usize) -> Vec3 {
-        Vec3::new(self.dx[i], self.dy[i], self.dz[i])
-    }
-
-    /// Contribution of ray `i`.
-    #[inline]
-    pub fn radiance(&self, i: usize) -> Vec3 {
-        Vec3::new(self.lr[i], self.lg[i], self.lb[i])
+impl PenumbraQueues {
+    /// Bytes held by the buffers (capacity, not length).
+    pub fn bytes(&self) -> usize {
+        let scratch = (self.cells.capacity() + self.merge.capacity()) * std::mem::size_of::<Progressive>();
+        self.rays.bytes()
+            + self.points.bytes()
+            + self.per_ray.bytes()
+            + self.active.bytes()
+            + self.batch.bytes()
+            + self.through.bytes()
+            + scratch
     }
 }
 
-/// Radiance ready to be added to pixels: background, emitters seen directly or through
-/// mirrors, and unoccluded shadow contributions.
+/// The queues of one wave, owned by a worker and reused from wave to wave.
 #[derive(Default, Debug, Clone)]
-pub struct FilmQueue {
-    /// Accumulation slot.
-    pub slot: Vec<u32>,
-    /// Radiance red.
-    pub r: Vec<f32>,
-    /// Radiance green.
-    pub g: Vec<f32>,
-    /// Radiance blue.
-    pub b: Vec<f32>,
+pub struct WaveQueues {
+    /// The rays being traced (camera rays, or a bounce level's).
+    pub rays: RayQueue,
+    /// Their closest hits.
+    pub hits: HitQueue,
+    /// Shadow rays of point lights and of uniform-mode quad lights.
+    pub shadow: ShadowQueue,
+    /// Adaptive shadows: the shadow-corner queue.
+    pub points: ShadowPointQueue,
+    /// Adaptive shadows: the points the corner test could not decide.
+    pub penumbra: IndexQueue,
+    /// Adaptive shadows: the penumbra stage's queues.
+    pub penumbra_rays: PenumbraQueues,
+    /// Rays that hit a mirror or dielectric.
+    pub specular: IndexQueue,
+    /// Reflection and refraction rays: the next bounce level.
+    pub next: RayQueue,
+    /// Contributions for the film.
+    pub film: FilmQueue,
 }
 
-impl FilmQueue {
-    /// Appends a contribution.
-    #[inline]
-    pub fn push(&mut self, slot: u32, l: Vec3) {
-        self.slot.push(slot);
-        self.r.push(l.x);
-        self.g.push(l.y);
-        self.b.push(l.z);
-    }
-
-    /// Number of contributions.
-    #[inline]
-    pub fn len(&self) -> usize {
-        self.slot.len()
-    }
-
-    /// True when empty.
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.slot.is_empty()
-    }
-
-    /// Removes all entries, keeping the capacity.
-    pub fn clear(&mut self) {
-        self.slot.clear();
-        self.r.clear();
-        self.g.clear();
-        self.b.clear();
+impl WaveQueues {
+    /// Bytes held by the buffers (capacity, not length).
+    pub fn bytes(&self) -> usize {
+        self.rays.bytes()
+            + self.hits.bytes()
+            + self.shadow.bytes()
+            + self.points.bytes()
+            + self.penumbra.bytes()
+            + self.penumbra_rays.bytes()
+            + self.specular.bytes()
+            + self.next.bytes()
+            + self.film.bytes()
     }
 }
 
-/// Shading points waiting for the adaptive shadow test of one quad light (the shadow
-/// corner queue): each names a ray of the current wave (whose hit is the point) and a
-/// light, with the light's contribution if nothing blocked it.
-#[derive(Default, Debug, Clone)]
-pub struct ShadowPointQueue {
-    /// Index of the ray (and hit) in the current wave.
-    pub ray: Vec<u32>,
-    /// Index of the quad light.
-    pub light: Vec<u32>,
-    /// Unoccluded contribution red.
-    pub ur: Vec<f32>,
-    /// Unoccluded contribution green.
-    pub ug: Vec<f32>,
-    /// Unoccluded contribution blue.
-    pub ub: Vec<f32>,
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
 
-impl ShadowPointQueue {
-    /// Appends a point.
-    #[inline]
-    pub fn push(&mut self, ray: u32, light: u32, unoccluded: Vec3) {
-        self.ray.push(ray);
-        self.light.push(light);
-        self.ur.push(unoccluded.x);
-        self.ug.push(unoccluded.y);
-        self.ub.push(unoccluded.z);
+    fn vec3() -> impl Strategy<Value = Vec3> {
+        (-1e6f32..1e6, -1e6f32..1e6, -1e6f32..1e6).prop_map(|(x, y, z)| Vec3::new(x, y, z))
     }
 
-    /// Number of points.
-    #[inline]
-    pub fn len(&self) -> usize {
-        self.ray.len()
-    }
+    proptest! {
+        /// Every field a ray is pushed with comes back unchanged, at its index, after
+        /// `append_range` and `gather` too; `clear` empties every field.
+        #[test]
+        fn ray_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), any::<u32>(), vec3(), any::<u32>(), any::<u32>()), 1..40)) {
+            let mut q = RayQueue::default();
+            for &(o, d, slot, w, depth, key) in &rays {
+                q.push(o, d, slot, w, depth, key);
+            }
+            prop_assert_eq!(q.len(), rays.len());
+            for (i, &(o, d, slot, w, depth, key)) in rays.iter().enumerate() {
+                prop_assert_eq!((q.origin(i), q.dir(i), q.weight(i)), (o, d, w));
+                prop_assert_eq!((q.slot[i], q.depth[i], q.key[i]), (slot, depth, key));
+            }
+            let mut tail = RayQueue::default();
+            tail.append_range(&q, 1..q.len());
+            prop_assert_eq!(tail.len(), q.len() - 1);
+            for i in 0..tail.len() {
+                prop_assert_eq!((tail.origin(i), tail.key[i]), (q.origin(i + 1), q.key[i + 1]));
+            }
+            let ids: Vec<u32> = (0..q.len() as u32).rev().collect();
+            let mut rev = RayQueue::default();
+            rev.gather(&q, &ids);
+            for (j, &i) in ids.iter().enumerate() {
+                let i = i as usize;
+                prop_assert_eq!((rev.dir(j), rev.weight(j), rev.slot[j]), (q.dir(i), q.weight(i), q.slot[i]));
+            }
+            prop_assert!(q.bytes() >= 12 * 4 * q.len());
+            q.clear();
+            prop_assert!(q.is_empty());
+            prop_assert!(q.ox.is_empty() && q.dz.is_empty() && q.wb.is_empty() && q.key.is_empty());
+        }
 
-    /// True when empty.
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.ray.is_empty()
-    }
-
-    /// Removes all points, keeping the capacity.
-    pub fn clear(&mut self) {
-        self.ray.clear();
-        self.light.clear();
-        self.ur.clear();
-        self.ug.clear();
-        self.ub.clear();
-    }
-
-    /// Unoccluded contribution of point `i`.
-    #[inline]
-    pub fn unoccluded(&self, i: usize) -> Vec3 {
-        Vec3::new(self.ur[i], self.ug[i], self.ub[i])
+        /// The same for a shadow queue, whose fields differ in kind and order.
+        #[test]
+        fn shadow_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), 0f32..1e6, any::<u32>(), vec3()), 1..40)) {
+            let mut q = ShadowQueue::default();
+            for &(o, d, t, slot, l) in &rays {
+                q.push(o, d, t, slot, l);
+            }
+            for (i, &(o, d, t, slot, l)) in rays.iter().enumerate() {
+                prop_assert_eq!((q.origin(i), q.dir(i), q.radiance(i)), (o, d, l));
+                prop_assert_eq!((q.tmax[i], q.slot[i]), (t, slot));
+            }
+            prop_assert_eq!(q.bytes(), q.ox.capacity() * 4 * 11);
+        }
     }
 }

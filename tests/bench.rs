@@ -74,17 +74,17 @@ fn ray_sets_are_the_renderers_rays_and_thin_uniformly() {
         wavetrace::scene::load(&wavetrace::scene::SceneSource::from_text("<t>", text, std::path::Path::new(".")), &sets)
             .unwrap()
     };
-    let mut scene = load(&["render.width=32", "render.height=16", "render.aa.samples=4"]);
-    let sets = ray_sets(&mut scene, 1 << 20);
+    let scene = load(&["render.width=32", "render.height=16", "render.aa.samples=4"]);
+    let sets = ray_sets(&scene, 1 << 20);
     let len = |name: &str| sets.iter().find(|s| s.0 == name).unwrap().1.len();
     assert_eq!(len("primary"), 32 * 16 * 4);
     assert!(len("shadow") > 0 && len("secondary") > 0 && len("secondary") <= len("primary"));
     assert!(matches!(sets[1].1, RaySet::AnyHit(_)));
     // A cap keeps at most twice itself, and the scene's settings are left as they were.
-    let capped = ray_sets(&mut scene, 1000);
+    let capped = ray_sets(&scene, 1000);
     assert!(capped.iter().all(|s| s.1.len() < 2000 && !s.1.is_empty()));
     assert!(scene.settings.packets);
     // Scalar and packet kernels agree on every set (run() checks the hit checksums).
-    let report = run(&mut scene, &BenchOptions { reps: 1, ..BenchOptions::default() }).expect("bench");
+    let report = run(&scene, &BenchOptions { reps: 1, ..BenchOptions::default() }).expect("bench");
     assert_eq!(report.sets.len(), 6);
 }

@@ -5,7 +5,8 @@ mod support;
 
 use glam::Vec3;
 use support::scene;
-use wavetrace::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
+use wavetrace::geometry::tracer::{Coherence, Tracer};
+use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
 use wavetrace::stages::{intersect, scatter, shade};
 use wavetrace::Scene;
 
@@ -14,8 +15,8 @@ const CAMERA: &str = "[camera]\nposition = [0, 5, 5]\nlook_at = [0, 0, 0]\n";
 /// Pushes one ray through intersect → shade → scatter and returns the next wave.
 fn step(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue) {
     let mut hits = HitQueue::default();
-    let (mut shadow, mut spec, mut film) = (ShadowQueue::default(), Vec::new(), FilmQueue::default());
-    intersect::intersect(scene, rays, &mut hits, &mut Default::default(), false, &mut Vec::new());
+    let (mut shadow, mut spec, mut film) = (ShadowQueue::default(), IndexQueue::default(), FilmQueue::default());
+    intersect::intersect(&mut Tracer::for_scene(scene, false), rays, Coherence::Camera, &mut hits);
     shade::shade(scene, rays, &hits, &mut shadow, &mut ShadowPointQueue::default(), &mut spec, &mut film);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next);

@@ -5,6 +5,7 @@ pub mod offset;
 pub mod order;
 pub mod packet;
 pub mod shapes;
+pub mod tracer;
 
 pub use bvh::{Accel, Traversal};
 pub use shapes::{Primitive, Shape, NO_LIGHT};

@@ -5,69 +5,94 @@
 use glam::{Vec2, Vec3};
 use std::time::Instant;
 
-use super::{Kind, Worker};
+use super::meter::Kind;
+use super::Worker;
+use crate::film::Tile;
+use crate::geometry::Traversal;
+use crate::queue::{IndexQueue, RefineQueue};
 use crate::scene::{AaMode, Scene};
 use crate::stages::camera::{self, Lens};
-use crate::stages::{focus, intersect, refine, Tile};
+use crate::stages::{focus, refine};
 use crate::stats::Stage;
 
-impl Worker {
-    /// Traces a pinhole depth probe through film position `film(i)` of each point
-    /// i < `n` and leaves the points' blur radii (pixels) in `self.blur` (for the eps)
-    /// and `self.blur_lens` (for the lens count).
-    pub(super) fn focus(&mut self, scene: &Scene, n: usize, film: impl Fn(u32) -> Vec2) {
-        for b in [&mut self.blur, &mut self.blur_lens] {
-            b.clear();
-            b.resize(n, 0.0);
-        }
-        let mut k0 = 0;
-        while k0 < n as u64 {
-            if self.cancelled() {
-                self.aborted = true;
-                return;
-            }
-            let k1 = (k0 + self.wave).min(n as u64);
-            let t = Instant::now();
-            self.rays.clear();
-            focus::generate(scene, k0..k1, &film, &mut self.rays);
-            intersect::intersect(scene, &self.rays, &mut self.hits, &mut self.work, self.count, &mut self.order);
-            focus::blur(scene, &self.rays, &self.hits, k0 as usize, &mut self.blur, &mut self.blur_lens);
-            self.stats.dof_probe_rays += k1 - k0;
-            self.lap(Stage::Focus, (k1 - k0) as usize, (k1 - k0) as usize, t);
-            k0 = k1;
-        }
-    }
+/// DOF-aware AA: the blur radii (pixels) of the (W+1)×(H+1) pixel corners, from one
+/// depth probe each: `sharp` decides the eps, `lens` the lens counts.
+#[derive(Clone, Copy)]
+pub(super) struct CornerBlur<'a> {
+    pub sharp: &'a [f32],
+    pub lens: &'a [f32],
+}
 
-    /// Fills `self.starts` with the lens-ray prefix sums of points whose lens counts are
-    /// `count(i)`, i < `n`.
-    fn lens_starts(&mut self, n: usize, count: impl Fn(usize) -> u64) {
-        self.starts.clear();
-        self.starts.push(0);
-        for i in 0..n {
-            let last = self.starts[i];
-            self.starts.push(last + count(i));
-        }
-    }
+/// A worker's adaptive-AA buffers, reused from tile to tile.
+#[derive(Default)]
+pub(super) struct AaState {
+    /// Per tile pixel: the centre estimate and the mean of the corners.
+    centre: Vec<Vec3>,
+    corner_mean: Vec<Vec3>,
+    /// Per tile pixel: refinement state.
+    refine: RefineQueue,
+    /// The pixels still being refined.
+    queue: IndexQueue,
+    /// Per tile pixel: the eps of its decisions.
+    eps: Vec<f32>,
+    /// DOF-aware AA: blur radii (pixels) of each depth probe of the last focus pass (for
+    /// the eps, and for the lens count), lens-ray prefix sums of the points of a pass, and
+    /// each pixel's refinement lens count.
+    pub blur: Vec<f32>,
+    pub blur_lens: Vec<f32>,
+    starts: Vec<u64>,
+    pixel_lens: Vec<u32>,
+}
 
+impl AaState {
+    /// Bytes held (capacities).
+    pub fn bytes(&self) -> usize {
+        let v3 = std::mem::size_of::<Vec3>();
+        v3 * (self.centre.capacity() + self.corner_mean.capacity())
+            + self.refine.bytes()
+            + self.queue.bytes()
+            + 4 * (self.eps.capacity() + self.blur.capacity() + self.blur_lens.capacity() + self.pixel_lens.capacity())
+            + 8 * self.starts.capacity()
+    }
+}
+
+/// Fills `starts` with the lens-ray prefix sums of `n` points whose lens counts are
+/// `count(i)`.
+fn lens_starts(starts: &mut Vec<u64>, n: usize, count: impl Fn(usize) -> u64) {
+    starts.clear();
+    starts.push(0);
+    for i in 0..n {
+        let last = starts[i];
+        starts.push(last + count(i));
+    }
+}
+
+/// Index in the (W+1)-wide corner grid of corner `c` (0 top-left, 1 top-right,
+/// 2 bottom-left, 3 bottom-right) of pixel `p` of `tile`.
+fn corner(scene: &Scene, tile: &Tile, p: usize, c: usize) -> usize {
+    let tw = (tile.x1 - tile.x0) as usize;
+    let gw = scene.settings.width as usize + 1;
+    (tile.y0 as usize + p / tw + (c >> 1)) * gw + tile.x0 as usize + p % tw + (c & 1)
+}
+
+impl Worker<'_> {
     /// The shared corner grid's pass over one grid tile; `blur` is the corners' blur (for
     /// their lens counts) with DOF-aware AA.
     pub(super) fn corner_grid_tile(&mut self, scene: &Scene, tile: &Tile, blur: Option<&[f32]>) {
         let dof = scene.settings.dof_samples;
         let gw = scene.settings.width + 1;
         let tw = tile.x1 - tile.x0;
-        self.begin_pass(tile.pixels());
+        self.pipe.acc.begin(tile.pixels());
         if let Some(blur) = blur {
-            self.lens_starts(tile.pixels(), |i| {
+            lens_starts(&mut self.aa.starts, tile.pixels(), |i| {
                 let ci = (tile.y0 + i as u32 / tw) * gw + tile.x0 + i as u32 % tw;
                 focus::lens_samples(blur[ci as usize], dof) as u64
             });
         }
-        let starts = std::mem::take(&mut self.starts);
-        let lens = if blur.is_some() { Lens::PerPoint(&starts) } else { Lens::Fixed(dof as u64) };
-        self.run(scene, lens.total(tile.pixels()), Kind::Corner, |ks, rays| {
+        let lens = if blur.is_some() { Lens::PerPoint(&self.aa.starts) } else { Lens::Fixed(dof as u64) };
+        self.pipe.run(scene, lens.total(tile.pixels()), Kind::Corner, |ks, rays| {
             camera::generate_corner_grid(scene, tile, lens, ks, rays)
         });
-        self.starts = starts;
     }
 
     /// Adaptive AA on one tile; `grid` is the shared corner grid, if corners are shared,
@@ -78,108 +103,134 @@ impl Worker {
         scene: &Scene,
         tile: &Tile,
         grid: Option<&[Vec3]>,
-        blur: Option<(&[f32], &[f32])>,
-        eps: f32,
+        blur: Option<CornerBlur>,
     ) {
-        let s = &scene.settings;
-        let AaMode::Adaptive { min_level, max_level, .. } = s.aa_mode else { return };
-        let (np, dof) = (tile.pixels(), s.dof_samples);
-        let tw = (tile.x1 - tile.x0) as usize;
-        let gw = s.width as usize + 1;
-        let corner =
-            |p: usize, c: usize| (tile.y0 as usize + p / tw + (c >> 1)) * gw + tile.x0 as usize + p % tw + (c & 1);
-
-        // Each pixel's eps and lens counts: the same for all, unless DOF-aware.
-        self.eps.clear();
-        self.pixel_lens.clear();
-        let dof_aware = s.dof_radius.zip(blur);
-        if let Some((radius, (sharp, lens))) = dof_aware {
-            self.focus(scene, np, |p| {
-                let p = p as usize;
-                Vec2::new((tile.x0 as usize + p % tw) as f32 + 0.5, (tile.y0 as usize + p / tw) as f32 + 0.5)
-            });
-            if self.aborted {
-                return;
-            }
-            for p in 0..np {
-                // The sharpest point in the pixel decides whether it needs anti-aliasing;
-                // the blurriest decides how many lens rays its refinement points need.
-                let lo = (0..4).map(|c| sharp[corner(p, c)]).fold(self.blur[p], f32::min);
-                let hi = (0..4).map(|c| lens[corner(p, c)]).fold(self.blur_lens[p], f32::max);
-                self.eps.push(focus::pixel_eps(eps, lo, radius));
-                self.pixel_lens.push(focus::lens_samples(hi, dof));
-            }
-            let centre_lens = std::mem::take(&mut self.blur_lens);
-            self.lens_starts(np, |p| focus::lens_samples(centre_lens[p], dof) as u64);
-            self.blur_lens = centre_lens;
-        } else {
-            self.eps.resize(np, eps);
+        let AaMode::Adaptive { eps, min_level, max_level, .. } = scene.settings.aa_mode else { return };
+        let np = tile.pixels();
+        let dof_aware = scene.settings.dof_radius.zip(blur);
+        if !self.decide_eps(scene, tile, dof_aware, eps) {
+            return;
         }
-
-        self.begin_pass(np);
-        let starts = std::mem::take(&mut self.starts);
-        let lens = if dof_aware.is_some() { Lens::PerPoint(&starts) } else { Lens::Fixed(dof as u64) };
-        self.run(scene, lens.total(np), Kind::Camera, |ks, rays| camera::generate_centres(scene, tile, lens, ks, rays));
-        self.starts = starts;
-        self.centre.clone_from(&self.sums);
-        self.collect_heat(1);
-
-        self.corner_mean.clear();
-        match grid {
-            Some(grid) => {
-                for p in 0..np {
-                    let c = |c: usize| grid[corner(p, c)];
-                    self.corner_mean.push((c(0) + c(1) + c(2) + c(3)) * 0.25);
-                }
-            }
-            None => {
-                self.begin_pass(4 * np);
-                if let Some((_, (_, lens))) = dof_aware {
-                    self.lens_starts(4 * np, |k| focus::lens_samples(lens[corner(k / 4, k % 4)], dof) as u64);
-                }
-                let starts = std::mem::take(&mut self.starts);
-                let lens = if dof_aware.is_some() { Lens::PerPoint(&starts) } else { Lens::Fixed(dof as u64) };
-                self.run(scene, lens.total(4 * np), Kind::Corner, |ks, rays| {
-                    camera::generate_pixel_corners(scene, tile, lens, ks, rays)
-                });
-                self.starts = starts;
-                self.corner_mean.extend(self.sums.chunks_exact(4).map(|c| (c[0] + c[1] + c[2] + c[3]) * 0.25));
-                self.collect_heat(4);
-            }
-        }
+        self.centres(scene, tile, dof_aware.is_some());
+        self.corner_means(scene, tile, grid, dof_aware.map(|(_, b)| b.lens));
 
         let t = Instant::now();
-        refine::start(&self.eps, &self.centre, &self.corner_mean, &mut self.refine, &mut self.queue, &mut self.out);
-        self.lap(Stage::Refine, np, self.queue.len(), t);
-        self.stats.aa_pixels += np as u64;
-        self.stats.aa_refined_pixels += self.queue.len() as u64;
-        self.stats.aa_uniform_rays += np as u64 * (1u64 << max_level) * dof as u64;
+        let aa = &mut self.aa;
+        refine::start(&aa.eps, &aa.centre, &aa.corner_mean, &mut aa.refine, &mut aa.queue, &mut self.tile.out);
+        self.pipe.meter.lap(Stage::Refine, np, aa.queue.len(), Traversal::default(), t);
+        let stats = &mut self.pipe.meter.stats;
+        stats.aa_pixels += np as u64;
+        stats.aa_refined_pixels += aa.queue.len() as u64;
+        stats.aa_uniform_rays += np as u64 * (1u64 << max_level) * scene.settings.dof_samples as u64;
 
         for level in 2..=max_level {
-            if self.queue.is_empty() {
+            if self.aa.queue.is_empty() {
                 break;
             }
-            let queue = std::mem::take(&mut self.queue);
-            self.begin_pass(np);
-            if dof_aware.is_some() {
-                let pixel_lens = std::mem::take(&mut self.pixel_lens);
-                self.lens_starts(queue.len(), |i| (pixel_lens[queue[i] as usize] as u64) << level);
-                self.pixel_lens = pixel_lens;
-            }
-            let starts = std::mem::take(&mut self.starts);
-            let lens = if dof_aware.is_some() { Lens::PerPoint(&starts) } else { Lens::Fixed((dof as u64) << level) };
-            self.run(scene, lens.total(queue.len()), Kind::Refine, |ks, rays| {
-                camera::generate_refine(scene, tile, &queue, level, lens, ks, rays)
-            });
-            self.starts = starts;
-            self.queue = queue;
-            self.collect_heat(1);
-            let t = Instant::now();
-            let before = self.queue.len();
-            let may_stop = level >= min_level;
-            refine::step(&self.eps, level, may_stop, &self.sums, &mut self.refine, &mut self.queue, &mut self.out);
-            self.lap(Stage::Refine, before, self.queue.len(), t);
+            self.refine_level(scene, tile, level, level >= min_level, dof_aware.is_some());
         }
-        self.heat.level.copy_from_slice(&self.refine.level);
+        self.tile.heat.level.copy_from_slice(&self.aa.refine.level);
+    }
+
+    /// Each tile pixel's eps and, with DOF-aware AA, its lens counts (from depth probes
+    /// through the pixel centres and the corners' blur). False when cancelled.
+    fn decide_eps(&mut self, scene: &Scene, tile: &Tile, dof_aware: Option<(f32, CornerBlur)>, eps: f32) -> bool {
+        let (np, dof) = (tile.pixels(), scene.settings.dof_samples);
+        let aa = &mut self.aa;
+        aa.eps.clear();
+        aa.pixel_lens.clear();
+        let Some((radius, CornerBlur { sharp, lens })) = dof_aware else {
+            aa.eps.resize(np, eps);
+            return true;
+        };
+        let tw = (tile.x1 - tile.x0) as usize;
+        self.pipe.focus(
+            scene,
+            np,
+            |p| {
+                let p = p as usize;
+                Vec2::new((tile.x0 as usize + p % tw) as f32 + 0.5, (tile.y0 as usize + p / tw) as f32 + 0.5)
+            },
+            &mut aa.blur,
+            &mut aa.blur_lens,
+        );
+        if self.pipe.aborted {
+            return false;
+        }
+        for p in 0..np {
+            // The sharpest point in the pixel decides whether it needs anti-aliasing;
+            // the blurriest decides how many lens rays its refinement points need.
+            let lo = (0..4).map(|c| sharp[corner(scene, tile, p, c)]).fold(aa.blur[p], f32::min);
+            let hi = (0..4).map(|c| lens[corner(scene, tile, p, c)]).fold(aa.blur_lens[p], f32::max);
+            aa.eps.push(focus::pixel_eps(eps, lo, radius));
+            aa.pixel_lens.push(focus::lens_samples(hi, dof));
+        }
+        lens_starts(&mut aa.starts, np, |p| focus::lens_samples(aa.blur_lens[p], dof) as u64);
+        true
+    }
+
+    /// The centre pass: one camera point per pixel (its lens rays as `aa.starts` says
+    /// with DOF-aware AA).
+    fn centres(&mut self, scene: &Scene, tile: &Tile, per_point: bool) {
+        let np = tile.pixels();
+        let dof = scene.settings.dof_samples;
+        self.pipe.acc.begin(np);
+        let lens = if per_point { Lens::PerPoint(&self.aa.starts) } else { Lens::Fixed(dof as u64) };
+        self.pipe
+            .run(scene, lens.total(np), Kind::Camera, |ks, rays| camera::generate_centres(scene, tile, lens, ks, rays));
+        self.aa.centre.clone_from(&self.pipe.acc.sums);
+        self.tile.collect_heat(&self.pipe.acc.heat, 1);
+    }
+
+    /// Each pixel's corner mean: from the shared grid, or from a pass over its own four
+    /// corners (`lens`: the corners' blur for their lens counts, with DOF-aware AA).
+    fn corner_means(&mut self, scene: &Scene, tile: &Tile, grid: Option<&[Vec3]>, lens: Option<&[f32]>) {
+        let np = tile.pixels();
+        let dof = scene.settings.dof_samples;
+        let aa = &mut self.aa;
+        aa.corner_mean.clear();
+        if let Some(grid) = grid {
+            for p in 0..np {
+                let c = |c: usize| grid[corner(scene, tile, p, c)];
+                aa.corner_mean.push((c(0) + c(1) + c(2) + c(3)) * 0.25);
+            }
+            return;
+        }
+        self.pipe.acc.begin(4 * np);
+        if let Some(blur) = lens {
+            lens_starts(&mut aa.starts, 4 * np, |k| {
+                focus::lens_samples(blur[corner(scene, tile, k / 4, k % 4)], dof) as u64
+            });
+        }
+        let lens = if lens.is_some() { Lens::PerPoint(&aa.starts) } else { Lens::Fixed(dof as u64) };
+        self.pipe.run(scene, lens.total(4 * np), Kind::Corner, |ks, rays| {
+            camera::generate_pixel_corners(scene, tile, lens, ks, rays)
+        });
+        aa.corner_mean.extend(self.pipe.acc.sums.chunks_exact(4).map(|c| (c[0] + c[1] + c[2] + c[3]) * 0.25));
+        self.tile.collect_heat(&self.pipe.acc.heat, 4);
+    }
+
+    /// Refinement level `level`: 2^level stratified points in each queued pixel, then the
+    /// decision (pixels may leave the queue when `may_stop`).
+    fn refine_level(&mut self, scene: &Scene, tile: &Tile, level: u32, may_stop: bool, per_point: bool) {
+        let np = tile.pixels();
+        let dof = scene.settings.dof_samples as u64;
+        let aa = &mut self.aa;
+        self.pipe.acc.begin(np);
+        if per_point {
+            let (queue, pixel_lens) = (&aa.queue.index, &aa.pixel_lens);
+            lens_starts(&mut aa.starts, queue.len(), |i| (pixel_lens[queue[i] as usize] as u64) << level);
+        }
+        let lens = if per_point { Lens::PerPoint(&aa.starts) } else { Lens::Fixed(dof << level) };
+        let queue = &aa.queue.index;
+        self.pipe.run(scene, lens.total(queue.len()), Kind::Refine, |ks, rays| {
+            camera::generate_refine(scene, tile, queue, level, lens, ks, rays)
+        });
+        self.tile.collect_heat(&self.pipe.acc.heat, 1);
+        let t = Instant::now();
+        let before = aa.queue.len();
+        let (sums, out) = (&self.pipe.acc.sums, &mut self.tile.out);
+        refine::step(&aa.eps, level, may_stop, sums, &mut aa.refine, &mut aa.queue, out);
+        self.pipe.meter.lap(Stage::Refine, before, aa.queue.len(), Traversal::default(), t);
     }
 }

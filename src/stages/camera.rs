@@ -121,6 +121,7 @@ fn push(
 /// AA sample j / dof_samples and lens sample j % dof_samples. Slot: the pixel's index in
 /// the tile. Each ray carries weight 1 / spp, so a pixel's sum is its mean.
 pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
+    rays.clear();
     let s = &scene.settings;
     let dof = s.dof_samples;
     let spp = s.aa_samples as u64 * dof as u64;
@@ -188,6 +189,7 @@ fn corner_ray(scene: &Scene, ci: u32, lens: u32, count: u32, slot: u32, rays: &m
 /// corner grid. Flattened index k: corner and lens sample by `lens` (corners row-major in
 /// the rectangle). Slot: the corner's index in the rectangle.
 pub fn generate_corner_grid(scene: &Scene, grid: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
+    rays.clear();
     let gw = grid.x1 - grid.x0;
     for (slot, l, count) in lens.rays(ks) {
         let (cx, cy) = (grid.x0 + slot % gw, grid.y0 + slot / gw);
@@ -199,6 +201,7 @@ pub fn generate_corner_grid(scene: &Scene, grid: &Tile, lens: Lens, ks: Range<u6
 /// every pixel of `tile`. Points are 4 × pixel + corner (0 top-left, 1 top-right,
 /// 2 bottom-left, 3 bottom-right), each with its lens rays by `lens`. Slot: the point.
 pub fn generate_pixel_corners(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
+    rays.clear();
     let tw = tile.x1 - tile.x0;
     for (slot, l, count) in lens.rays(ks) {
         let (p, c) = (slot / 4, slot % 4);
@@ -210,6 +213,7 @@ pub fn generate_pixel_corners(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<
 /// Adaptive AA: rays through the centre of every pixel of `tile`, each pixel's lens rays
 /// by `lens`. Slot: the pixel's index in the tile.
 pub fn generate_centres(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
+    rays.clear();
     let s = &scene.settings;
     let tw = tile.x1 - tile.x0;
     for (slot, l, count) in lens.rays(ks) {
@@ -236,6 +240,7 @@ pub fn generate_refine(
     ks: Range<u64>,
     rays: &mut RayQueue,
 ) {
+    rays.clear();
     let s = &scene.settings;
     let n = 1u32 << level;
     let tw = tile.x1 - tile.x0;

@@ -19,6 +19,7 @@ use crate::scene::{Material, Scene};
 /// hit's depth only (they are intersected, never shaded). Slot: the point index minus
 /// `range.start`. No randomness: a point's probe depends only on its film position.
 pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, rays: &mut RayQueue) {
+    rays.clear();
     let s = &scene.settings;
     let cam = &scene.camera;
     let first = range.start;

@@ -17,22 +17,4 @@ pub mod shade;
 pub mod shadow;
 pub mod shadow_corner;
 
-/// A rectangle of pixels `[x0, x1) × [y0, y1)` rendered by one worker.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Tile {
-    /// Left column.
-    pub x0: u32,
-    /// Top row.
-    pub y0: u32,
-    /// One past the right column.
-    pub x1: u32,
-    /// One past the bottom row.
-    pub y1: u32,
-}
-
-impl Tile {
-    /// Number of pixels.
-    pub fn pixels(&self) -> usize {
-        ((self.x1 - self.x0) * (self.y1 - self.y0)) as usize
-    }
-}
+pub use crate::film::Tile;

@@ -9,9 +9,13 @@
 //! narrower than ± tolerance. The contributions are held back until every point has
 //! stopped, then sent to the film in the fixed-n order, scaled by n / (rays traced): a
 //! point that never stops early gives the fixed-n sums bit for bit.
+//!
+//! The stage owns the whole loop (generate → batch → occlusion → record → resolve); it
+//! traces through the shadow stage's kernel, the tracer.
 
+use crate::geometry::tracer::Tracer;
 use crate::light::{quad_light_samples, SHADOW_TMAX_SCALE};
-use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue};
+use crate::queue::{FilmQueue, HitQueue, IndexQueue, PenumbraQueues, RayQueue, ShadowPointQueue};
 use crate::sampling::{cmj_grid, dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
 use crate::surface::diffuse_surface;
@@ -24,142 +28,152 @@ const Z95: f32 = 1.959_964;
 /// are still in cache (a wave's whole penumbra queue is megabytes).
 const WINDOW: usize = 64;
 
-/// Early-stopping state of one wave's penumbra points: plain data, one entry per point
-/// (in penumbra-list order) or per ray of the wave's full penumbra ray queue.
-#[derive(Default, Debug, Clone)]
-pub struct Batches {
-    /// Per point, then one more: where its rays start in the full queue (and in `order`).
-    pub start: Vec<u32>,
-    /// Per point: rays handed to a batch so far.
-    pub taken: Vec<u32>,
-    /// Per point: of those, rays that reached the light.
-    pub visible: Vec<u32>,
-    /// Points still sampling, ascending.
-    pub active: Vec<u32>,
-    /// Per ray of the full queue: the point it belongs to.
-    pub point: Vec<u32>,
-    /// Per ray of the full queue: traced and unblocked.
-    pub lit: Vec<bool>,
-    /// The full queue's rays in the order batches take them: each point's range sorted
-    /// by the progressive key of the ray's light cell.
-    pub order: Vec<u32>,
-    /// Scratch for the order: one point's rays with their light cells, and the merge
-    /// buffer.
-    cells: Vec<Progressive>,
-    merge: Vec<Progressive>,
+/// What the penumbra stage did in one call.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PenumbraCounts {
+    /// Shadow rays traced (with early stopping, fewer than generated).
+    pub traced: u64,
+    /// Shadow rays generated but not traced: the points stopped early.
+    pub saved: u64,
+    /// Points that stopped before all their rays.
+    pub stopped: u64,
+    /// Contributions sent to the film.
+    pub lit: usize,
 }
 
-/// Generates the shadow rays of every penumbra point (indices into `points`), in the
-/// order uniform mode would. With `batches`, also records each point's range and the
-/// progressive order its rays will be traced in.
+/// Generates the shadow rays of every penumbra point (`penumbra`: indices into
+/// `points`), the ones uniform mode would cast, traces them and appends the unblocked
+/// ones' contributions to `film`: all at once, or with early stopping
+/// (`render.shadows.tolerance`) in batches until every point has stopped. `q.points`
+/// tells, per penumbra point, its range in `q.rays` and the rays it traced.
+#[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
 pub fn penumbra(
+    scene: &Scene,
+    tracer: &mut Tracer,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    points: &ShadowPointQueue,
+    penumbra: &IndexQueue,
+    q: &mut PenumbraQueues,
+    film: &mut FilmQueue,
+) -> PenumbraCounts {
+    let stop = scene.settings.penumbra_stop;
+    generate(scene, rays, hits, points, penumbra, stop.is_some(), q);
+    let Some(stop) = stop else {
+        for p in 0..q.points.len() {
+            q.points.taken[p] = q.points.end[p] - q.points.start[p];
+        }
+        let lit = tracer.unblocked(&q.rays, film);
+        return PenumbraCounts { traced: q.rays.len() as u64, lit, ..Default::default() };
+    };
+    let mut counts = PenumbraCounts::default();
+    loop {
+        next_batch(q, stop.batch);
+        if q.batch.is_empty() {
+            break;
+        }
+        q.through.clear();
+        tracer.unblocked(&q.batch, &mut q.through);
+        counts.stopped += record(q, stop);
+        counts.traced += q.batch.len() as u64;
+    }
+    counts.saved = q.rays.len() as u64 - counts.traced;
+    counts.lit = resolve(q, film);
+    counts
+}
+
+/// Writes every penumbra point's rays to `q.rays` and its range to `q.points` (both
+/// cleared first). With `progressive`, also each ray's point and the order batches will
+/// take the rays in, and the active list.
+fn generate(
     scene: &Scene,
     rays: &RayQueue,
     hits: &HitQueue,
     points: &ShadowPointQueue,
-    penumbra: &[u32],
-    shadow: &mut ShadowQueue,
-    mut batches: Option<&mut Batches>,
+    penumbra: &IndexQueue,
+    progressive: bool,
+    q: &mut PenumbraQueues,
 ) {
-    shadow.clear();
-    if let Some(b) = batches.as_deref_mut() {
-        for v in [&mut b.start, &mut b.taken, &mut b.visible, &mut b.active, &mut b.point, &mut b.order] {
-            v.clear();
-        }
-        b.lit.clear();
-    }
+    q.rays.clear();
+    q.points.clear();
+    q.per_ray.clear();
+    q.active.clear();
     let (cols, rows) = cmj_grid(scene.settings.shadow_samples);
     let levels = morton_levels(cols, rows);
-    for (i, &k) in penumbra.iter().enumerate() {
+    for (i, &k) in penumbra.index.iter().enumerate() {
         let k = k as usize;
-        if let Some(b) = batches.as_deref_mut() {
-            b.start.push(shadow.len() as u32);
-        }
-        let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
+        let start = q.rays.len() as u32;
+        let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else {
+            q.points.push(start, start, 0, 0);
+            continue;
+        };
         let li = points.light[k] as usize;
-        let scramble = hash(&[surf.key, li as u32, dim::STOP_ORDER]);
-        if let Some(b) = batches.as_deref_mut() {
-            b.cells.clear();
-        }
+        q.cells.clear();
+        let (shadow, cells) = (&mut q.rays, &mut q.cells);
         quad_light_samples(scene, &surf, li, |cell, wi, dist, l| {
-            if let Some(b) = batches.as_deref_mut() {
+            if progressive {
                 let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
-                b.cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
-                b.point.push(i as u32);
+                cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
             }
             shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l);
         });
-        if let Some(b) = batches.as_deref_mut() {
-            progressive_order(&mut b.cells, levels, scramble, &mut b.merge);
-            b.order.extend(b.cells.iter().map(|c| c.item));
-            if !b.cells.is_empty() {
-                b.active.push(i as u32);
+        let end = q.rays.len() as u32;
+        q.points.push(start, end, 0, 0);
+        if progressive {
+            let scramble = hash(&[surf.key, li as u32, dim::STOP_ORDER]);
+            progressive_order(&mut q.cells, levels, scramble, &mut q.merge);
+            for c in &q.cells {
+                q.per_ray.push(i as u32, false, c.item);
+            }
+            if !q.cells.is_empty() {
+                q.active.push(i as u32);
             }
         }
-    }
-    if let Some(b) = batches {
-        b.start.push(shadow.len() as u32);
-        b.taken.resize(penumbra.len(), 0);
-        b.visible.resize(penumbra.len(), 0);
-        b.lit.resize(shadow.len(), false);
     }
 }
 
 /// Writes the next batch: up to `size` more rays of each of the first [`WINDOW`] active
-/// points, in progressive order, copied from `full` with their slot replaced by their
-/// index in `full` (so the occlusion stage's film entries name the rays that got
+/// points, in progressive order, copied from the full queue with their slot replaced by
+/// their index in it (so the occlusion stage's film entries name the rays that got
 /// through). Empty when every point has stopped.
-pub fn next_batch(b: &mut Batches, size: u32, full: &ShadowQueue, batch: &mut ShadowQueue) {
-    batch.clear();
-    for &p in b.active.iter().take(WINDOW) {
+fn next_batch(q: &mut PenumbraQueues, size: u32) {
+    q.batch.clear();
+    for &p in q.active.index.iter().take(WINDOW) {
         let p = p as usize;
-        let (start, len) = (b.start[p], b.start[p + 1] - b.start[p]);
-        let take = size.min(len - b.taken[p]);
-        let from = (start + b.taken[p]) as usize;
-        gather(full, &b.order[from..from + take as usize], batch);
-        b.taken[p] += take;
+        let pts = &mut q.points;
+        let take = size.min(pts.end[p] - pts.start[p] - pts.taken[p]);
+        let from = (pts.start[p] + pts.taken[p]) as usize;
+        let ids = &q.per_ray.order[from..from + take as usize];
+        let at = q.batch.len();
+        q.batch.gather(&q.rays, ids);
+        q.batch.slot[at..].copy_from_slice(ids);
+        pts.taken[p] += take;
     }
 }
 
-/// Appends rays `ids` of `full` to `batch`, field by field, each with its index in
-/// `full` as its slot.
-fn gather(full: &ShadowQueue, ids: &[u32], batch: &mut ShadowQueue) {
-    let field = |dst: &mut Vec<f32>, src: &[f32]| dst.extend(ids.iter().map(|&r| src[r as usize]));
-    field(&mut batch.ox, &full.ox);
-    field(&mut batch.oy, &full.oy);
-    field(&mut batch.oz, &full.oz);
-    field(&mut batch.dx, &full.dx);
-    field(&mut batch.dy, &full.dy);
-    field(&mut batch.dz, &full.dz);
-    field(&mut batch.tmax, &full.tmax);
-    field(&mut batch.lr, &full.lr);
-    field(&mut batch.lg, &full.lg);
-    field(&mut batch.lb, &full.lb);
-    batch.slot.extend_from_slice(ids);
-}
-
-/// Records a traced batch (`through`: the occlusion stage's film entries, slots naming
+/// Records a traced batch (`q.through`: the occlusion stage's film entries, slots naming
 /// rays of the full queue) and stops the points that are done: all rays traced, or the
 /// Wilson interval narrower than ± `stop.tolerance`. Returns the points stopped early.
-pub fn record(b: &mut Batches, through: &FilmQueue, stop: PenumbraStop) -> u64 {
-    for &r in &through.slot {
-        b.lit[r as usize] = true;
-        b.visible[b.point[r as usize] as usize] += 1;
+fn record(q: &mut PenumbraQueues, stop: PenumbraStop) -> u64 {
+    for &r in &q.through.slot {
+        q.per_ray.lit[r as usize] = true;
+        q.points.visible[q.per_ray.point[r as usize] as usize] += 1;
     }
     // Only the window's points took rays; the others wait their turn.
-    let window = b.active.len().min(WINDOW);
+    let active = &mut q.active.index;
+    let window = active.len().min(WINDOW);
     let (mut early, mut kept) = (0, 0);
     for i in 0..window {
-        let p = b.active[i] as usize;
-        let (n, m) = (b.start[p + 1] - b.start[p], b.taken[p]);
-        let settled = m < n && wilson_half_width(b.visible[p], m) < stop.tolerance;
+        let p = active[i] as usize;
+        let (n, m) = (q.points.end[p] - q.points.start[p], q.points.taken[p]);
+        let settled = m < n && wilson_half_width(q.points.visible[p], m) < stop.tolerance;
         early += settled as u64;
         if m < n && !settled {
-            b.active[kept] = p as u32;
+            active[kept] = p as u32;
             kept += 1;
         }
     }
-    b.active.drain(kept..window);
+    active.drain(kept..window);
     early
 }
 
@@ -167,17 +181,17 @@ pub fn record(b: &mut Batches, through: &FilmQueue, stop: PenumbraStop) -> u64 {
 /// fixed-n order). A point that stopped after m of its n rays has each contribution
 /// scaled by n / m, so its estimate stays the mean over the light. Returns the
 /// contributions sent.
-pub fn resolve(b: &Batches, full: &ShadowQueue, film: &mut FilmQueue) -> usize {
+fn resolve(q: &PenumbraQueues, film: &mut FilmQueue) -> usize {
     let mut sent = 0;
-    for p in 0..b.taken.len() {
-        let (start, end) = (b.start[p] as usize, b.start[p + 1] as usize);
-        let (n, m) = ((end - start) as u32, b.taken[p]);
+    for p in 0..q.points.len() {
+        let (start, end) = (q.points.start[p] as usize, q.points.end[p] as usize);
+        let (n, m) = ((end - start) as u32, q.points.taken[p]);
         // n == m multiplies by nothing, so the bits are those of the fixed-n path.
         let scale = (m < n).then(|| n as f32 / m as f32);
         for r in start..end {
-            if b.lit[r] {
-                let l = full.radiance(r);
-                film.push(full.slot[r], scale.map_or(l, |s| l * s));
+            if q.per_ray.lit[r] {
+                let l = q.rays.radiance(r);
+                film.push(q.rays.slot[r], scale.map_or(l, |s| l * s));
                 sent += 1;
             }
         }

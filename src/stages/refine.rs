@@ -13,19 +13,7 @@
 use glam::Vec3;
 
 use crate::color::srgb_encode;
-
-/// Per-pixel state of adaptive AA in one tile: plain data, one entry per tile pixel.
-#[derive(Default, Debug, Clone)]
-pub struct RefineState {
-    /// The estimate the next level is compared with.
-    pub prev: Vec<Vec3>,
-    /// Sum of refinement samples' radiance (each level's mean times its sample count).
-    pub sum: Vec<Vec3>,
-    /// Refinement samples cast so far.
-    pub count: Vec<u32>,
-    /// Last refinement level cast; 0 for a pixel never refined.
-    pub level: Vec<u8>,
-}
+use crate::queue::{IndexQueue, RefineQueue};
 
 /// The difference the paper's eps is compared with: the maximum over R, G, B of the
 /// absolute difference of display values (the PNG's sRGB transform, clamped to [0, 1]).
@@ -43,21 +31,15 @@ pub fn start(
     eps: &[f32],
     centre: &[Vec3],
     corner_mean: &[Vec3],
-    state: &mut RefineState,
-    queue: &mut Vec<u32>,
+    state: &mut RefineQueue,
+    queue: &mut IndexQueue,
     out: &mut [Vec3],
 ) {
     let n = centre.len();
-    state.prev.clear();
-    state.prev.extend_from_slice(corner_mean);
-    state.sum.clear();
-    state.sum.resize(n, Vec3::ZERO);
-    state.count.clear();
-    state.count.resize(n, 0);
-    state.level.clear();
-    state.level.resize(n, 0);
+    state.clear();
     queue.clear();
     for p in 0..n {
+        state.push(corner_mean[p], Vec3::ZERO, 0, 0);
         if display_diff(centre[p], corner_mean[p]) > eps[p] {
             queue.push(p as u32);
         } else {
@@ -75,12 +57,12 @@ pub fn step(
     level: u32,
     may_stop: bool,
     estimates: &[Vec3],
-    state: &mut RefineState,
-    queue: &mut Vec<u32>,
+    state: &mut RefineQueue,
+    queue: &mut IndexQueue,
     out: &mut [Vec3],
 ) {
     let n = 1u32 << level;
-    queue.retain(|&p| {
+    queue.index.retain(|&p| {
         let p = p as usize;
         let e = estimates[p];
         state.sum[p] += e * n as f32;
@@ -108,14 +90,14 @@ mod tests {
     fn start_and_step_follow_the_paper() {
         let centre = [Vec3::ZERO, Vec3::ONE];
         let corners = [Vec3::splat(0.001), Vec3::ZERO];
-        let (mut st, mut q, mut out) = (RefineState::default(), Vec::new(), [Vec3::splat(-1.0); 2]);
+        let (mut st, mut q, mut out) = (RefineQueue::default(), IndexQueue::default(), [Vec3::splat(-1.0); 2]);
         let eps = [0.05; 2];
         start(&eps, &centre, &corners, &mut st, &mut q, &mut out);
-        assert_eq!(q, vec![1], "only the pixel whose centre differs");
+        assert_eq!(q.index, vec![1], "only the pixel whose centre differs");
         assert!((out[0] - Vec3::splat(0.001 / 3.0)).length() < 1e-7);
         // Level 2 differs from the corner mean (0): stays. Level 3 agrees with level 2: leaves.
         step(&eps, 2, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
-        assert_eq!(q, vec![1]);
+        assert_eq!(q.index, vec![1]);
         step(&eps, 3, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
         assert!(q.is_empty());
         assert_eq!(st.count[1], 12);

@@ -10,7 +10,7 @@
 use glam::Vec3;
 
 use crate::geometry::offset::offset_ray_origin;
-use crate::queue::{HitQueue, RayQueue};
+use crate::queue::{HitQueue, IndexQueue, RayQueue};
 use crate::sampling::hash;
 use crate::scene::{Material, ReflectRatio, Scene};
 
@@ -79,9 +79,11 @@ pub fn fresnel(cos_i: f32, eta: f32) -> f32 {
     0.5 * (rs * rs + rp * rp)
 }
 
-/// Spawns the reflection and refraction rays of every listed hit.
-pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &[u32], next: &mut RayQueue) {
-    for &i in specular {
+/// Spawns the reflection and refraction rays of every listed hit into `next` (cleared
+/// first).
+pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &IndexQueue, next: &mut RayQueue) {
+    next.clear();
+    for &i in &specular.index {
         let i = i as usize;
         let prim = &scene.accel.prims[hits.prim[i] as usize];
         let (d, w) = (rays.dir(i), rays.weight(i));

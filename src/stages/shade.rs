@@ -8,26 +8,27 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
 use crate::geometry::NO_LIGHT;
-use crate::light::{quad_irradiance, quad_light_samples, SHADOW_TMAX_SCALE};
-use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
+use crate::light::{quad_irradiance, quad_light_samples, uniform_shadow_rays};
+use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
 use crate::scene::{Light, Scene, ShadowMode};
-use crate::surface::{diffuse_brdf, diffuse_surface};
+use crate::surface::diffuse_surface;
 
-/// Shades every ray of `rays` at its hit in `hits`. Returns the number of shadow rays
+/// Shades every ray of `rays` at its hit in `hits`: fills `shadow`, `points` and
+/// `specular` (cleared first) and appends to `film`. Returns the number of shadow rays
 /// uniform mode would have cast for the points put in the shadow-corner queue.
+#[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
 pub fn shade(
     scene: &Scene,
     rays: &RayQueue,
     hits: &HitQueue,
     shadow: &mut ShadowQueue,
     points: &mut ShadowPointQueue,
-    specular: &mut Vec<u32>,
+    specular: &mut IndexQueue,
     film: &mut FilmQueue,
 ) -> u64 {
     shadow.clear();
     points.clear();
     specular.clear();
-    film.clear();
     let adaptive = matches!(scene.settings.shadow_mode, ShadowMode::Adaptive(_));
     let mut uniform_equivalent = 0u64;
     for i in 0..rays.len() {
@@ -53,28 +54,7 @@ pub fn shade(
         };
         for (li, light) in scene.lights.iter().enumerate() {
             match *light {
-                // A dark light adds nothing: it costs no shadow rays either.
-                Light::Point { intensity, .. } | Light::Quad { radiance: intensity, .. } if intensity == Vec3::ZERO => {
-                }
-                Light::Point { position, intensity } => {
-                    let to = position - surf.o;
-                    let dist2 = to.length_squared();
-                    let dist = dist2.sqrt();
-                    let wi = to / dist;
-                    let cos = surf.n.dot(wi);
-                    if cos <= 0.0 || dist2 == 0.0 {
-                        continue;
-                    }
-                    let f = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
-                    shadow.push(
-                        surf.o,
-                        wi,
-                        dist * SHADOW_TMAX_SCALE,
-                        surf.slot,
-                        surf.w * f * intensity * (cos / dist2),
-                    );
-                }
-                Light::Quad { corner, u, v, normal, radiance, .. } if adaptive => {
+                Light::Quad { corner, u, v, normal, radiance, .. } if adaptive && radiance != Vec3::ZERO => {
                     // The unoccluded contribution costs no rays: exact for Lambert
                     // (the polygon irradiance), else the penumbra stage's own samples
                     // without occlusion tests. Uniform mode would cast one ray per
@@ -100,12 +80,10 @@ pub fn shade(
                         let e = quad_irradiance(surf.o, surf.n, corner, u, v);
                         sum = surf.w * surf.color * FRAC_1_PI * radiance * e;
                     }
-                    points.push(i as u32, li as u32, sum);
+                    points.push(i as u32, li as u32, surf.slot, sum);
                     uniform_equivalent += n;
                 }
-                Light::Quad { .. } => quad_light_samples(scene, &surf, li, |_, wi, dist, l| {
-                    shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l)
-                }),
+                _ => uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l)),
             }
         }
     }

@@ -5,11 +5,11 @@
 
 use glam::Vec3;
 
-use crate::geometry::Traversal;
+use crate::geometry::tracer::Tracer;
 use crate::light::SHADOW_TMAX_SCALE;
-use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowPointQueue};
+use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue};
 use crate::sampling::{dim, hash, to_unit};
-use crate::scene::{Light, Probe, Scene};
+use crate::scene::{Light, Probe, Scene, ShadowMode};
 use crate::surface::diffuse_surface;
 
 /// The probe targets on quad light `li` for a shading point with path key `key`; the
@@ -38,22 +38,22 @@ pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3;
     t
 }
 
-/// Tests every queued point; lit points add their unoccluded contribution to `film`,
-/// penumbra points are appended to `penumbra` (as indices into `points`). Returns the
-/// number of probe rays cast. Traversal work is counted in `work` when `count`.
-#[allow(clippy::too_many_arguments)]
+/// Tests every queued point against its light, with the probe set of
+/// `render.shadows.probe`; lit points append their unoccluded contribution to `film`,
+/// penumbra points go to `penumbra` (cleared first; indices into `points`). Returns the
+/// number of probe rays cast.
+#[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
 pub fn shadow_corners(
     scene: &Scene,
-    probe: Probe,
+    tracer: &mut Tracer,
     rays: &RayQueue,
     hits: &HitQueue,
     points: &ShadowPointQueue,
     film: &mut FilmQueue,
-    penumbra: &mut Vec<u32>,
-    work: &mut Traversal,
-    count: bool,
+    penumbra: &mut IndexQueue,
 ) -> usize {
     penumbra.clear();
+    let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode else { return 0 };
     let mut cast = 0;
     for k in 0..points.len() {
         let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
@@ -63,13 +63,7 @@ pub fn shadow_corners(
         for target in &targets[..n] {
             let to = *target - surf.o;
             let dist = to.length();
-            let (o, d, tmax) = (surf.o, to / dist, dist * SHADOW_TMAX_SCALE);
-            let blocked = if count {
-                scene.accel.occluded::<true>(o, d, 0.0, tmax, work)
-            } else {
-                scene.accel.occluded::<false>(o, d, 0.0, tmax, work)
-            };
-            if !blocked {
+            if !tracer.occluded_one(surf.o, to / dist, dist * SHADOW_TMAX_SCALE) {
                 visible += 1;
             }
         }

@@ -1,0 +1,238 @@
+//! The tracer context: the acceleration structure, the kernel that traverses it (one
+//! ray at a time, or packets of 4, 8 or 16 lanes formed in a chosen order), the
+//! traversal counters and the scratch space, as one value. The stages that trace rays
+//! (intersect, shadow, shadow corners, focus) take it as one `&mut`; the renderer builds
+//! one per worker from the scene's settings, `wavetrace bench` one per kernel it measures.
+
+use glam::Vec3;
+use wide::{f32x16, f32x4, f32x8};
+
+use super::order::{octant, packet_order, Order};
+use super::packet::{PacketConfig, PacketWork, Simd, MAX};
+use super::{Accel, Traversal};
+use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
+use crate::scene::Scene;
+
+/// SIMD width of a packet kernel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Width {
+    /// 4 lanes (`f32x4`).
+    X4,
+    /// 8 lanes (`f32x8`).
+    X8,
+    /// 16 lanes (`f32x16`): the renderer's (measured: docs/performance.md).
+    X16,
+}
+
+/// Which traversal kernel a tracer runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// One ray at a time.
+    Scalar,
+    /// Packets of `width` lanes, formed and traced as `cfg` says.
+    Packet(Width, PacketConfig),
+}
+
+impl Kernel {
+    /// The renderer's packet kernel (`render.packets = true`).
+    pub const RENDER_PACKETS: Kernel = Kernel::Packet(Width::X16, PacketConfig::RENDER);
+}
+
+/// Where a queue's rays come from, which decides how they are ordered into packets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coherence {
+    /// Camera rays and depth probes: generation order is already coherent (a pixel's
+    /// samples, then its neighbours in screen blocks).
+    Camera,
+    /// Reflection and refraction rays: ordered as the packet config says.
+    Bounce,
+}
+
+/// Everything a stage needs to trace rays: see the module docs.
+pub struct Tracer<'a> {
+    accel: &'a Accel,
+    kernel: Kernel,
+    count: bool,
+    /// Traversal work since the last [`Tracer::take_work`].
+    work: Traversal,
+    /// Scratch: the order rays are cut into packets in.
+    order: Vec<(u64, u32)>,
+    /// Scratch: per shadow ray, whether it is blocked.
+    blocked: Vec<bool>,
+}
+
+impl<'a> Tracer<'a> {
+    /// A tracer over `accel` running `kernel`. With `count`, BVH nodes and primitives
+    /// tested are counted (without, the traversals compile without counting code).
+    pub fn new(accel: &'a Accel, kernel: Kernel, count: bool) -> Self {
+        Tracer { accel, kernel, count, work: Traversal::default(), order: Vec::new(), blocked: Vec::new() }
+    }
+
+    /// The renderer's tracer for `scene`: packets when `render.packets` is on.
+    pub fn for_scene(scene: &'a Scene, count: bool) -> Self {
+        let kernel = if scene.settings.packets { Kernel::RENDER_PACKETS } else { Kernel::Scalar };
+        Tracer::new(&scene.accel, kernel, count)
+    }
+
+    /// The traversal work counted since the last call, resetting it.
+    pub fn take_work(&mut self) -> Traversal {
+        std::mem::take(&mut self.work)
+    }
+
+    /// Bytes held by the scratch buffers.
+    pub fn bytes(&self) -> usize {
+        self.order.capacity() * std::mem::size_of::<(u64, u32)>() + self.blocked.capacity()
+    }
+
+    /// Finds the closest hit of every ray in `rays`, in order, into `hits` (cleared first).
+    pub fn closest(&mut self, rays: &RayQueue, coherence: Coherence, hits: &mut HitQueue) {
+        match self.kernel {
+            Kernel::Scalar if self.count => self.closest_single::<true>(rays, hits),
+            Kernel::Scalar => self.closest_single::<false>(rays, hits),
+            Kernel::Packet(Width::X4, cfg) => self.closest_packets::<f32x4>(rays, coherence, cfg, hits),
+            Kernel::Packet(Width::X8, cfg) => self.closest_packets::<f32x8>(rays, coherence, cfg, hits),
+            Kernel::Packet(Width::X16, cfg) => self.closest_packets::<f32x16>(rays, coherence, cfg, hits),
+        }
+    }
+
+    /// Tests every shadow ray of `shadow` for a blocker before its `tmax`; returns one
+    /// flag per ray, in queue order (true: blocked).
+    pub fn occluded(&mut self, shadow: &ShadowQueue) -> &[bool] {
+        self.blocked.clear();
+        match self.kernel {
+            Kernel::Scalar if self.count => self.occluded_single::<true>(shadow),
+            Kernel::Scalar => self.occluded_single::<false>(shadow),
+            Kernel::Packet(Width::X4, cfg) => self.occluded_packets::<f32x4>(shadow, cfg),
+            Kernel::Packet(Width::X8, cfg) => self.occluded_packets::<f32x8>(shadow, cfg),
+            Kernel::Packet(Width::X16, cfg) => self.occluded_packets::<f32x16>(shadow, cfg),
+        }
+        &self.blocked
+    }
+
+    /// Traces every shadow ray of `shadow` and appends the contributions of those that
+    /// reach their light to `film`, in queue order whatever the kernel (so the film sums
+    /// in the same order and packets change no pixel's bits). Returns how many did.
+    pub fn unblocked(&mut self, shadow: &ShadowQueue, film: &mut FilmQueue) -> usize {
+        let mut lit = 0;
+        for (i, _) in self.occluded(shadow).iter().enumerate().filter(|(_, &b)| !b) {
+            film.push(shadow.slot[i], shadow.radiance(i));
+            lit += 1;
+        }
+        lit
+    }
+
+    /// One shadow ray, alone whatever the kernel (the shadow-corner test stops caring
+    /// about a point's other probes only after tracing them, and they are few).
+    pub fn occluded_one(&mut self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        if self.count {
+            self.accel.occluded::<true>(o, d, 0.0, tmax, &mut self.work)
+        } else {
+            self.accel.occluded::<false>(o, d, 0.0, tmax, &mut self.work)
+        }
+    }
+
+    fn closest_single<const COUNT: bool>(&mut self, rays: &RayQueue, hits: &mut HitQueue) {
+        hits.clear();
+        for i in 0..rays.len() {
+            match self.accel.closest::<COUNT>(rays.origin(i), rays.dir(i), 0.0, f32::INFINITY, &mut self.work) {
+                Some((t, prim)) => hits.push(t, prim),
+                None => hits.push(f32::INFINITY, MISS),
+            }
+        }
+    }
+
+    fn closest_packets<S: Simd>(
+        &mut self,
+        rays: &RayQueue,
+        coherence: Coherence,
+        cfg: PacketConfig,
+        hits: &mut HitQueue,
+    ) {
+        let n = rays.len();
+        hits.t.clear();
+        hits.t.resize(n, f32::INFINITY);
+        hits.prim.clear();
+        hits.prim.resize(n, MISS);
+        let how = if coherence == Coherence::Camera { Order::Keep } else { cfg.bounce_order };
+        packet_order(self.accel, n, |i| rays.origin(i), |i| rays.dir(i), how, &mut self.order);
+        let mut pw = PacketWork::default();
+        let (mut o, mut d, mut out) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [(0.0f32, 0u32); MAX]);
+        for group in self.order.chunks(S::LANES) {
+            for (l, &(_, i)) in group.iter().enumerate() {
+                o[l] = rays.origin(i as usize);
+                d[l] = rays.dir(i as usize);
+            }
+            let k = group.len();
+            if shares_octant(&d[..k], cfg) {
+                self.accel.closest_packet::<S>(&o[..k], &d[..k], 0.0, cfg.min_active, &mut out, &mut pw);
+                self.work.packet_rays += k as u64;
+            } else {
+                // Lanes traced alone here are not counted (as before the tracer existed).
+                for l in 0..k {
+                    out[l] = self
+                        .accel
+                        .closest::<false>(o[l], d[l], 0.0, f32::INFINITY, &mut self.work)
+                        .unwrap_or((f32::INFINITY, MISS));
+                }
+            }
+            for (l, &(_, i)) in group.iter().enumerate() {
+                hits.t[i as usize] = out[l].0;
+                hits.prim[i as usize] = out[l].1;
+            }
+        }
+        self.add_packet_work(pw);
+    }
+
+    fn occluded_single<const COUNT: bool>(&mut self, shadow: &ShadowQueue) {
+        for i in 0..shadow.len() {
+            let blocked =
+                self.accel.occluded::<COUNT>(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i], &mut self.work);
+            self.blocked.push(blocked);
+        }
+    }
+
+    fn occluded_packets<S: Simd>(&mut self, shadow: &ShadowQueue, cfg: PacketConfig) {
+        let accel = self.accel;
+        packet_order(accel, shadow.len(), |i| shadow.origin(i), |i| shadow.dir(i), cfg.shadow_order, &mut self.order);
+        self.blocked.resize(shadow.len(), false);
+        let mut pw = PacketWork::default();
+        let (mut o, mut d, mut t) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [0.0f32; MAX]);
+        let mut blocked = [false; MAX];
+        for group in self.order.chunks(S::LANES) {
+            let k = group.len();
+            for (l, &(_, i)) in group.iter().enumerate() {
+                let i = i as usize;
+                (o[l], d[l], t[l]) = (shadow.origin(i), shadow.dir(i), shadow.tmax[i]);
+            }
+            if shares_octant(&d[..k], cfg) {
+                accel.occluded_packet::<S>(&o[..k], &d[..k], &t[..k], cfg.min_active, &mut blocked, &mut pw);
+                self.work.packet_rays += k as u64;
+            } else {
+                for l in 0..k {
+                    blocked[l] = accel.occluded::<false>(o[l], d[l], 0.0, t[l], &mut self.work);
+                }
+            }
+            for (l, &(_, i)) in group.iter().enumerate() {
+                self.blocked[i as usize] = blocked[l];
+            }
+        }
+        self.add_packet_work(pw);
+    }
+
+    fn add_packet_work(&mut self, pw: PacketWork) {
+        self.work.packet_steps += pw.steps;
+        self.work.packet_lanes += pw.lanes;
+        if self.count {
+            self.work.nodes += pw.nodes;
+            self.work.prims += pw.prims;
+        }
+    }
+}
+
+/// Whether a group of directions goes through the packet kernel: more than one ray, and
+/// (when the config splits mixed packets) all in one octant.
+#[inline]
+fn shares_octant(d: &[Vec3], cfg: PacketConfig) -> bool {
+    let oct = octant(d[0]);
+    d.len() > 1 && !(cfg.split_mixed && d.iter().any(|&x| octant(x) != oct))
+}

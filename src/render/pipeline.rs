@@ -1,0 +1,182 @@
+//! The wavefront of one worker: a pass's camera rays cut into waves of bounded size,
+//! each wave through the stages, and the bounces each wave spawns traced depth first.
+
+use glam::Vec2;
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::meter::{Kind, Meter};
+use crate::film::Accumulator;
+use crate::geometry::tracer::{Coherence, Tracer};
+use crate::queue::{RayQueue, WaveQueues};
+use crate::scene::{Scene, ShadowMode};
+use crate::stages::{film, focus, intersect, penumbra, scatter, shade, shadow, shadow_corner};
+use crate::stats::Stage;
+
+/// A worker's wavefront: its queues, tracer, meter and the pass being accumulated.
+pub(super) struct Pipeline<'a> {
+    /// The queues of a wave.
+    pub q: WaveQueues,
+    /// Rays still to trace per bounce level (level 0: the camera batch), and how far
+    /// each level has been traced.
+    levels: Vec<RayQueue>,
+    cursors: Vec<usize>,
+    /// The acceleration structure and the kernel that traverses it.
+    pub tracer: Tracer<'a>,
+    /// Counters and spans.
+    pub meter: Meter,
+    /// The pass being accumulated.
+    pub acc: Accumulator,
+    /// Camera rays per wave for this scene.
+    wave: u64,
+    /// The render's cancel flag, and whether this worker saw it mid-tile.
+    cancel: Option<Arc<AtomicBool>>,
+    pub aborted: bool,
+}
+
+impl<'a> Pipeline<'a> {
+    /// A pipeline with empty queues.
+    pub fn new(tracer: Tracer<'a>, meter: Meter, wave: u64, cancel: Option<Arc<AtomicBool>>) -> Self {
+        Pipeline {
+            q: WaveQueues::default(),
+            levels: Vec::new(),
+            cursors: Vec::new(),
+            tracer,
+            meter,
+            acc: Accumulator::default(),
+            wave,
+            cancel,
+            aborted: false,
+        }
+    }
+
+    /// True once the render was asked to stop; the worker then marks itself aborted.
+    fn stop_requested(&mut self) -> bool {
+        self.aborted = self.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
+        self.aborted
+    }
+
+    /// Runs `total` camera samples of a pass through the pipeline in waves of at most
+    /// `wave` camera rays; `generate` writes the rays of a range of sample indices.
+    pub fn run(&mut self, scene: &Scene, total: u64, kind: Kind, generate: impl Fn(Range<u64>, &mut RayQueue)) {
+        let mut k0 = 0;
+        while k0 < total {
+            if self.stop_requested() {
+                return;
+            }
+            let k1 = (k0 + self.wave).min(total);
+            let t = Instant::now();
+            generate(k0..k1, &mut self.q.rays);
+            self.meter.camera(kind, self.q.rays.len(), t);
+            self.drain(scene);
+            k0 = k1;
+        }
+    }
+
+    /// Traces the camera batch in `q.rays` and every bounce it spawns, depth first: the
+    /// deepest pending level is traced next, a wave at a time, so level d holds at most
+    /// the two waves' worth of rays spawned from one wave of level d - 1, and the queues
+    /// stay bounded however many rays dielectrics split into.
+    fn drain(&mut self, scene: &Scene) {
+        let wave = self.wave as usize;
+        self.levels.resize_with(scene.settings.max_depth as usize + 2, Default::default);
+        self.cursors.resize(self.levels.len(), 0);
+        std::mem::swap(&mut self.levels[0], &mut self.q.rays);
+        self.cursors[0] = 0;
+        while let Some(d) = (0..self.levels.len()).rev().find(|&d| self.cursors[d] < self.levels[d].len()) {
+            let (start, end) = (self.cursors[d], (self.cursors[d] + wave).min(self.levels[d].len()));
+            self.q.rays.clear();
+            self.q.rays.append_range(&self.levels[d], start..end);
+            self.cursors[d] = end;
+            if end == self.levels[d].len() {
+                self.levels[d].clear();
+                self.cursors[d] = 0;
+            }
+            self.wave(scene, if d == 0 { Coherence::Camera } else { Coherence::Bounce });
+            // The wave's scattered rays are the next level, empty until now.
+            if !self.q.next.is_empty() {
+                std::mem::swap(&mut self.levels[d + 1], &mut self.q.next);
+                self.cursors[d + 1] = 0;
+            }
+        }
+    }
+
+    /// One wave (paper §2): intersect, shade, the shadows (uniform rays; or corners, then
+    /// penumbra), reflection/refraction, film. Each stage call is followed by the meter's
+    /// record of it.
+    fn wave(&mut self, scene: &Scene, coherence: Coherence) {
+        let (q, tr, m, acc) = (&mut self.q, &mut self.tracer, &mut self.meter, &mut self.acc);
+        let heat = &mut acc.heat;
+        q.film.clear();
+        let mut t = Instant::now();
+
+        intersect::intersect(tr, &q.rays, coherence, &mut q.hits);
+        t = m.intersect(q, heat, tr, t);
+
+        let uniform = shade::shade(scene, &q.rays, &q.hits, &mut q.shadow, &mut q.points, &mut q.specular, &mut q.film);
+        t = m.shade(q, uniform, t);
+
+        let lit = shadow::occlusion(tr, &q.shadow, &mut q.film);
+        t = m.shadow(q, heat, lit, tr, t);
+
+        if let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode {
+            let (rays, hits, points) = (&q.rays, &q.hits, &q.points);
+            let cast = shadow_corner::shadow_corners(scene, tr, rays, hits, points, &mut q.film, &mut q.penumbra);
+            t = m.shadow_corners(q, heat, (cast, probe.rays() as f32), tr, t);
+
+            let (rays, hits, points) = (&q.rays, &q.hits, &q.points);
+            let pen = penumbra::penumbra(scene, tr, rays, hits, points, &q.penumbra, &mut q.penumbra_rays, &mut q.film);
+            t = m.penumbra(q, heat, pen, tr, t);
+        }
+
+        // A scene without used mirrors or dielectrics never enters the scatter stage
+        // (and its next level stays empty).
+        if scene.has_specular {
+            scatter::scatter(scene, &q.rays, &q.hits, &q.specular, &mut q.next);
+            t = m.scatter(q, t);
+        }
+
+        let dropped = film::accumulate(&q.film, &mut acc.sums);
+        m.film(q, dropped, t);
+    }
+
+    /// DOF-aware AA: traces a pinhole depth probe through film position `film(i)` of each
+    /// point i < `n` and leaves the points' blur radii (pixels) in `sharp` (for the eps)
+    /// and `lens` (for the lens count).
+    pub fn focus(
+        &mut self,
+        scene: &Scene,
+        n: usize,
+        film: impl Fn(u32) -> Vec2,
+        sharp: &mut Vec<f32>,
+        lens: &mut Vec<f32>,
+    ) {
+        for b in [&mut *sharp, &mut *lens] {
+            b.clear();
+            b.resize(n, 0.0);
+        }
+        let mut k0 = 0;
+        while k0 < n as u64 {
+            if self.stop_requested() {
+                return;
+            }
+            let k1 = (k0 + self.wave).min(n as u64);
+            let t = Instant::now();
+            let q = &mut self.q;
+            focus::generate(scene, k0..k1, &film, &mut q.rays);
+            intersect::intersect(&mut self.tracer, &q.rays, Coherence::Camera, &mut q.hits);
+            focus::blur(scene, &q.rays, &q.hits, k0 as usize, sharp, lens);
+            self.meter.stats.dof_probe_rays += k1 - k0;
+            let probes = (k1 - k0) as usize;
+            self.meter.lap(Stage::Focus, probes, probes, self.tracer.take_work(), t);
+            k0 = k1;
+        }
+    }
+
+    /// Bytes held by the queues, levels, pass buffers and tracer scratch (capacities).
+    pub fn bytes(&self) -> usize {
+        self.q.bytes() + self.levels.iter().map(RayQueue::bytes).sum::<usize>() + self.acc.bytes() + self.tracer.bytes()
+    }
+}
