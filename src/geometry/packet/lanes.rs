@@ -1,0 +1,222 @@
+//! A packet's rays in SIMD form (`Lanes`) and its per-lane kernels: slab test, triangle, sphere, parallelogram.
+
+use glam::Vec3;
+use obvhs::bvh2::node::Bvh2Node;
+
+use super::{Simd, MAX};
+use crate::geometry::bvh::CULL;
+use crate::geometry::shapes::{intersect_triangle, shear_axes, Shape};
+
+/// obvhs's `safe_inverse`, so lanes divide exactly as the scalar rays do.
+#[inline]
+fn safe_inverse(x: f32) -> f32 {
+    if x.abs() <= f32::EPSILON {
+        x.signum() / f32::EPSILON
+    } else {
+        1.0 / x
+    }
+}
+
+/// How a triangle's vertex components are permuted into each lane's sheared frame.
+pub(super) enum Axes<S> {
+    /// Every lane uses the same permutation (the usual case for a coherent packet).
+    Same([usize; 3]),
+    /// Per lane: masks of "axis j of the frame is x" and "… is y" (else z).
+    Mixed([S; 3], [S; 3]),
+}
+
+/// A packet's rays in SIMD form.
+pub(super) struct Lanes<'a, S> {
+    pub(super) o: &'a [Vec3],
+    pub(super) d: &'a [Vec3],
+    origin: [S; 3],
+    dir: [S; 3],
+    inv: [S; 3],
+    /// Origin components in each lane's sheared frame (kx, ky, kz).
+    sheared_origin: [S; 3],
+    /// The shear: d[kx]/d[kz], d[ky]/d[kz], 1/d[kz].
+    shear: [S; 3],
+    pub(super) axes: Axes<S>,
+    /// The tree's absolute culling slack.
+    slack: S,
+}
+
+impl<'a, S: Simd> Lanes<'a, S> {
+    pub(super) fn new(o: &'a [Vec3], d: &'a [Vec3], slack: f32) -> Self {
+        let mut oa = [[0.0f32; MAX]; 3];
+        let mut ia = [[1.0f32; MAX]; 3];
+        let mut da = [[0.0f32; MAX]; 3];
+        let mut so = [[0.0f32; MAX]; 3];
+        let mut sh = [[1.0f32; MAX]; 3];
+        let mut is = [[[0.0f32; MAX]; 3]; 2];
+        let first = d.first().map_or([0, 1, 2], |&d| shear_axes(d));
+        let mut same = true;
+        let on = f32::from_bits(u32::MAX);
+        for (l, (o, d)) in o.iter().zip(d).enumerate() {
+            let k = shear_axes(*d);
+            same &= k == first;
+            for j in 0..3 {
+                oa[j][l] = o[j];
+                da[j][l] = d[j];
+                ia[j][l] = safe_inverse(d[j]);
+                so[j][l] = o[k[j]];
+                is[0][j][l] = if k[j] == 0 { on } else { 0.0 };
+                is[1][j][l] = if k[j] == 1 { on } else { 0.0 };
+            }
+            sh[0][l] = d[k[0]] / d[k[2]];
+            sh[1][l] = d[k[1]] / d[k[2]];
+            sh[2][l] = 1.0 / d[k[2]];
+        }
+        let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
+        let axes = if same { Axes::Same(first) } else { Axes::Mixed(load3(&is[0]), load3(&is[1])) };
+        Lanes {
+            o,
+            d,
+            origin: load3(&oa),
+            dir: load3(&da),
+            inv: load3(&ia),
+            sheared_origin: load3(&so),
+            shear: load3(&sh),
+            axes,
+            slack: S::splat(slack),
+        }
+    }
+
+    /// Lanes (bitmask) whose ray enters the box before their `tmax` (with the culling
+    /// slack of [`CULL`]), with the entry distances. Same arithmetic as the scalar traversal's test.
+    #[inline(always)]
+    pub(super) fn slab(&self, node: &Bvh2Node, tmax: S) -> (u32, S) {
+        const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+        let b = node.aabb();
+        let (min, max): (Vec3, Vec3) = (b.min.into(), b.max.into());
+        let mut near = S::splat(f32::NEG_INFINITY);
+        let mut far = S::splat(f32::INFINITY);
+        for k in 0..3 {
+            let t1 = (S::splat(min[k]) - self.origin[k]) * self.inv[k];
+            let t2 = (S::splat(max[k]) - self.origin[k]) * self.inv[k];
+            near = near.max(t1.min(t2));
+            far = far.min(t1.max(t2));
+        }
+        let far = far * S::splat(WIDEN);
+        let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(tmax * S::splat(CULL) + self.slack);
+        (hit.bits(), near)
+    }
+
+    /// A vertex's components in each lane's sheared frame, minus the lane's origin.
+    #[inline(always)]
+    fn relative(&self, v: Vec3) -> [S; 3] {
+        let p = match &self.axes {
+            Axes::Same(k) => [S::splat(v[k[0]]), S::splat(v[k[1]]), S::splat(v[k[2]])],
+            Axes::Mixed(is_x, is_y) => {
+                let (x, y, z) = (S::splat(v.x), S::splat(v.y), S::splat(v.z));
+                [0, 1, 2].map(|j| S::select(is_x[j], x, S::select(is_y[j], y, z)))
+            }
+        };
+        [p[0] - self.sheared_origin[0], p[1] - self.sheared_origin[1], p[2] - self.sheared_origin[2]]
+    }
+
+    /// The watertight triangle test: each lane's distance exactly as [`intersect_triangle`]
+    /// computes it (infinity for a miss); exact for the lanes in `mask`.
+    #[inline(always)]
+    pub(super) fn triangle(&self, v0: Vec3, v1: Vec3, v2: Vec3, mask: u32) -> S {
+        let (a, b, c) = (self.relative(v0), self.relative(v1), self.relative(v2));
+        let [sx, sy, sz] = self.shear;
+        let (ax, ay) = (a[0] - sx * a[2], a[1] - sy * a[2]);
+        let (bx, by) = (b[0] - sx * b[2], b[1] - sy * b[2]);
+        let (cx, cy) = (c[0] - sx * c[2], c[1] - sy * c[2]);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let (zero, inf) = (S::splat(0.0), S::splat(f32::INFINITY));
+        let outside = (u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero));
+        let det = u + v + w;
+        let dist = (u * sz * a[2] + v * sz * b[2] + w * sz * c[2]) / det;
+        let t = S::select(outside | det.eq(zero), inf, S::select(det.finite() & dist.finite(), dist, inf));
+        // An edge function that rounds to zero is recomputed in f64 by the scalar kernel;
+        // those (rare) lanes take the scalar kernel whole.
+        let mut edge = mask & (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
+        if edge == 0 {
+            return t;
+        }
+        let mut a = [0.0; MAX];
+        t.store(&mut a);
+        while edge != 0 {
+            let l = edge.trailing_zeros() as usize;
+            edge &= edge - 1;
+            a[l] = intersect_triangle(v0, v1, v2, self.o[l], self.d[l]);
+        }
+        S::load(&a)
+    }
+
+    /// `a · b` for a splatted `a`, in glam's order of operations.
+    #[inline(always)]
+    fn dot(a: Vec3, b: &[S; 3]) -> S {
+        S::splat(a.x) * b[0] + S::splat(a.y) * b[1] + S::splat(a.z) * b[2]
+    }
+
+    /// The sphere test for every lane: exactly [`intersect_sphere`](crate::geometry::shapes::intersect_sphere)'s
+    /// operations, so each lane's distance (infinity for a miss) is the scalar one.
+    #[inline(always)]
+    fn sphere(&self, center: Vec3, radius: f32, tmin: S, tmax: S) -> S {
+        let [dx, dy, dz] = self.dir;
+        let f = [
+            self.origin[0] - S::splat(center.x),
+            self.origin[1] - S::splat(center.y),
+            self.origin[2] - S::splat(center.z),
+        ];
+        let b = -(f[0] * dx + f[1] * dy + f[2] * dz);
+        let l = [f[0] + b * dx, f[1] + b * dy, f[2] + b * dz];
+        let r2 = S::splat(radius * radius);
+        let disc = r2 - (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]);
+        let c = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) - r2;
+        // f32::signum: ±1 by the sign bit, NaN stays NaN.
+        let sign = S::select(b.nan(), b, S::select(b.negative(), S::splat(-1.0), S::splat(1.0)));
+        let q = b + sign * disc.sqrt();
+        let zero = S::splat(0.0);
+        let tangent = q.eq(zero);
+        let (t0, t1) = (S::select(tangent, zero, c / q), S::select(tangent, zero, q));
+        let order = t0.lt(t1);
+        let (near, far) = (S::select(order, t0, t1), S::select(order, t1, t0));
+        let inf = S::splat(f32::INFINITY);
+        let t = S::select(near.gt(tmin) & near.lt(tmax), near, S::select(far.gt(tmin) & far.lt(tmax), far, inf));
+        S::select(disc.lt(zero), inf, t)
+    }
+
+    /// The parallelogram test for every lane: exactly [`intersect_quad`](crate::geometry::shapes::intersect_quad)'s
+    /// operations.
+    #[inline(always)]
+    fn quad(&self, corner: Vec3, u: Vec3, v: Vec3) -> S {
+        let [dx, dy, dz] = self.dir;
+        let [ox, oy, oz] = self.origin;
+        let n = u.cross(v);
+        let denom = Self::dot(n, &self.dir);
+        let co = [S::splat(corner.x) - ox, S::splat(corner.y) - oy, S::splat(corner.z) - oz];
+        let t = Self::dot(n, &co) / denom;
+        let p = [
+            (ox + t * dx) - S::splat(corner.x),
+            (oy + t * dy) - S::splat(corner.y),
+            (oz + t * dz) - S::splat(corner.z),
+        ];
+        let w = n / n.length_squared();
+        let (vx, vy, vz) = (S::splat(v.x), S::splat(v.y), S::splat(v.z));
+        let (ux, uy, uz) = (S::splat(u.x), S::splat(u.y), S::splat(u.z));
+        let pv = [p[1] * vz - vy * p[2], p[2] * vx - vz * p[0], p[0] * vy - vx * p[1]];
+        let up = [uy * p[2] - p[1] * uz, uz * p[0] - p[2] * ux, ux * p[1] - p[0] * uy];
+        let (a, b) = (Self::dot(w, &pv), Self::dot(w, &up));
+        let (zero, one) = (S::splat(0.0), S::splat(1.0));
+        let inside = a.ge(zero) & a.le(one) & b.ge(zero) & b.le(one);
+        let inf = S::splat(f32::INFINITY);
+        S::select(denom.eq(zero), inf, S::select(inside & denom.finite(), t, inf))
+    }
+
+    /// Each lane's distance to `shape` (infinity for a miss) exactly as the scalar kernel
+    /// computes it; exact for the lanes in `mask`.
+    #[inline(always)]
+    pub(super) fn shape(&self, shape: &Shape, mask: u32, tmin: S, tmax: S) -> S {
+        match *shape {
+            Shape::Triangle { v0, v1, v2 } => self.triangle(v0, v1, v2, mask),
+            Shape::Sphere { center, radius } => self.sphere(center, radius, tmin, tmax),
+            Shape::Quad { corner, u, v } => self.quad(corner, u, v),
+        }
+    }
+}

@@ -1,0 +1,101 @@
+//! Packet traversal of the obvhs `Bvh2`: a packet of rays (4, 8 or 16 lanes of `wide`; the
+//! renderer uses 16, [`Packet`]) walks the tree together; each node pair's boxes are
+//! slab-tested for all lanes at once under an active-lane mask, and a leaf's primitives
+//! (watertight triangles after Woop, Benthin and Wald; spheres; parallelograms) are tested
+//! for all its lanes at once. When fewer than `min_active` lanes still enter a node pair,
+//! those lanes may finish its subtree one ray at a time (the scalar traversal; off in the
+//! renderer, measured).
+//!
+//! Exactness: every lane computes the same floating-point operations in the same order as
+//! the scalar kernels (slab test, shear, edge functions, the f64 recomputation of edge
+//! functions that round to zero, the distance), so a packet finds exactly the scalar
+//! traversal's closest distance and blockers; only on exact ties in t may it report
+//! another primitive.
+//!
+//! Files: `simd` (the [`Simd`] trait over `wide`'s vectors), `lanes` (a packet's rays in
+//! SIMD form and the leaf kernels), `traverse` (the walk, [`Accel::closest_packet`],
+//! [`Accel::occluded_packet`]), `tests`.
+
+mod lanes;
+mod simd;
+mod traverse;
+
+#[cfg(test)]
+mod tests;
+
+pub use simd::Simd;
+
+use glam::Vec3;
+use wide::f32x16;
+
+use super::bvh::Accel;
+use super::order::Order;
+
+/// The SIMD type the renderer's packets use (chosen by measurement: docs/performance.md).
+pub type Packet = f32x16;
+
+/// Rays per packet in the renderer.
+pub const LANES: usize = <Packet as Simd>::LANES;
+
+/// How a stage forms and traces packets; [`PacketConfig::RENDER`] is the renderer's
+/// choice, the other values exist to be measured (`wavetrace bench`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PacketConfig {
+    /// Below this many lanes entering a node pair, each of them finishes the pair's
+    /// subtree alone (the scalar traversal).
+    pub min_active: u32,
+    /// How bounce rays are ordered before they are cut into packets (camera rays always
+    /// keep their generation order).
+    pub bounce_order: Order,
+    /// How shadow rays are ordered before they are cut into packets.
+    pub shadow_order: Order,
+    /// Trace a packet whose rays do not share a direction octant one ray at a time.
+    pub split_mixed: bool,
+}
+
+impl PacketConfig {
+    /// The renderer's settings (chosen by measurement: docs/performance.md).
+    pub const RENDER: PacketConfig =
+        PacketConfig { min_active: 0, bounce_order: Order::Octant, shadow_order: Order::Octant, split_mixed: true };
+}
+
+/// Most lanes of any supported packet width (arrays are sized for it).
+pub const MAX: usize = 16;
+
+/// Work counters of packet traversals.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PacketWork {
+    /// Node pairs whose boxes were tested for a whole packet (one SIMD test per box).
+    pub steps: u64,
+    /// Active lanes summed over those tests: `lanes / (LANES · steps)` is the utilisation.
+    pub lanes: u64,
+    /// Lane subtrees finished one ray at a time after the packet thinned out.
+    pub fallbacks: u64,
+    /// Box tests per lane: each SIMD box test counts once for every lane that entered the
+    /// parent node (comparable with the scalar traversal's node count).
+    pub nodes: u64,
+    /// Primitive tests per lane.
+    pub prims: u64,
+}
+
+/// Iterates over the set bits of a lane mask, lowest first.
+#[inline(always)]
+fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            l
+        })
+    })
+}
+
+impl Accel {
+    /// Bounds of everything in the tree (zero-size at the origin when empty).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match self.bvh.as_ref().and_then(|b| b.nodes.first()) {
+            Some(root) => (root.aabb().min.into(), root.aabb().max.into()),
+            None => (Vec3::ZERO, Vec3::ZERO),
+        }
+    }
+}
