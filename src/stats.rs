@@ -20,7 +20,8 @@ pub enum Stage {
     Scatter,
     /// Adding radiance to the pass's accumulation slots.
     Film,
-    /// Adaptive shadows: probe rays to a quad light's corners per shading point.
+    /// Adaptive shadows: probe rays to points on a quad light per shading point
+    /// (`render.shadows.probe`: 9 for the default 3x3).
     ShadowCorner,
     /// Adaptive shadows: stratified shadow rays for points in the penumbra.
     Penumbra,
@@ -87,7 +88,7 @@ pub struct StageCounters {
     pub nodes: u64,
     /// Primitive intersection tests run by the stage's traversals.
     pub prims: u64,
-    /// Rays the stage traced in 8-wide packets (`render.packets`).
+    /// Rays the stage traced in SIMD packets (`render.packets`; 16 lanes, `Packet = f32x16`).
     pub packet_rays: u64,
     /// Packet node-pair tests, and the active lanes summed over them.
     pub packet_steps: u64,

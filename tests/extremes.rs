@@ -10,7 +10,7 @@ use glam::{DVec3, Vec3};
 use std::path::Path;
 use support::{only_pixel, rmse};
 use wavetrace::film::Image;
-use wavetrace::geometry::tracer::{Coherence, Tracer};
+use wavetrace::geometry::tracer::{Coherence, Kernel, Tracer};
 use wavetrace::geometry::Traversal;
 use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
 use wavetrace::scene::{load, SceneSource};
@@ -99,7 +99,12 @@ f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n";
 fn step_all(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue, ShadowQueue, FilmQueue) {
     let mut hits = HitQueue::default();
     let (mut shadow, mut spec, mut film) = (ShadowQueue::default(), IndexQueue::default(), FilmQueue::default());
-    intersect::intersect(&mut Tracer::for_scene(scene, false), rays, Coherence::Camera, &mut hits);
+    intersect::intersect(
+        &mut Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false),
+        rays,
+        Coherence::Camera,
+        &mut hits,
+    );
     shade::shade(scene, rays, &hits, &mut shadow, &mut ShadowPointQueue::default(), &mut spec, &mut film);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next);
@@ -453,7 +458,11 @@ fn self_shadowed(s: f64, t: [f64; 3]) -> (usize, usize) {
     let (_, hits, shadow_q, _) = step_all(&scene, &rays);
     assert!(hits.prim.iter().all(|&p| p != MISS), "every ray hits the plane");
     let mut film = FilmQueue::default();
-    let lit = shadow::occlusion(&mut Tracer::for_scene(&scene, false), &shadow_q, &mut film);
+    let lit = shadow::occlusion(
+        &mut Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false),
+        &shadow_q,
+        &mut film,
+    );
     (shadow_q.len() - lit, shadow_q.len())
 }
 

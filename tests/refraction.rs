@@ -5,7 +5,7 @@ mod support;
 
 use glam::Vec3;
 use support::scene;
-use wavetrace::geometry::tracer::{Coherence, Tracer};
+use wavetrace::geometry::tracer::{Coherence, Kernel, Tracer};
 use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
 use wavetrace::stages::{intersect, scatter, shade};
 use wavetrace::Scene;
@@ -16,7 +16,12 @@ const CAMERA: &str = "[camera]\nposition = [0, 5, 5]\nlook_at = [0, 0, 0]\n";
 fn step(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue) {
     let mut hits = HitQueue::default();
     let (mut shadow, mut spec, mut film) = (ShadowQueue::default(), IndexQueue::default(), FilmQueue::default());
-    intersect::intersect(&mut Tracer::for_scene(scene, false), rays, Coherence::Camera, &mut hits);
+    intersect::intersect(
+        &mut Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false),
+        rays,
+        Coherence::Camera,
+        &mut hits,
+    );
     shade::shade(scene, rays, &hits, &mut shadow, &mut ShadowPointQueue::default(), &mut spec, &mut film);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next);

@@ -18,9 +18,10 @@ pub struct Traversal {
     pub nodes: u64,
     /// Primitives whose intersection test ran.
     pub prims: u64,
-    /// Packet traversals: node pairs tested for a packet (one 8-lane test each).
+    /// Packet traversals: node pairs tested for a packet (one SIMD test each, 16 lanes in
+    /// the renderer).
     pub packet_steps: u64,
-    /// Active lanes summed over those tests (utilisation = lanes / (8 · steps)).
+    /// Active lanes summed over those tests (utilisation = lanes / (LANES · steps)).
     pub packet_lanes: u64,
     /// Rays traced in packets (the rest went one at a time).
     pub packet_rays: u64,

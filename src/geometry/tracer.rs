@@ -11,7 +11,6 @@ use super::order::{octant, packet_order, Order};
 use super::packet::{PacketConfig, PacketWork, Simd, MAX};
 use super::{Accel, Traversal};
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
-use crate::scene::Scene;
 
 /// SIMD width of a packet kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -34,8 +33,15 @@ pub enum Kernel {
 }
 
 impl Kernel {
-    /// The renderer's packet kernel (`render.packets = true`).
-    pub const RENDER_PACKETS: Kernel = Kernel::Packet(Width::X16, PacketConfig::RENDER);
+    /// The renderer's kernel: its packets (`render.packets = true`, chosen by
+    /// measurement: docs/performance.md), or one ray at a time.
+    pub fn render(packets: bool) -> Kernel {
+        if packets {
+            Kernel::Packet(Width::X16, PacketConfig::RENDER)
+        } else {
+            Kernel::Scalar
+        }
+    }
 }
 
 /// Where a queue's rays come from, which decides how they are ordered into packets.
@@ -66,12 +72,6 @@ impl<'a> Tracer<'a> {
     /// tested are counted (without, the traversals compile without counting code).
     pub fn new(accel: &'a Accel, kernel: Kernel, count: bool) -> Self {
         Tracer { accel, kernel, count, work: Traversal::default(), order: Vec::new(), blocked: Vec::new() }
-    }
-
-    /// The renderer's tracer for `scene`: packets when `render.packets` is on.
-    pub fn for_scene(scene: &'a Scene, count: bool) -> Self {
-        let kernel = if scene.settings.packets { Kernel::RENDER_PACKETS } else { Kernel::Scalar };
-        Tracer::new(&scene.accel, kernel, count)
     }
 
     /// The traversal work counted since the last call, resetting it.

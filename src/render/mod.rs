@@ -20,7 +20,7 @@ use meter::{Kind, Meter};
 use pipeline::Pipeline;
 
 use crate::film::{copy_tile, tiles, Heat, Image, SlotHeat, Tile, TileFilm};
-use crate::geometry::tracer::Tracer;
+use crate::geometry::tracer::{Kernel, Tracer};
 use crate::scene::{AaMode, Light, Scene, ShadowMode};
 use crate::stages::camera;
 use crate::stats::{Span, Stats};
@@ -134,7 +134,8 @@ fn for_tiles(
 ) -> PerThread {
     let next = AtomicUsize::new(0);
     ctx.pool.broadcast(|_| {
-        let tracer = Tracer::for_scene(ctx.scene, !ctx.opts.no_counters);
+        let kernel = Kernel::render(ctx.scene.settings.packets);
+        let tracer = Tracer::new(&ctx.scene.accel, kernel, !ctx.opts.no_counters);
         let meter = Meter::new(ctx.opts.trace.then_some(ctx.start));
         let pipe = Pipeline::new(tracer, meter, ctx.wave, ctx.opts.cancel.clone());
         let mut w = Worker { pipe, aa: AaState::default(), tile: TileFilm::default() };

@@ -89,7 +89,7 @@ impl Iterator for LensRays<'_> {
 
 /// Pushes one camera ray through film position `film` (pixels). `lens_pattern` and
 /// `lens` pick lens sample `lens` of `lens_count` (ignored for a pinhole).
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // one ray's film point, lens sample and path values, hot: no struct per ray
 #[inline]
 fn push(
     scene: &Scene,
@@ -231,6 +231,7 @@ pub fn generate_centres(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, 
 /// pixel i and its ray j, of 2^level × (its lens count) rays: sample j / lens count, lens
 /// ray j % lens count. Slot: the pixel's index in the tile; weight
 /// 1 / (2^level · lens count), so a slot sums to the level's estimate.
+#[allow(clippy::too_many_arguments)] // a generator names its pass (tile, pixels, level, lens), range and queue
 pub fn generate_refine(
     scene: &Scene,
     tile: &Tile,

@@ -58,7 +58,7 @@ pub fn penumbra(
     film: &mut FilmQueue,
 ) -> PenumbraCounts {
     let stop = scene.settings.penumbra_stop;
-    generate(scene, rays, hits, points, penumbra, stop.is_some(), q);
+    generate(scene, rays, hits, points, penumbra, q);
     let Some(stop) = stop else {
         for p in 0..q.points.len() {
             q.points.taken[p] = q.points.end[p] - q.points.start[p];
@@ -83,7 +83,7 @@ pub fn penumbra(
 }
 
 /// Writes every penumbra point's rays to `q.rays` and its range to `q.points` (both
-/// cleared first). With `progressive`, also each ray's point and the order batches will
+/// cleared first). With early stopping, also each ray's point and the order batches will
 /// take the rays in, and the active list.
 fn generate(
     scene: &Scene,
@@ -91,9 +91,9 @@ fn generate(
     hits: &HitQueue,
     points: &ShadowPointQueue,
     penumbra: &IndexQueue,
-    progressive: bool,
     q: &mut PenumbraQueues,
 ) {
+    let progressive = scene.settings.penumbra_stop.is_some();
     q.rays.clear();
     q.points.clear();
     q.per_ray.clear();

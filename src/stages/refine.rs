@@ -52,6 +52,7 @@ pub fn start(
 /// queued pixel p. Every queued pixel's samples are added to its value in `out`; when
 /// `may_stop`, pixels whose estimate agrees with the previous one within their `eps`
 /// leave `queue`.
+#[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
 pub fn step(
     eps: &[f32],
     level: u32,

@@ -1,0 +1,155 @@
+#!/usr/bin/env python3
+"""The module map of src/ and the architecture rules it must keep.
+
+Prints which top-level modules each module uses (`crate::X` paths), then checks: no
+import cycle between top-level modules, no stage (src/stages/*.rs) using another stage,
+no file in src/ over 800 lines, no function in the driver (src/render/) over 60 lines,
+and no function with more than 6 parameters whose `allow(clippy::too_many_arguments)`
+does not state its reason in a comment. Exit 1 on a violation.
+Usage: scripts/modules.py [--graph]
+"""
+import os
+import re
+import sys
+
+SRC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "src")
+MAX_LINES = 800
+MAX_DRIVER_FN = 60
+MAX_PARAMS = 6
+
+
+def functions(text):
+    """(name, first line, lines, parameters, attribute lines above) of every fn with a body."""
+    out = []
+    lines = text.split("\n")
+    for m in re.finditer(r"\bfn\s+(\w+)\s*(<[^(]*>)?\s*\(", text):
+        i, depth = m.end(), 1
+        while depth and i < len(text):
+            depth += {"(": 1, ")": -1}.get(text[i], 0)
+            i += 1
+        params = text[m.end():i - 1]
+        # Top-level commas only (closure and generic arguments have their own brackets).
+        level, count, seen = 0, 0, False
+        for ch in params:
+            if ch in "(<[{":
+                level += 1
+            elif ch in ")>]}":
+                level -= 1
+            elif ch == "," and level == 0:
+                count += 1
+            if not ch.isspace():
+                seen = True
+        n = count + 1 if seen and not params.rstrip().endswith(",") else count
+        if re.match(r"\s*&?\s*(mut\s+)?self\b", params):
+            n -= 1
+        brace = text.find("{", i)
+        semi = text.find(";", i)
+        if brace < 0 or (0 <= semi < brace):
+            continue  # a declaration without a body
+        j, depth = brace + 1, 1
+        while depth and j < len(text):
+            depth += {"{": 1, "}": -1}.get(text[j], 0)
+            j += 1
+        first = text.count("\n", 0, m.start())
+        last = text.count("\n", 0, j)
+        above = "\n".join(lines[max(0, first - 4):first])
+        out.append((m.group(1), first + 1, last - first + 1, n, above))
+    return out
+
+
+def top_module(rel):
+    """`render/meter.rs` -> `render`; `lib.rs`/`main.rs` -> None."""
+    parts = rel[:-3].split(os.sep)
+    if parts[0] in ("lib", "main"):
+        return None
+    return parts[0]
+
+
+def code(text):
+    """The text without comments and string literals (good enough for use paths)."""
+    text = re.sub(r"//[^\n]*", "", text)
+    return re.sub(r'"(\\.|[^"\\])*"', '""', text)
+
+
+def main():
+    uses, stage_uses, long_files, long_fns = {}, [], [], []
+    stages = {f[:-3] for f in os.listdir(os.path.join(SRC, "stages")) if f.endswith(".rs") and f != "mod.rs"}
+    for root, _, files in os.walk(SRC):
+        for f in sorted(files):
+            if not f.endswith(".rs"):
+                continue
+            path = os.path.join(root, f)
+            rel = os.path.relpath(path, SRC)
+            text = open(path, encoding="utf-8").read()
+            if text.count("\n") > MAX_LINES:
+                long_files.append((rel, text.count("\n")))
+            body = code(text.split("#[cfg(test)]")[0])
+            for name, line, length, params, above in functions(body):
+                if rel.startswith("render" + os.sep) and length > MAX_DRIVER_FN:
+                    long_fns.append(f"{rel}:{line}: fn {name} is {length} lines (driver limit {MAX_DRIVER_FN})")
+                raw_above = "\n".join(text.split("\n")[max(0, line - 5):line - 1])
+                if params > MAX_PARAMS and not re.search(r"too_many_arguments\)\]\s*//\s*\S", raw_above):
+                    long_fns.append(f"{rel}:{line}: fn {name} has {params} parameters and no stated reason")
+            mod = top_module(rel)
+            if mod is None:
+                continue
+            deps = set(re.findall(r"\bcrate::(\w+)", body))
+            # `use crate::{a, b::c}` groups.
+            for group in re.findall(r"\bcrate::\{([^}]*)\}", body):
+                deps |= {p.strip().split("::")[0] for p in group.split(",") if p.strip()}
+            deps.discard(mod)
+            deps.discard("Error")
+            deps.discard("Result")
+            uses.setdefault(mod, set()).update(d for d in deps if os.path.exists(os.path.join(SRC, d + ".rs")) or os.path.isdir(os.path.join(SRC, d)))
+            if rel.startswith("stages" + os.sep) and f != "mod.rs":
+                me = f[:-3]
+                others = set(re.findall(r"\bcrate::stages::(\w+)", body)) | set(re.findall(r"\bsuper::(\w+)", body))
+                for group in re.findall(r"\bcrate::stages::\{([^}]*)\}", body):
+                    others |= {p.strip().split("::")[0] for p in group.split(",") if p.strip()}
+                for o in sorted(others & stages - {me}):
+                    stage_uses.append((me, o))
+
+    if "--graph" in sys.argv:
+        for m in sorted(uses):
+            print(f"{m:10} -> {', '.join(sorted(uses[m])) or '(nothing)'}")
+
+    # Cycles: depth-first search over the top-level graph.
+    cycles, state, stack = [], {}, []
+
+    def visit(m):
+        state[m] = "open"
+        stack.append(m)
+        for d in sorted(uses.get(m, ())):
+            if state.get(d) == "open":
+                cycles.append(stack[stack.index(d):] + [d])
+            elif d not in state:
+                visit(d)
+        stack.pop()
+        state[m] = "done"
+
+    for m in sorted(uses):
+        if m not in state:
+            visit(m)
+    ok = True
+    for c in cycles:
+        print("import cycle: " + " -> ".join(c))
+        ok = False
+    for a, b in stage_uses:
+        print(f"stage `{a}` uses stage `{b}`")
+        ok = False
+    for msg in long_fns:
+        print(msg)
+        ok = False
+    for rel, n in long_files:
+        print(f"{rel}: {n} lines (over {MAX_LINES})")
+        ok = False
+    if ok:
+        print(
+            f"modules ok: {len(uses)} top-level modules, no cycle, no stage using another, no file over {MAX_LINES} "
+            f"lines, no driver function over {MAX_DRIVER_FN} lines, no unexplained parameter list over {MAX_PARAMS}"
+        )
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
