@@ -1,4 +1,4 @@
-//! Tools built on the renderer: they call [`crate::render`] or the stages, and nothing in
+//! Tools built on the renderer: they call [`crate::render()`] or the stages, and nothing in
 //! the renderer core depends on them. Cargo features (all on by default) gate the parts
 //! with heavy or optional dependencies: `flip`, `plot` and `exr` (EXR in [`output`] and
 //! [`compare`]).
@@ -9,7 +9,7 @@
 //! - `flip`: NVIDIA's LDR-FLIP perceptual difference (feature `flip`);
 //! - [`sweep`]: error against rays and seconds over a cross product of settings;
 //! - `plot`: the sweep's scatter plots (feature `plot`);
-//! - [`bench`]: traversal-kernel throughput on fixed ray sets.
+//! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets.
 
 pub mod bench;
 pub mod compare;

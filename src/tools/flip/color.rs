@@ -149,7 +149,7 @@ pub fn color_error(filtered_reference: Vec3, filtered_test: Vec3, cmax: f32) -> 
 }
 
 /// Feature error in [0, 1] from the `[edge, point]` response magnitudes of the
-/// reference and test at one pixel (see [`feature_magnitudes`]).
+/// reference and test at one pixel (see [`feature_magnitudes`](super::feature_magnitudes)).
 #[inline]
 pub fn feature_error(reference: [f32; 2], test: [f32; 2]) -> f32 {
     let edge = (reference[0] - test[0]).abs();

@@ -49,7 +49,7 @@ fn feature_errors(reference: &[Vec3], test: &[Vec3], width: usize, height: usize
 ///
 /// Both images are row-major `width × height` arrays of sRGB-encoded colours
 /// in [0, 1] (the caller clamps and encodes); `ppd` is the observer's pixels
-/// per degree, usually [`ppd_default`].
+/// per degree, usually [`ppd_default`](super::ppd_default).
 ///
 /// # Panics
 /// If either slice does not hold `width · height` pixels or `ppd` is not a
