@@ -6,9 +6,9 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::Path;
-use wavetrace::bench::{ray_sets, trace, Kernel};
 use wavetrace::geometry::packet::PacketConfig;
 use wavetrace::scene::{load, SceneSource};
+use wavetrace::tools::bench::{ray_sets, trace, Kernel};
 
 fn kernels(c: &mut Criterion) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");

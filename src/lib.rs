@@ -4,19 +4,16 @@
 //! ([`stages`]): camera generation, closest-hit intersection, shading, shadow
 //! occlusion, reflection/refraction scattering and film accumulation. The
 //! driver in [`render`] runs the stages over screen tiles in parallel.
+//!
+//! The tools built on the renderer (output files, heatmaps, image comparison, sweeps,
+//! plots, the traversal benchmark) live in [`tools`].
 #![warn(missing_docs)]
 
-pub mod bench;
 pub mod color;
-pub mod compare;
 pub mod error;
 pub mod film;
-pub mod flip;
 pub mod geometry;
-pub mod heatmap;
 pub mod light;
-pub mod output;
-pub mod plot;
 pub mod queue;
 pub mod render;
 pub mod sampling;
@@ -24,7 +21,7 @@ pub mod scene;
 pub mod stages;
 pub mod stats;
 pub mod surface;
-pub mod sweep;
+pub mod tools;
 
 pub use error::{Error, Result};
 pub use render::{render, RenderOptions, RenderOutput};

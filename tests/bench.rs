@@ -2,7 +2,7 @@
 //! printed to stdout).
 
 use std::process::Command;
-use wavetrace::bench::{ray_sets, run, BenchOptions, RaySet};
+use wavetrace::tools::bench::{ray_sets, run, BenchOptions, RaySet};
 
 const BIN: &str = env!("CARGO_BIN_EXE_wavetrace");
 const SMALL: [&str; 4] = ["--set", "render.width=24", "--set", "render.height=16"];
@@ -49,7 +49,7 @@ fn text_table_lists_each_set() {
 #[test]
 fn bad_flags_exit_2_with_a_message() {
     for (args, needle) in [
-        (&["--lanes", "5"][..], "--lanes 5"),
+        (&["--lanes", "5"][..], "'5' for '--lanes"),
         (&["--reps", "0"], "--reps"),
         (&["--threads", "0"], "--threads"),
         (&["--max-rays", "0"], "--max-rays"),

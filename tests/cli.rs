@@ -142,6 +142,7 @@ fn no_arguments_renders_the_default_scene_to_render_png() {
 }
 
 #[test]
+#[cfg(feature = "exr")]
 fn exr_output_is_linear_float() {
     let case = Case::new();
     case.write("scene.toml", GOOD);
@@ -427,6 +428,7 @@ fn a_second_ctrl_c_exits_at_once() {
 }
 
 #[test]
+#[cfg(all(feature = "exr", feature = "flip"))]
 fn compare_prints_metrics_and_rejects_bad_pairs() {
     let case = Case::new();
     case.write("scene.toml", GOOD);

@@ -2,8 +2,8 @@
 
 mod support;
 
-use wavetrace::output::to_srgb8;
 use wavetrace::scene::{load, SceneSource};
+use wavetrace::tools::output::to_srgb8;
 use wavetrace::{render, RenderOptions};
 
 fn render_default(threads: usize, sets: &[String]) -> wavetrace::RenderOutput {

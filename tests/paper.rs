@@ -8,7 +8,7 @@ mod support;
 use support::*;
 use wavetrace::film::Image;
 use wavetrace::stats::{Report, SceneReport};
-use wavetrace::sweep::Mode;
+use wavetrace::tools::sweep::Mode;
 
 fn bits(i: &Image) -> Vec<u32> {
     i.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect()

@@ -1,9 +1,10 @@
 //! `wavetrace::sweep`: the files a sweep writes, the reference cache, parameter parsing
 //! and the errors for bad input. Every scene here is 16×16, so the file runs in well
 //! under a second in release.
+#![cfg(all(feature = "plot", feature = "exr"))]
 
 use std::path::{Path, PathBuf};
-use wavetrace::sweep::{self, parse_param, Reference, SweepOptions};
+use wavetrace::tools::sweep::{self, parse_param, Reference, SweepOptions};
 use wavetrace::Error;
 
 /// A quad light over a floor with a sphere: soft shadows, and edges for AA.
@@ -123,7 +124,7 @@ fn sweep_writes_rows_json_and_plots_and_reuses_the_reference() {
 
     for plot in ["error_vs_rays.png", "error_vs_seconds.png"] {
         let img = image::open(out.join(plot)).unwrap_or_else(|e| panic!("{plot}: {e}"));
-        assert_eq!((img.width(), img.height()), (wavetrace::plot::WIDTH, wavetrace::plot::HEIGHT));
+        assert_eq!((img.width(), img.height()), (wavetrace::tools::plot::WIDTH, wavetrace::tools::plot::HEIGHT));
         // Something was drawn: not a blank page.
         let rgb = img.to_rgb8();
         assert!(rgb.pixels().filter(|p| p.0 != [255, 255, 255]).count() > 1000, "{plot} is blank");
@@ -215,7 +216,7 @@ fn reference_problems_are_input_errors() {
 
     let small = dir.path().join("small.exr");
     let img = wavetrace::film::Image { width: 8, height: 8, pixels: vec![glam::Vec3::ONE; 64] };
-    wavetrace::output::write_image(&small, &img).unwrap();
+    wavetrace::tools::output::write_image(&small, &img).unwrap();
     o.reference = Reference::File(small);
     let msg = input_error(sweep::run(&o));
     assert!(msg.contains("8×8") && msg.contains("16×16"), "{msg}");
@@ -247,7 +248,7 @@ fn an_exact_match_has_zero_error_and_null_psnr() {
     .unwrap()
     .image;
     let ref_path = dir.path().join("same.exr");
-    wavetrace::output::write_image(&ref_path, &img).unwrap();
+    wavetrace::tools::output::write_image(&ref_path, &img).unwrap();
     let out = dir.path().join("exact");
     let mut o = opts(&scene, &out, &["render.aa.samples=2,1"]);
     o.reference = Reference::File(ref_path.clone());

@@ -69,7 +69,7 @@ impl Default for RenderDesc {
 #[serde(deny_unknown_fields, default)]
 pub struct AaDesc {
     /// Sampling mode: "uniform" or "adaptive" (default "uniform").
-    pub mode: String,
+    pub mode: SamplingDesc,
     /// Uniform: stratified samples per pixel (default 16).
     pub samples: u32,
     /// Adaptive: refine while display colours differ by more than this (default 0.01).
@@ -93,7 +93,7 @@ pub struct AaDesc {
 impl Default for AaDesc {
     fn default() -> Self {
         AaDesc {
-            mode: "uniform".into(),
+            mode: SamplingDesc::Uniform,
             samples: 16,
             eps: 0.01,
             min_level: 4,
@@ -110,14 +110,14 @@ impl Default for AaDesc {
 #[serde(deny_unknown_fields, default)]
 pub struct ShadowsDesc {
     /// Sampling mode: "uniform" or "adaptive" (default "uniform").
-    pub mode: String,
+    pub mode: SamplingDesc,
     /// Shadow rays per quad light per shading point (uniform), or per penumbra point
     /// (adaptive) (default 16).
     pub samples: u32,
     /// Adaptive: the rays of the shadow-corner test: "corners" (the paper's four),
     /// "corners+center", "jittered" or "3x3" (default "3x3": corners, edge midpoints and
     /// centre, which the measurements in docs/adaptive.md favour).
-    pub probe: String,
+    pub probe: ProbeDesc,
     /// Adaptive: stop a penumbra point's samples once the 95% Wilson interval of its
     /// visible fraction is narrower than ± this (default 0: off, always `samples`).
     pub tolerance: f32,
@@ -128,8 +128,35 @@ pub struct ShadowsDesc {
 
 impl Default for ShadowsDesc {
     fn default() -> Self {
-        ShadowsDesc { mode: "uniform".into(), samples: 16, probe: "3x3".into(), tolerance: 0.0, batch: 16 }
+        ShadowsDesc { mode: SamplingDesc::Uniform, samples: 16, probe: ProbeDesc::Grid3, tolerance: 0.0, batch: 16 }
     }
+}
+
+/// `render.aa.mode` and `render.shadows.mode`: "uniform" or "adaptive".
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum SamplingDesc {
+    /// The same number of rays everywhere.
+    Uniform,
+    /// Rays where the adaptive test finds an edge or a penumbra.
+    Adaptive,
+}
+
+/// `render.shadows.probe`: the rays of the adaptive shadow-corner test.
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProbeDesc {
+    /// "corners": the light's four corners (the paper's test).
+    #[serde(rename = "corners")]
+    Corners,
+    /// "corners+center": the corners and the centre.
+    #[serde(rename = "corners+center")]
+    CornersCenter,
+    /// "jittered": one jittered point in each quarter of the light.
+    #[serde(rename = "jittered")]
+    Jittered,
+    /// "3x3": corners, edge midpoints and centre.
+    #[serde(rename = "3x3")]
+    Grid3,
 }
 
 /// `[render.dof]`.
@@ -222,6 +249,11 @@ fn white() -> [f32; 3] {
 }
 
 /// `reflect_ratio`: a number in [0, 1] or the string "fresnel".
+///
+/// The name stays a string checked when the scene is built, unlike the `render` modes:
+/// materials are internally tagged (`type = "..."`), and serde buffers such a table
+/// before it picks the variant, so an error raised while parsing a value inside it can
+/// only point at the table's header. The check in `load` points at the value.
 #[derive(Deserialize, Debug, Clone)]
 #[serde(untagged)]
 pub enum RatioDesc {

@@ -102,6 +102,52 @@ impl Ctx<'_> {
         }
         span.map(|s| line_col(&self.src.text, s.start))
     }
+
+    /// The dotted path of the innermost value in the file whose text holds byte `offset`:
+    /// the field a serde error (an unknown `mode`, a string for a number) points at.
+    /// `None` when the offset is outside every value (a table header, a key).
+    fn field_at(&self, offset: usize) -> Option<String> {
+        fn in_value(v: &toml_edit::Value, offset: usize, path: &mut Vec<String>) -> Option<String> {
+            if !v.span()?.contains(&offset) {
+                return None;
+            }
+            let inner = match v {
+                toml_edit::Value::Array(a) => a.iter().enumerate().find_map(|(i, e)| {
+                    path.push(i.to_string());
+                    let found = in_value(e, offset, path);
+                    path.pop();
+                    found
+                }),
+                toml_edit::Value::InlineTable(t) => t.iter().find_map(|(k, e)| {
+                    path.push(k.to_string());
+                    let found = in_value(e, offset, path);
+                    path.pop();
+                    found
+                }),
+                _ => None,
+            };
+            inner.or_else(|| Some(path.join(".")))
+        }
+        fn in_table(t: &toml_edit::Table, offset: usize, path: &mut Vec<String>) -> Option<String> {
+            t.iter().find_map(|(k, item)| {
+                path.push(k.to_string());
+                let found = match item {
+                    toml_edit::Item::Value(v) => in_value(v, offset, path),
+                    toml_edit::Item::Table(t) => in_table(t, offset, path),
+                    toml_edit::Item::ArrayOfTables(a) => a.iter().enumerate().find_map(|(i, t)| {
+                        path.push(i.to_string());
+                        let found = in_table(t, offset, path);
+                        path.pop();
+                        found
+                    }),
+                    toml_edit::Item::None => None,
+                };
+                path.pop();
+                found
+            })
+        }
+        in_table(self.doc.as_ref()?.as_table(), offset, &mut Vec::new())
+    }
 }
 
 /// 1-based line and column of byte `offset` in `text`.
@@ -117,14 +163,17 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
     let doc = toml_edit::ImDocument::parse(src.text.as_str()).ok();
     let ctx = Ctx { src, doc, sets };
+    // A serde error in the file: located, with the field it is about when it points at a
+    // value (a bad `mode` or `probe`, a wrong type).
     let toml_err = |e: toml::de::Error| {
         let loc = e.span().map(|s| line_col(&src.text, s.start));
+        let field = e.span().and_then(|s| ctx.field_at(s.start)).unwrap_or_default();
         let line_text = loc.and_then(|(l, _)| src.text.lines().nth(l - 1)).unwrap_or("").trim();
         let mut msg = e.message().trim().to_string();
         if !line_text.is_empty() {
             msg = format!("{msg} (in `{line_text}`)");
         }
-        Error::at(&src.name, loc, "", msg)
+        Error::at(&src.name, loc, &field, msg)
     };
     let mut value: toml::Value = toml::from_str::<toml::Table>(&src.text).map(toml::Value::Table).map_err(toml_err)?;
     check_finite(&value, "", &ctx)?;
@@ -134,8 +183,10 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
     for set in sets {
         apply_set(&mut value, set)?;
         check_finite(&value, "", &ctx)?;
+        // The file alone deserialized, so the error is this override's: name its key.
+        let key = set.split_once('=').map_or(set.as_str(), |(k, _)| k).trim();
         file = SceneFile::deserialize(value.clone())
-            .map_err(|e| Error::input(format!("{} (--set {set}): {}", src.name, e.message().trim())))?;
+            .map_err(|e| Error::input(format!("{} (--set {set}): field `{key}`: {}", src.name, e.message().trim())))?;
     }
     build(&file, &ctx)
 }
@@ -307,9 +358,9 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
             ctx.fail(dim_path, format!("{}×{} pixels: more than 2^32 pixels are not supported", r.width, r.height))
         );
     }
-    let aa_mode = match r.aa.mode.as_str() {
-        "uniform" => AaMode::Uniform,
-        "adaptive" => {
+    let aa_mode = match r.aa.mode {
+        SamplingDesc::Uniform => AaMode::Uniform,
+        SamplingDesc::Adaptive => {
             if r.aa.eps < 0.0 {
                 return Err(ctx.fail("render.aa.eps", "must be >= 0"));
             }
@@ -338,35 +389,16 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
                 share_corners: r.aa.share_corners,
             }
         }
-        other => {
-            return Err(
-                ctx.fail("render.aa.mode", format!("unknown mode \"{other}\" (expected \"uniform\" or \"adaptive\")"))
-            )
-        }
     };
-    let probe = match r.shadows.probe.as_str() {
-        "corners" => Probe::Corners,
-        "corners+center" => Probe::CornersCenter,
-        "jittered" => Probe::Jittered,
-        "3x3" => Probe::Grid3,
-        other => {
-            return Err(ctx.fail(
-                "render.shadows.probe",
-                format!(
-                    "unknown probe \"{other}\" (expected \"corners\", \"corners+center\", \"jittered\" or \"3x3\")"
-                ),
-            ))
-        }
+    let probe = match r.shadows.probe {
+        ProbeDesc::Corners => Probe::Corners,
+        ProbeDesc::CornersCenter => Probe::CornersCenter,
+        ProbeDesc::Jittered => Probe::Jittered,
+        ProbeDesc::Grid3 => Probe::Grid3,
     };
-    let shadow_mode = match r.shadows.mode.as_str() {
-        "uniform" => ShadowMode::Uniform,
-        "adaptive" => ShadowMode::Adaptive(probe),
-        other => {
-            return Err(ctx.fail(
-                "render.shadows.mode",
-                format!("unknown mode \"{other}\" (expected \"uniform\" or \"adaptive\")"),
-            ))
-        }
+    let shadow_mode = match r.shadows.mode {
+        SamplingDesc::Uniform => ShadowMode::Uniform,
+        SamplingDesc::Adaptive => ShadowMode::Adaptive(probe),
     };
     if !(0.0..=1.0).contains(&r.shadows.tolerance) {
         return Err(ctx.fail("render.shadows.tolerance", format!("{} is not in [0, 1]", r.shadows.tolerance)));
@@ -595,4 +627,85 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     let accel = Accel::build(prims);
     info.bvh_seconds = accel.build_seconds;
     Ok(Scene { settings, camera, background, materials, lights, accel, has_specular, info })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SCENE: &str = "[render]\nwidth = 4\nheight = 4\n[render.aa]\nsamples = 1\n[render.shadows]\nsamples = 1\n\n[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
+
+    fn error(text: &str, sets: &[&str]) -> String {
+        let src = SceneSource::from_text("s.toml", text, Path::new("."));
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        match load(&src, &sets) {
+            Err(Error::Input(msg)) => msg,
+            Err(e) => panic!("not an input error: {e}"),
+            Ok(_) => panic!("loaded"),
+        }
+    }
+
+    #[test]
+    fn modes_and_probes_parse() {
+        let src = |t: String| SceneSource::from_text("s.toml", &t, Path::new("."));
+        for (probe, want) in [
+            ("corners", Probe::Corners),
+            ("corners+center", Probe::CornersCenter),
+            ("jittered", Probe::Jittered),
+            ("3x3", Probe::Grid3),
+        ] {
+            let text = SCENE.replace(
+                "[render.shadows]\n",
+                &format!("[render.shadows]\nmode = \"adaptive\"\nprobe = \"{probe}\"\n"),
+            );
+            assert_eq!(load(&src(text), &[]).unwrap().settings.shadow_mode, ShadowMode::Adaptive(want));
+        }
+        let text = SCENE.replace("[render.aa]\n", "[render.aa]\nmode = \"adaptive\"\n");
+        assert!(matches!(load(&src(text), &[]).unwrap().settings.aa_mode, AaMode::Adaptive { .. }));
+        let s = load(&src(SCENE.into()), &[]).unwrap().settings;
+        assert_eq!((s.aa_mode, s.shadow_mode), (AaMode::Uniform, ShadowMode::Uniform));
+    }
+
+    #[test]
+    fn a_bad_choice_names_the_file_position_field_and_value() {
+        let text = SCENE.replace("[render.aa]\n", "[render.aa]\nmode = \"fancy\"\n");
+        let msg = error(&text, &[]);
+        assert!(msg.starts_with("s.toml:5:8: field `render.aa.mode`: unknown variant `fancy`"), "{msg}");
+        let text = SCENE.replace("[render.shadows]\n", "[render.shadows]\nprobe = \"4x4\"\n");
+        let msg = error(&text, &[]);
+        assert!(msg.starts_with("s.toml:7:9: field `render.shadows.probe`: unknown variant `4x4`"), "{msg}");
+        // Inline tables and arrays are walked too.
+        let text =
+            SCENE.replace("[render.aa]\nsamples = 1\n", "").replace("height = 4\n", "height = 4\naa = { mode = 3 }\n");
+        let msg = error(&text, &[]);
+        assert!(msg.starts_with("s.toml:4:15: field `render.aa.mode`: "), "{msg}");
+        let text = SCENE.replace("position = [0, 0, 5]", "position = [0, \"x\", 5]");
+        assert!(error(&text, &[]).contains("field `camera.position.1`"));
+        // Through --set, the override and its key are named.
+        let msg = error(SCENE, &["render.shadows.mode=fancy"]);
+        assert!(
+            msg.contains("(--set render.shadows.mode=fancy): field `render.shadows.mode`: unknown variant `fancy`"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn reflect_ratio_is_a_number_or_fresnel() {
+        let glass =
+            |ratio: &str| format!("{SCENE}[materials.g]\ntype = \"dielectric\"\nior = 1.5\nreflect_ratio = {ratio}\n");
+        let src = |t: String| SceneSource::from_text("s.toml", &t, Path::new("."));
+        let ratio = |r: &str| match load(&src(glass(r)), &[]).unwrap().materials[0] {
+            Material::Dielectric { ratio, .. } => ratio,
+            _ => unreachable!(),
+        };
+        assert_eq!(ratio("\"fresnel\""), ReflectRatio::Fresnel);
+        assert_eq!(ratio("0.25"), ReflectRatio::Fixed(0.25));
+        assert_eq!(ratio("1"), ReflectRatio::Fixed(1.0));
+        let msg = error(&glass("\"gold\""), &[]);
+        assert!(
+            msg.contains("field `materials.g.reflect_ratio`: \"gold\" is neither a number in [0, 1] nor \"fresnel\""),
+            "{msg}"
+        );
+        assert!(error(&glass("2"), &[]).contains("field `materials.g.reflect_ratio`: 2 is not in [0, 1]"));
+    }
 }

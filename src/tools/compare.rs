@@ -1,12 +1,13 @@
 //! Image comparison: RMSE, relative MSE and PSNR on linear values, and the mean
 //! LDR-FLIP error on clamped sRGB values (what `wavetrace compare` prints), and reading
-//! PNG or EXR images as linear RGB.
+//! PNG or EXR images as linear RGB. Without the `flip` feature the FLIP error is NaN;
+//! without `exr`, reading an EXR is an input error that names the feature.
 
 use glam::Vec3;
 use serde::Serialize;
 use std::path::Path;
 
-use crate::color::{srgb_decode, srgb_encode};
+use crate::color::srgb_decode;
 use crate::film::Image;
 use crate::{Error, Result};
 
@@ -21,21 +22,31 @@ pub fn load_linear(path: &Path) -> Result<Image> {
             let pixels = img.pixels().map(|p| Vec3::from_array(p.0.map(|c| srgb_decode(c as f32 / 255.0)))).collect();
             Ok(Image { width, height, pixels })
         }
-        Some("exr") => {
-            let read = exr::prelude::read_first_rgba_layer_from_file(
-                path,
-                |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()]),
-                |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-                    px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b)
-                },
-            )
-            .map_err(|e| bad(e.to_string()))?;
-            let size = read.layer_data.size;
-            let (_, pixels) = read.layer_data.channel_data.pixels;
-            Ok(Image { width: size.width() as u32, height: size.height() as u32, pixels })
-        }
+        Some("exr") => read_exr(path).map_err(bad),
         _ => Err(bad("unknown extension (expected .png or .exr)".into())),
     }
+}
+
+/// Reads an EXR's first RGBA layer as linear RGB.
+#[cfg(feature = "exr")]
+fn read_exr(path: &Path) -> std::result::Result<Image, String> {
+    let read = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()]),
+        |(w, px): &mut (usize, Vec<Vec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * *w + pos.x()] = Vec3::new(r, g, b)
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    let size = read.layer_data.size;
+    let (_, pixels) = read.layer_data.channel_data.pixels;
+    Ok(Image { width: size.width() as u32, height: size.height() as u32, pixels })
+}
+
+/// Without the `exr` feature: the error that says so.
+#[cfg(not(feature = "exr"))]
+fn read_exr(_: &Path) -> std::result::Result<Image, String> {
+    Err(crate::tools::output::NEEDS_EXR.into())
 }
 
 /// Differences between a test image and a reference.
@@ -48,7 +59,8 @@ pub struct Metrics {
     /// 10·log10(1 / MSE), linear values with peak 1; infinite for identical images.
     pub psnr: f64,
     /// Mean LDR-FLIP error (NVIDIA, Andersson et al. 2020) at FLIP's default 67 pixels
-    /// per degree, both images clamped to [0, 1] and sRGB-encoded first.
+    /// per degree, both images clamped to [0, 1] and sRGB-encoded first. NaN (`null` in
+    /// JSON) when built without the `flip` feature.
     pub flip: f64,
 }
 
@@ -70,15 +82,35 @@ pub fn metrics(test: &Image, reference: &Image) -> Result<Metrics> {
     }
     let n = (3 * test.pixels.len()).max(1) as f64;
     let mse = se / n;
+    Ok(Metrics {
+        rmse: mse.sqrt(),
+        rel_mse: rel / n,
+        psnr: 10.0 * (1.0 / mse).log10(),
+        flip: mean_flip(test, reference),
+    })
+}
+
+/// The mean LDR-FLIP error of `test` against `reference` (same size), both clamped to
+/// [0, 1] and sRGB-encoded.
+#[cfg(feature = "flip")]
+fn mean_flip(test: &Image, reference: &Image) -> f64 {
+    use crate::color::srgb_encode;
+    use crate::tools::flip;
     let ldr = |img: &Image| -> Vec<[f32; 3]> { img.pixels.iter().map(|p| p.to_array().map(srgb_encode)).collect() };
     let (w, h) = (test.width as usize, test.height as usize);
-    let flip = crate::flip::mean_flip(&ldr(reference), &ldr(test), w, h, crate::flip::ppd_default()) as f64;
-    Ok(Metrics { rmse: mse.sqrt(), rel_mse: rel / n, psnr: 10.0 * (1.0 / mse).log10(), flip })
+    flip::mean_flip(&ldr(reference), &ldr(test), w, h, flip::ppd_default()) as f64
+}
+
+/// Without the `flip` feature: NaN.
+#[cfg(not(feature = "flip"))]
+fn mean_flip(_: &Image, _: &Image) -> f64 {
+    f64::NAN
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::color::srgb_encode;
 
     fn img(px: &[f32]) -> Image {
         Image { width: px.len() as u32, height: 1, pixels: px.iter().map(|&v| Vec3::splat(v)).collect() }
@@ -90,10 +122,12 @@ mod tests {
         assert_eq!(m.rmse, 0.0);
         assert_eq!(m.rel_mse, 0.0);
         assert!(m.psnr.is_infinite());
+        #[cfg(feature = "flip")]
         assert_eq!(m.flip, 0.0);
     }
 
     #[test]
+    #[cfg(feature = "flip")]
     fn flip_of_black_against_white() {
         // FLIP's colour term alone (no edges): 0.967388 per pixel, from NVIDIA's code.
         let black = Image { width: 8, height: 8, pixels: vec![Vec3::ZERO; 64] };

@@ -1,8 +1,9 @@
 //! Writing results: PNG (8-bit sRGB, clamped) and EXR (linear 32-bit float RGB), and
 //! text files. Every file is written to a temporary file in the same folder and
 //! renamed, so an error never leaves a partial file or clobbers an earlier one.
+//! Without the `exr` feature an `.exr` path is refused before any work, with a message
+//! that names the feature.
 
-use glam::Vec3;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -19,11 +20,16 @@ pub enum Format {
     Exr,
 }
 
-/// Checks an output path before any work starts: a known extension and an existing folder.
+/// What an EXR read or write says when the crate is built without the `exr` feature.
+pub const NEEDS_EXR: &str = "EXR needs the `exr` feature (cargo build --features exr)";
+
+/// Checks an output path before any work starts: a known extension (EXR only with the
+/// `exr` feature) and an existing folder.
 pub fn check_image_path(path: &Path) -> Result<Format> {
     let format = match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("png") => Format::Png,
-        Some("exr") => Format::Exr,
+        Some("exr") if cfg!(feature = "exr") => Format::Exr,
+        Some("exr") => return Err(Error::output(path, NEEDS_EXR)),
         Some(e) => return Err(Error::output(path, format!("unknown extension `.{e}` (expected .png or .exr)"))),
         None => return Err(Error::output(path, "no extension (expected .png or .exr)")),
     };
@@ -60,15 +66,25 @@ pub fn write_image(path: &Path, image: &Image) -> Result<()> {
     let format = check_image_path(path)?;
     atomic_write(path, |tmp| match format {
         Format::Png => save_png(tmp, image.width, image.height, &to_srgb8(image)),
-        Format::Exr => {
-            let w = image.width as usize;
-            let px = |x: usize, y: usize| {
-                let p: Vec3 = image.pixels[y * w + x];
-                (p.x, p.y, p.z)
-            };
-            exr::prelude::write_rgb_file(tmp, w, image.height as usize, px).map_err(|e| e.to_string())
-        }
+        Format::Exr => save_exr(tmp, image),
     })
+}
+
+#[cfg(feature = "exr")]
+fn save_exr(path: &Path, image: &Image) -> std::result::Result<(), String> {
+    let w = image.width as usize;
+    let px = |x: usize, y: usize| {
+        let p = image.pixels[y * w + x];
+        (p.x, p.y, p.z)
+    };
+    exr::prelude::write_rgb_file(path, w, image.height as usize, px).map_err(|e| e.to_string())
+}
+
+/// Without the `exr` feature: the error that says so ([`check_image_path`] refuses
+/// `.exr` first, so this is not reached from [`write_image`]).
+#[cfg(not(feature = "exr"))]
+fn save_exr(_: &Path, _: &Image) -> std::result::Result<(), String> {
+    Err(NEEDS_EXR.into())
 }
 
 fn save_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> std::result::Result<(), String> {

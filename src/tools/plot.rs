@@ -1,6 +1,6 @@
 //! Scatter plots for `wavetrace sweep`: one colour per series, every point drawn, the
 //! Pareto front of each series filled and joined by a line. Drawn with `plotters` into an
-//! RGB buffer and saved through [`crate::output::write_png`], so a plot is written
+//! RGB buffer and saved through [`crate::tools::output::write_png`], so a plot is written
 //! atomically like every other output and the crate keeps a single PNG encoder.
 
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
@@ -35,22 +35,11 @@ pub struct Series {
     pub name: String,
     /// (x, y) values.
     pub points: Vec<(f64, f64)>,
-    /// Per point: on the Pareto front (drawn filled and joined by a line).
+    /// Per point: on the Pareto front (drawn filled and joined by a line); see
+    /// [`crate::tools::sweep::pareto_front`].
     pub pareto: Vec<bool>,
     /// Per point: a label written beside it when it is on the front (empty: none).
     pub labels: Vec<String>,
-}
-
-/// Marks the Pareto front of `points` when both coordinates are to be minimised: a point
-/// is on the front unless another has x ≤ and y ≤ with at least one strictly less.
-/// Identical points do not dominate each other, so duplicates share their fate. Points
-/// with a NaN coordinate are never on the front and never dominate.
-pub fn pareto_front(points: &[(f64, f64)]) -> Vec<bool> {
-    let valid = |p: &(f64, f64)| !p.0.is_nan() && !p.1.is_nan();
-    points
-        .iter()
-        .map(|p| valid(p) && !points.iter().any(|q| valid(q) && q.0 <= p.0 && q.1 <= p.1 && (q.0 < p.0 || q.1 < p.1)))
-        .collect()
 }
 
 /// Registers the embedded DejaVu Sans as plotters' sans-serif font, once: plotters'
@@ -115,7 +104,7 @@ pub fn scatter_plot(
     log_x: bool,
     log_y: bool,
 ) -> Result<()> {
-    crate::output::check_png_path(path)?;
+    crate::tools::output::check_png_path(path)?;
     register_font()?;
     let (w, h) = (WIDTH, HEIGHT);
     let mut buf = vec![0u8; (w * h * 3) as usize];
@@ -149,7 +138,7 @@ pub fn scatter_plot(
             .and_then(|_| root.present().map_err(|e| e.to_string()))
             .map_err(|e| Error::Internal(format!("plot `{}`: {e}", path.display())))?;
     }
-    crate::output::write_png(path, w, h, &buf)
+    crate::tools::output::write_png(path, w, h, &buf)
 }
 
 /// Tick values of a log axis over [lo, hi]: labelled ones at 1, 2 and 5 times powers of
@@ -306,12 +295,6 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn pareto_marks_non_dominated_points() {
-        let pts = [(1.0, 5.0), (2.0, 2.0), (3.0, 3.0), (4.0, 1.0), (2.0, 2.0), (5.0, 1.0), (f64::NAN, 0.0)];
-        assert_eq!(pareto_front(&pts), [true, true, false, true, true, false, false]);
-    }
 
     #[test]
     fn ticks_are_compact() {

@@ -7,8 +7,9 @@ use glam::Vec3;
 use crate::color::to_display8;
 use crate::film::{Heat, Image};
 
-/// The heatmaps `--heatmap KIND=PATH` can write.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The heatmaps `--heatmap KIND=PATH` can write; the command line knows them by their
+/// value names (`aa`, `penumbra`, `rays`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum HeatmapKind {
     /// The render with pixels the adaptive AA refined tinted green.
     Aa,
@@ -17,18 +18,6 @@ pub enum HeatmapKind {
     Penumbra,
     /// Rays per pixel (all kinds) on a logarithmic colour scale, with a legend below.
     Rays,
-}
-
-impl HeatmapKind {
-    /// Parses `aa`, `penumbra` or `rays`.
-    pub fn parse(s: &str) -> Option<HeatmapKind> {
-        match s {
-            "aa" => Some(HeatmapKind::Aa),
-            "penumbra" => Some(HeatmapKind::Penumbra),
-            "rays" => Some(HeatmapKind::Rays),
-            _ => None,
-        }
-    }
 }
 
 /// An 8-bit RGB picture.

@@ -17,16 +17,21 @@
 //!   uniform shadows with the largest `render.shadows.samples` of the scene and the sweep
 //!   for each camera sample, so that each of its spp shadow estimates is at least as good
 //!   as any point's.
+//!
+//! Features: without `plot` the sweep writes the CSV and the JSON but no plots; without
+//! `exr` it cannot cache a rendered reference (the cache is an EXR), so it needs a
+//! `Reference::File` in PNG; without `flip` the `flip` column is NaN (`null` in JSON).
 
 use serde::ser::{SerializeMap, Serializer};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-use crate::compare::{load_linear, metrics, Metrics};
 use crate::film::Image;
-use crate::output::{check_folder, write_image, write_text};
-use crate::plot::{pareto_front, scatter_plot, Series};
 use crate::scene::{load, AaMode, SceneSource, Settings, ShadowMode};
+use crate::tools::compare::{load_linear, metrics, Metrics};
+use crate::tools::output::{check_folder, write_image, write_text};
+#[cfg(feature = "plot")]
+use crate::tools::plot::{scatter_plot, Series};
 use crate::{render, Error, RenderOptions, Result};
 
 /// Default `--reference-spp`.
@@ -197,7 +202,8 @@ pub struct SweepResult {
     pub reference: ReferenceInfo,
     /// One row per point, in cross-product order.
     pub points: Vec<Point>,
-    /// The files written: the CSV, the JSON and the two plots.
+    /// The files written: the CSV, the JSON and the two plots (no plots without the
+    /// `plot` feature).
     #[serde(skip)]
     pub files: Vec<PathBuf>,
 }
@@ -375,11 +381,8 @@ fn ordered_map<S: Serializer, K: AsRef<str>, V: Serialize>(
 
 /// Runs the sweep: validates every point, gets the reference, renders each point,
 /// measures it, and writes `sweep.csv`, `sweep.json`, `error_vs_rays.png` and
-/// `error_vs_seconds.png` into the output folder.
+/// `error_vs_seconds.png` (the plots with the `plot` feature) into the output folder.
 pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
-    if opts.threads == Some(0) {
-        return Err(Error::input("--threads must be at least 1"));
-    }
     let mut seen = std::collections::HashSet::new();
     for (key, values) in &opts.params {
         if !seen.insert(key.as_str()) {
@@ -422,6 +425,12 @@ pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
             (p.clone(), Some(load_linear(p)?), None, Vec::new())
         }
         Reference::Spp(0) => return Err(Error::input("--reference-spp must be at least 1")),
+        Reference::Spp(_) if !cfg!(feature = "exr") => {
+            return Err(Error::input(format!(
+                "the sweep's rendered reference is cached as EXR: {}; or give a PNG --reference",
+                crate::tools::output::NEEDS_EXR
+            )))
+        }
         Reference::Spp(spp) => {
             let ov = reference_overrides(&base, &opts.params, *spp);
             let mut key = format!("wavetrace sweep reference\0{}\0", env!("CARGO_PKG_VERSION")).into_bytes();
@@ -462,8 +471,9 @@ pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
     }
 
     prepare_dir(&opts.out_dir)?;
-    let files: Vec<PathBuf> =
-        [CSV_FILE, JSON_FILE, RAYS_PLOT, SECONDS_PLOT].iter().map(|f| opts.out_dir.join(f)).collect();
+    let names: &[&str] =
+        if cfg!(feature = "plot") { &[CSV_FILE, JSON_FILE, RAYS_PLOT, SECONDS_PLOT] } else { &[CSV_FILE, JSON_FILE] };
+    let files: Vec<PathBuf> = names.iter().map(|f| opts.out_dir.join(f)).collect();
     for f in &files {
         check_folder(f)?;
     }
@@ -564,9 +574,24 @@ pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
     };
     write_text(&result.files[0], &result.csv())?;
     write_text(&result.files[1], &(result.json()? + "\n"))?;
-    result.plot(&result.files[2], |p| p.total_rays as f64, "rays traced (all kinds)")?;
-    result.plot(&result.files[3], |p| p.seconds, "render seconds (wall clock)")?;
+    #[cfg(feature = "plot")]
+    {
+        result.plot(&result.files[2], |p| p.total_rays as f64, "rays traced (all kinds)")?;
+        result.plot(&result.files[3], |p| p.seconds, "render seconds (wall clock)")?;
+    }
     Ok(result)
+}
+
+/// Marks the Pareto front of `points` when both coordinates are to be minimised: a point
+/// is on the front unless another has x ≤ and y ≤ with at least one strictly less.
+/// Identical points do not dominate each other, so duplicates share their fate. Points
+/// with a NaN coordinate are never on the front and never dominate.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<bool> {
+    let valid = |p: &(f64, f64)| !p.0.is_nan() && !p.1.is_nan();
+    points
+        .iter()
+        .map(|p| valid(p) && !points.iter().any(|q| valid(q) && q.0 <= p.0 && q.1 <= p.1 && (q.0 < p.0 || q.1 < p.1)))
+        .collect()
 }
 
 /// Marks each point's place on its mode's Pareto fronts.
@@ -656,6 +681,7 @@ impl SweepResult {
     }
 
     /// Draws RMSE against `x` of each point, one series per mode, log-log.
+    #[cfg(feature = "plot")]
     fn plot(&self, path: &Path, x: impl Fn(&Point) -> f64, x_label: &str) -> Result<()> {
         let by_seconds = path.ends_with(SECONDS_PLOT);
         let labels = point_labels(&self.points);
@@ -689,6 +715,7 @@ impl SweepResult {
 /// error: a setting their mode ignores differs) share one label of the values they have
 /// in common, with their count: `samples=4 (×3)`. A `*.mode` value that names the point's
 /// series is left out, as the colour says it.
+#[cfg(feature = "plot")]
 fn point_labels(points: &[Point]) -> Vec<String> {
     let same = |a: &Point, b: &Point| {
         a.mode == b.mode && a.rays == b.rays && a.metrics.rmse.to_bits() == b.metrics.rmse.to_bits()
@@ -717,6 +744,12 @@ fn point_labels(points: &[Point]) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pareto_marks_non_dominated_points() {
+        let pts = [(1.0, 5.0), (2.0, 2.0), (3.0, 3.0), (4.0, 1.0), (2.0, 2.0), (5.0, 1.0), (f64::NAN, 0.0)];
+        assert_eq!(pareto_front(&pts), [true, true, false, true, true, false, false]);
+    }
 
     #[test]
     fn fnv1a_known_values() {

@@ -1,0 +1,152 @@
+//! `wavetrace bench`: traversal throughput of the scalar and the packet kernel on fixed
+//! ray sets, as a table or JSON.
+
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+
+use wavetrace::geometry::order::Order;
+use wavetrace::geometry::packet::{PacketConfig, LANES};
+use wavetrace::scene::load;
+use wavetrace::tools::bench::{self, BenchOptions};
+use wavetrace::{Error, Result};
+
+use super::{at_least_one, say, scene_source, Switch};
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Scene file (TOML). Omitted: the embedded default scene.
+    scene: Option<PathBuf>,
+    /// Override a scene value by its dotted path (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    sets: Vec<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_parser = at_least_one::<usize>())]
+    threads: Option<usize>,
+    /// Timed repetitions per set and kernel; the median is reported.
+    #[arg(long, default_value_t = 5, value_parser = at_least_one::<usize>())]
+    reps: usize,
+    /// Most rays per set (larger sets keep every k-th ray).
+    #[arg(long, default_value_t = 1 << 20, value_parser = at_least_one::<usize>())]
+    max_rays: usize,
+    /// Lanes per packet of the packet kernel: 4, 8 or 16.
+    #[arg(long, value_enum, hide_possible_values = true, default_value_t = Lanes::of(LANES))]
+    lanes: Lanes,
+    /// Packet kernel: lanes entering a node pair below which each finishes it alone.
+    #[arg(long, default_value_t = PacketConfig::RENDER.min_active)]
+    min_active: u32,
+    /// Packet kernel: how bounce rays are ordered before packets are cut: keep, octant
+    /// or morton (octant, then the origin's Morton code).
+    #[arg(long, value_enum, hide_possible_values = true, default_value_t = PacketConfig::RENDER.bounce_order.into())]
+    bounce_order: PacketOrder,
+    /// Packet kernel: how shadow rays are ordered: keep, octant or morton.
+    #[arg(long, value_enum, hide_possible_values = true, default_value_t = PacketConfig::RENDER.shadow_order.into())]
+    shadow_order: PacketOrder,
+    /// Packet kernel: trace packets that mix direction octants one ray at a time (on|off).
+    #[arg(long, value_enum, hide_possible_values = true, default_value_t = Switch::of(PacketConfig::RENDER.split_mixed))]
+    split_mixed: Switch,
+    /// Print JSON: {"bvh_build_seconds", "threads", "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `--lanes`: the packet widths the packet kernel is built for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Lanes {
+    #[value(name = "4")]
+    Four,
+    #[value(name = "8")]
+    Eight,
+    #[value(name = "16")]
+    Sixteen,
+}
+
+impl Lanes {
+    /// Lanes per packet.
+    pub fn count(self) -> usize {
+        match self {
+            Lanes::Four => 4,
+            Lanes::Eight => 8,
+            Lanes::Sixteen => 16,
+        }
+    }
+
+    /// The choice of `n` lanes.
+    ///
+    /// # Panics
+    /// If `n` is not 4, 8 or 16: only the renderer's own width is asked for, and it is
+    /// one of those.
+    pub fn of(n: usize) -> Lanes {
+        match n {
+            4 => Lanes::Four,
+            8 => Lanes::Eight,
+            16 => Lanes::Sixteen,
+            _ => panic!("no packet kernel of {n} lanes"),
+        }
+    }
+}
+
+/// `--bounce-order`, `--shadow-order`: the command-line names of [`Order`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PacketOrder {
+    Keep,
+    Octant,
+    Morton,
+}
+
+impl From<Order> for PacketOrder {
+    fn from(o: Order) -> Self {
+        match o {
+            Order::Keep => PacketOrder::Keep,
+            Order::Octant => PacketOrder::Octant,
+            Order::Morton => PacketOrder::Morton,
+        }
+    }
+}
+
+impl From<PacketOrder> for Order {
+    fn from(o: PacketOrder) -> Self {
+        match o {
+            PacketOrder::Keep => Order::Keep,
+            PacketOrder::Octant => Order::Octant,
+            PacketOrder::Morton => Order::Morton,
+        }
+    }
+}
+
+/// Runs the benchmark and prints the table or the JSON.
+pub fn run(args: BenchArgs) -> Result<()> {
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let source = scene_source(args.scene.as_ref())?;
+    let scene = load(&source, &args.sets)?;
+    let packet = PacketConfig {
+        min_active: args.min_active,
+        bounce_order: args.bounce_order.into(),
+        shadow_order: args.shadow_order.into(),
+        split_mixed: args.split_mixed.is_on(),
+    };
+    let opts = BenchOptions { threads, reps: args.reps, max_rays: args.max_rays, lanes: args.lanes.count(), packet };
+    let report = bench::run(&scene, &opts)?;
+    if args.json {
+        say(&serde_json::to_string(&report).map_err(|e| Error::Internal(e.to_string()))?);
+    } else {
+        say(report.table().trim_end());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lanes_and_orders_round_trip() {
+        for n in [4, 8, 16, LANES] {
+            assert_eq!(Lanes::of(n).count(), n);
+        }
+        for o in [Order::Keep, Order::Octant, Order::Morton] {
+            assert_eq!(Order::from(PacketOrder::from(o)), o);
+            // The command-line name is the one Order prints.
+            assert_eq!(PacketOrder::from(o).to_possible_value().unwrap().get_name(), o.to_string());
+        }
+    }
+}

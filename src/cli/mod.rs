@@ -1,0 +1,110 @@
+//! The `wavetrace` command line: the clap definitions of every subcommand and the
+//! `run` function of each, which turns parsed arguments into calls to the library.
+//!
+//! Choices are clap value enums (or parsers built on them), so a bad value is refused
+//! while parsing, with the flag, the value and the accepted values in the message
+//! (exit 2). Numbers that must be at least 1 share one clap range ([`at_least_one`]).
+//!
+//! One module per subcommand: [`render`] (also what runs with no subcommand),
+//! [`compare`], [`sweep`], [`bench`].
+
+use clap::builder::{RangedU64ValueParser, TypedValueParser};
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+use wavetrace::scene::SceneSource;
+use wavetrace::Result;
+
+pub mod bench;
+pub mod compare;
+pub mod render;
+pub mod sweep;
+
+/// A wavefront CPU ray tracer with adaptive sampling, soft shadows, refraction and depth of field.
+#[derive(Parser, Debug)]
+#[command(name = "wavetrace", version, args_conflicts_with_subcommands = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    /// With no subcommand, `wavetrace` renders.
+    #[command(flatten)]
+    render: render::RenderArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render a scene to an image (the default command).
+    Render(render::RenderArgs),
+    /// Compare an image with a reference: RMSE, relative MSE, PSNR (linear) and mean LDR-FLIP.
+    Compare(compare::CompareArgs),
+    /// Render the cross product of parameter values and measure each against a reference:
+    /// DIR/sweep.csv, DIR/sweep.json and error-vs-rays / error-vs-seconds plots.
+    Sweep(sweep::SweepArgs),
+    /// Trace fixed ray sets from a scene (primary, shadow, secondary) with the scalar and
+    /// the packet kernel; print Mrays/s per set and kernel (median of --reps runs).
+    Bench(bench::BenchArgs),
+}
+
+/// Runs the parsed command; returns the exit status of a successful run (0, or 130 for a
+/// render that Ctrl-C cut short).
+pub fn run(cli: Cli) -> Result<i32> {
+    match cli.command {
+        Some(Command::Render(a)) => render::run(a),
+        Some(Command::Compare(a)) => compare::run(a).map(|_| 0),
+        Some(Command::Sweep(a)) => sweep::run(a).map(|_| 0),
+        Some(Command::Bench(a)) => bench::run(a).map(|_| 0),
+        None => render::run(cli.render),
+    }
+}
+
+/// The value parser of counts that must be at least 1 (`--threads`, `--reps`,
+/// `--max-rays`, `--reference-spp`): one clap range, so every subcommand refuses 0 the
+/// same way, while parsing.
+pub fn at_least_one<T>() -> impl TypedValueParser<Value = T>
+where
+    T: TryFrom<u64> + Clone + Send + Sync + 'static,
+    <T as TryFrom<u64>>::Error: std::error::Error + Send + Sync + 'static,
+{
+    RangedU64ValueParser::<T>::new().range(1..)
+}
+
+/// An on/off switch (`--split-mixed on`); `true` and `false` are accepted too.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Switch {
+    /// On.
+    #[value(alias = "true")]
+    On,
+    /// Off.
+    #[value(alias = "false")]
+    Off,
+}
+
+impl Switch {
+    /// The switch of a boolean setting.
+    pub fn of(on: bool) -> Switch {
+        if on {
+            Switch::On
+        } else {
+            Switch::Off
+        }
+    }
+
+    /// True when on.
+    pub fn is_on(self) -> bool {
+        self == Switch::On
+    }
+}
+
+/// Prints a line to stdout; a closed pipe (`| head`) is not an error worth a panic.
+pub fn say(text: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stdout().lock(), "{text}");
+}
+
+/// The scene a subcommand reads: the file given, or the embedded default scene.
+pub fn scene_source(path: Option<&PathBuf>) -> Result<SceneSource> {
+    match path {
+        Some(path) => SceneSource::from_file(path),
+        None => Ok(SceneSource::default_scene()),
+    }
+}

@@ -1,0 +1,22 @@
+//! Tools built on the renderer: they call [`crate::render()`] or the stages, and nothing in
+//! the renderer core depends on them. Cargo features (all on by default) gate the parts
+//! with heavy or optional dependencies: `flip`, `plot` and `exr` (EXR in [`output`] and
+//! [`compare`]).
+//!
+//! - [`output`]: writing images (PNG, EXR) and text files atomically;
+//! - [`heatmap`]: debug images of where the adaptive queues spent rays;
+//! - [`compare`]: image error metrics (RMSE, relative MSE, PSNR, mean FLIP);
+//! - `flip`: NVIDIA's LDR-FLIP perceptual difference (feature `flip`);
+//! - [`sweep`]: error against rays and seconds over a cross product of settings;
+//! - `plot`: the sweep's scatter plots (feature `plot`);
+//! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets.
+
+pub mod bench;
+pub mod compare;
+#[cfg(feature = "flip")]
+pub mod flip;
+pub mod heatmap;
+pub mod output;
+#[cfg(feature = "plot")]
+pub mod plot;
+pub mod sweep;
