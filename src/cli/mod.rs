@@ -9,7 +9,9 @@
 //! [`compare`], [`sweep`], [`bench`].
 
 use clap::builder::{RangedU64ValueParser, TypedValueParser};
+use clap::error::ErrorKind;
 use clap::{Parser, Subcommand, ValueEnum};
+use std::ffi::OsStr;
 use std::path::PathBuf;
 
 use wavetrace::scene::SceneSource;
@@ -60,12 +62,37 @@ pub fn run(cli: Cli) -> Result<i32> {
 /// The value parser of counts that must be at least 1 (`--threads`, `--reps`,
 /// `--max-rays`, `--reference-spp`): one clap range, so every subcommand refuses 0 the
 /// same way, while parsing.
-pub fn at_least_one<T>() -> impl TypedValueParser<Value = T>
+pub fn at_least_one<T>() -> AtLeastOne<T> {
+    AtLeastOne(std::marker::PhantomData)
+}
+
+/// See [`at_least_one`]: clap's `1..` range, with a message that says "must be at least
+/// 1" (clap's own would print the integer type's whole range).
+#[derive(Clone, Copy, Debug)]
+pub struct AtLeastOne<T>(std::marker::PhantomData<T>);
+
+impl<T> TypedValueParser for AtLeastOne<T>
 where
     T: TryFrom<u64> + Clone + Send + Sync + 'static,
     <T as TryFrom<u64>>::Error: std::error::Error + Send + Sync + 'static,
 {
-    RangedU64ValueParser::<T>::new().range(1..)
+    type Value = T;
+
+    fn parse_ref(
+        &self,
+        cmd: &clap::Command,
+        arg: Option<&clap::Arg>,
+        value: &OsStr,
+    ) -> std::result::Result<T, clap::Error> {
+        RangedU64ValueParser::<T>::new().range(1..).parse_ref(cmd, arg, value).map_err(|e| {
+            if e.kind() != ErrorKind::ValueValidation || value.to_str().and_then(|v| v.parse::<u64>().ok()) != Some(0) {
+                return e;
+            }
+            let flag = arg.map_or_else(|| "the value".to_string(), |a| format!("'{a}'"));
+            clap::Error::raw(ErrorKind::ValueValidation, format!("invalid value '0' for {flag}: must be at least 1\n"))
+                .with_cmd(cmd)
+        })
+    }
 }
 
 /// An on/off switch (`--split-mixed on`); `true` and `false` are accepted too.

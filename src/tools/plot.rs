@@ -92,18 +92,20 @@ fn span(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
 }
 
+/// One axis of a plot.
+#[derive(Clone, Copy, Debug)]
+pub struct Axis<'a> {
+    /// The axis title.
+    pub label: &'a str,
+    /// A logarithmic scale.
+    pub log: bool,
+}
+
 /// Draws a scatter plot of `series` to the PNG `path`. Log axes drop values ≤ 0 (they have
 /// no place on them); non-finite values are always dropped. Each series' Pareto points
 /// (`Series::pareto`) are drawn filled and joined in x order; the others are hollow.
-pub fn scatter_plot(
-    path: &Path,
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[Series],
-    log_x: bool,
-    log_y: bool,
-) -> Result<()> {
+pub fn scatter_plot(path: &Path, title: &str, x: Axis, y: Axis, series: &[Series]) -> Result<()> {
+    let (x_label, log_x, y_label, log_y) = (x.label, x.log, y.label, y.log);
     crate::tools::output::check_png_path(path)?;
     register_font()?;
     let (w, h) = (WIDTH, HEIGHT);
