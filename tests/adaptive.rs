@@ -155,47 +155,20 @@ fn a_vertical_edge_refines_only_the_pixels_on_it() {
 
 /// Occluders wider than the spread of the corner rays at their height, so the corner
 /// test is never fooled here (a small one is tested below).
-const BLOCKS: &str = r#"
-[render]
-width = 48
-height = 36
-[render.aa]
-samples = 2
-[render.shadows]
-samples = 64
-[camera]
-position = [0, 3.2, 4.2]
-look_at = [0, 0.3, 0]
-fov_y = 45.0
-[materials.white]
-type = "diffuse"
-color = [0.8, 0.8, 0.8]
-[[lights]]
-type = "quad"
-corner = [-0.5, 3, -0.5]
-edge_u = [1, 0, 0]
-edge_v = [0, 0, 1]
-radiance = [6, 6, 6]
-[[objects]]
-type = "quad"
-corner = [-4, 0, -4]
-edge_u = [0, 0, 8]
-edge_v = [8, 0, 0]
-material = "white"
-[[objects]]
-type = "sphere"
-center = [-1, 0.6, 0.3]
-radius = 0.6
-material = "white"
-[[objects]]
-type = "sphere"
-center = [1.0, 0.5, -0.5]
-radius = 0.5
-material = "white"
-"#;
+fn blocks() -> String {
+    FloorScene {
+        render: "[render]\nwidth = 48\nheight = 36\n[render.aa]\nsamples = 2\n[render.shadows]\nsamples = 64\n",
+        spheres: vec![
+            Sphere { center: [-1.0, 0.6, 0.3], radius: 0.6, material: "white" },
+            Sphere { center: [1.0, 0.5, -0.5], radius: 0.5, material: "white" },
+        ],
+        ..FloorScene::overhead()
+    }
+    .toml()
+}
 
 fn penumbra_scene(sets: &[&str]) -> wavetrace::RenderOutput {
-    render_text(BLOCKS, sets, 2)
+    render_text(&blocks(), sets, 2)
 }
 
 #[test]
@@ -237,7 +210,7 @@ fn adaptive_aa_converges_to_the_uniform_reference() {
     let go = |extra: &[&str]| -> Image {
         let mut sets = vec!["render.shadows.samples=4"];
         sets.extend_from_slice(extra);
-        let mut img = render_text(BLOCKS, &sets, 2).image;
+        let mut img = render_text(&blocks(), &sets, 2).image;
         for p in &mut img.pixels {
             *p = Vec3::from_array(p.to_array().map(wavetrace::color::srgb_encode));
         }
@@ -273,46 +246,23 @@ fn adaptive_modes_are_bit_identical_across_thread_counts() {
 
 /// The paper's §5 failure: a small occluder straight between the floor and the middle
 /// of a large light, that no ray to the light's corners passes near.
-const FOOLED: &str = r#"
-[render]
-width = 40
-height = 40
-[render.aa]
-samples = 1
-[render.shadows]
-mode = "adaptive"
-samples = 64
-[camera]
-position = [0, 2.5, 3]
-look_at = [0, 0, 0]
-fov_y = 20.0
-[materials.white]
-type = "diffuse"
-color = [0.8, 0.8, 0.8]
-[[lights]]
-type = "quad"
-corner = [-1, 3, -1]
-edge_u = [2, 0, 0]
-edge_v = [0, 0, 2]
-radiance = [3, 3, 3]
-[[objects]]
-type = "quad"
-corner = [-5, 0, -5]
-edge_u = [0, 0, 10]
-edge_v = [10, 0, 0]
-material = "white"
-[[objects]]
-type = "sphere"
-center = [0, 1.5, 0]
-radius = 0.12
-material = "white"
-"#;
+fn fooled_scene() -> String {
+    FloorScene {
+        render: "[render]\nwidth = 40\nheight = 40\n[render.aa]\nsamples = 1\n[render.shadows]\nmode = \"adaptive\"\nsamples = 64\n",
+        position: [0.0, 2.5, 3.0],
+        look_at: [0.0, 0.0, 0.0],
+        fov_y: Some(20.0),
+        spheres: vec![Sphere { center: [0.0, 1.5, 0.0], radius: 0.12, material: "white" }],
+        ..FloorScene::default()
+    }
+    .toml()
+}
 
 #[test]
 fn corner_test_is_fooled_by_a_small_occluder_and_the_options_catch_it() {
-    let uniform = render_text(FOOLED, &["render.shadows.mode=uniform"], 2);
+    let uniform = render_text(&fooled_scene(), &["render.shadows.mode=uniform"], 2);
     let fooled = |probe: &str| {
-        let out = render_text(FOOLED, &[&format!("render.shadows.probe={probe}")], 2);
+        let out = render_text(&fooled_scene(), &[&format!("render.shadows.probe={probe}")], 2);
         let n = out
             .image
             .pixels

@@ -1,50 +1,37 @@
 //! The command line: success paths, and every bad-input case exits 2 with a message
 //! naming the file, line and field, leaving no output file behind.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use support::{FloorScene, Quad, QuadLight, Sphere};
 
 const BIN: &str = env!("CARGO_BIN_EXE_wavetrace");
 
-/// A small valid scene; each bad case replaces one piece of it.
-const GOOD: &str = r#"[render]
-width = 8
-height = 6
-[render.aa]
-samples = 2
-[render.shadows]
-samples = 2
+/// A small valid scene (a glass sphere on a floor under a quad light); each bad case
+/// replaces one piece of it.
+fn good() -> String {
+    FloorScene {
+        render: "[render]\nwidth = 8\nheight = 6\n[render.aa]\nsamples = 2\n[render.shadows]\nsamples = 2\n",
+        position: [0.0, 1.0, 5.0],
+        look_at: [0.0, 1.0, 0.0],
+        materials: vec![FloorScene::diffuse("white", [0.8; 3]), ("glass", "type = \"dielectric\"\nior = 1.5".into())],
+        light: QuadLight::square(1.99, 1.0, 10.0),
+        floor: Quad::floor(2.0, "white"),
+        spheres: vec![Sphere { center: [0.0, 1.0, 0.0], radius: 1.0, material: "glass" }],
+        ..FloorScene::default()
+    }
+    .toml()
+}
 
-[camera]
-position = [0, 1, 5]
-look_at = [0, 1, 0]
-
-[materials.white]
-type = "diffuse"
-color = [0.8, 0.8, 0.8]
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-
-[[lights]]
-type = "quad"
-corner = [-0.5, 1.99, -0.5]
-edge_u = [1, 0, 0]
-edge_v = [0, 0, 1]
-radiance = [10, 10, 10]
-
-[[objects]]
-type = "sphere"
-center = [0, 1, 0]
-radius = 1.0
-material = "glass"
-[[objects]]
-type = "quad"
-corner = [-2, 0, -2]
-edge_u = [4, 0, 0]
-edge_v = [0, 0, 4]
-material = "white"
-"#;
+/// `scene.toml:LINE:COLUMN` of the value of the first `key = ...` line of [`good`]: where
+/// an error in that value must be reported.
+fn at(key: &str) -> String {
+    let prefix = format!("{key} = ");
+    let line = good().lines().position(|l| l.starts_with(&prefix)).unwrap_or_else(|| panic!("no {key} in the fixture"));
+    format!("scene.toml:{}:{}", line + 1, prefix.len() + 1)
+}
 
 struct Case {
     dir: tempfile::TempDir,
@@ -88,9 +75,10 @@ fn stderr(o: &Output) -> String {
 /// Renders `scene` (after replacing `from` by `to`) and expects exit 2, a message with
 /// every one of `needles`, and no file written.
 fn bad_scene(from: &str, to: &str, needles: &[&str]) {
-    assert!(GOOD.contains(from), "fixture lacks {from:?}");
+    let good = good();
+    assert!(good.contains(from), "fixture lacks {from:?}");
     let case = Case::new();
-    case.write("scene.toml", &GOOD.replacen(from, to, 1));
+    case.write("scene.toml", &good.replacen(from, to, 1));
     let out = case.run(&["scene.toml", "-o", "out.png"]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(2), "expected exit 2 for {to:?}; stderr: {err}");
@@ -103,7 +91,7 @@ fn bad_scene(from: &str, to: &str, needles: &[&str]) {
 #[test]
 fn good_scene_renders_and_writes_stats_json() {
     let case = Case::new();
-    case.write("scene.toml", GOOD);
+    case.write("scene.toml", &good());
     let out =
         case.run(&["render", "scene.toml", "-o", "out.png", "--stats", "--stats-json", "s.json", "--threads", "2"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
@@ -145,7 +133,7 @@ fn no_arguments_renders_the_default_scene_to_render_png() {
 #[cfg(feature = "exr")]
 fn exr_output_is_linear_float() {
     let case = Case::new();
-    case.write("scene.toml", GOOD);
+    case.write("scene.toml", &good());
     let out = case.run(&["scene.toml", "-o", "out.exr", "--quiet"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     assert!(out.stdout.is_empty(), "--quiet prints nothing");
@@ -162,17 +150,17 @@ fn exr_output_is_linear_float() {
 
 #[test]
 fn toml_syntax_error_names_line_and_column() {
-    bad_scene("radius = 1.0", "radius = = 1.0", &["scene.toml:30:10"]);
+    bad_scene("radius = 1", "radius = = 1", &[&at("radius")]);
 }
 
 #[test]
 fn unknown_field() {
-    bad_scene("radius = 1.0", "radius = 1.0\nradus = 2.0", &["scene.toml:", "radus"]);
+    bad_scene("radius = 1", "radius = 1\nradus = 2.0", &["scene.toml:", "radus"]);
 }
 
 #[test]
 fn missing_field() {
-    bad_scene("radius = 1.0\n", "", &["scene.toml:", "radius"]);
+    bad_scene("radius = 1\n", "", &["scene.toml:", "radius"]);
 }
 
 #[test]
@@ -182,27 +170,27 @@ fn missing_camera() {
 
 #[test]
 fn unknown_material() {
-    bad_scene("material = \"glass\"", "material = \"gold\"", &["scene.toml:", "objects.0.material", "gold"]);
+    bad_scene("material = \"glass\"", "material = \"gold\"", &["scene.toml:", "objects.1.material", "gold"]);
 }
 
 #[test]
 fn zero_and_negative_radius() {
-    bad_scene("radius = 1.0", "radius = 0.0", &["scene.toml:30:10", "objects.0.radius"]);
-    bad_scene("radius = 1.0", "radius = -2", &["scene.toml:30:10", "objects.0.radius"]);
+    bad_scene("radius = 1", "radius = 0.0", &[&at("radius"), "objects.1.radius"]);
+    bad_scene("radius = 1", "radius = -2", &[&at("radius"), "objects.1.radius"]);
 }
 
 #[test]
 fn ior_must_be_positive() {
-    bad_scene("ior = 1.5", "ior = 0", &["scene.toml:18:7", "materials.glass.ior"]);
+    bad_scene("ior = 1.5", "ior = 0", &[&at("ior"), "materials.glass.ior"]);
     bad_scene("ior = 1.5", "ior = -1.5", &["materials.glass.ior"]);
 }
 
 #[test]
 fn non_finite_numbers_anywhere() {
-    bad_scene("radius = 1.0", "radius = nan", &["scene.toml:30:10", "objects.0.radius", "finite"]);
+    bad_scene("radius = 1", "radius = nan", &[&at("radius"), "objects.1.radius", "finite"]);
     bad_scene("position = [0, 1, 5]", "position = [0, inf, 5]", &["scene.toml:", "camera.position.1", "finite"]);
     bad_scene("radiance = [10, 10, 10]", "radiance = [10, -inf, 10]", &["lights.0.radiance.1", "finite"]);
-    bad_scene("radius = 1.0", "radius = 1e300", &["objects.0.radius", "finite"]);
+    bad_scene("radius = 1", "radius = 1e300", &["objects.1.radius", "finite"]);
 }
 
 #[test]
@@ -215,9 +203,9 @@ fn width_height_zero_or_absurd() {
 
 #[test]
 fn zero_length_and_parallel_edges() {
-    bad_scene("edge_u = [4, 0, 0]", "edge_u = [0, 0, 0]", &["scene.toml:", "objects.1.edge_u", "zero-length"]);
+    bad_scene("edge_u = [0, 0, 4]", "edge_u = [0, 0, 0]", &["scene.toml:", "objects.0.edge_u", "zero-length"]);
     bad_scene("edge_u = [1, 0, 0]", "edge_u = [0, 0, 0]", &["lights.0.edge_u", "zero-length"]);
-    bad_scene("edge_u = [4, 0, 0]", "edge_u = [0, 0, 3]", &["objects.1.edge_v", "parallel"]);
+    bad_scene("edge_u = [0, 0, 4]", "edge_u = [3, 0, 0]", &["objects.0.edge_v", "parallel"]);
 }
 
 #[test]
@@ -250,7 +238,7 @@ fn dof_aware_and_early_stopping_fields_are_checked() {
     bad_scene("[render.shadows]\n", "[render.shadows]\nbatch = -4\n", &["scene.toml:7:"]);
     // The same through --set, which the message names.
     let case = Case::new();
-    case.write("scene.toml", GOOD);
+    case.write("scene.toml", &good());
     for (set, needle) in [
         ("render.shadows.tolerance=2", "(--set render.shadows.tolerance=2): field `render.shadows.tolerance`"),
         ("render.shadows.batch=0", "field `render.shadows.batch`"),
@@ -288,7 +276,7 @@ fn missing_and_malformed_obj() {
     bad_scene(
         "[[objects]]\ntype = \"sphere\"",
         &format!("{mesh}[[objects]]\ntype = \"sphere\""),
-        &["objects.0.file", "m.obj"],
+        &["objects.1.file", "m.obj"],
     );
     // Malformed files.
     for (obj, needle) in [
@@ -299,7 +287,7 @@ fn missing_and_malformed_obj() {
     ] {
         let case = Case::new();
         case.write("m.obj", obj);
-        case.write("scene.toml", &format!("{GOOD}{mesh}"));
+        case.write("scene.toml", &format!("{}{mesh}", good()));
         let out = case.run(&["scene.toml", "-o", "out.png"]);
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(2), "{obj:?}: {err}");
@@ -315,7 +303,7 @@ fn mesh_loads_relative_to_the_scene_file() {
     std::fs::create_dir(case.path("sub/meshes")).unwrap();
     std::fs::write(case.path("sub/meshes/t.obj"), "v -1 0 0\nv 1 0 0\nv 0 2 0\nv 0 2 0\nf 1 2 3\nf 2 3 4\n").unwrap();
     let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"meshes/t.obj\"\nmaterial = \"white\"\n";
-    std::fs::write(case.path("sub/scene.toml"), format!("{GOOD}{mesh}")).unwrap();
+    std::fs::write(case.path("sub/scene.toml"), format!("{}{mesh}", good())).unwrap();
     let out = case.run(&["sub/scene.toml", "-o", "out.png", "--stats-json", "s.json"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(case.path("s.json")).unwrap()).unwrap();
@@ -326,7 +314,7 @@ fn mesh_loads_relative_to_the_scene_file() {
 #[test]
 fn bad_output_paths() {
     let case = Case::new();
-    case.write("scene.toml", GOOD);
+    case.write("scene.toml", &good());
     for (out, needle) in [("missing/out.png", "does not exist"), ("out.jpg", ".jpg"), ("out", "extension")] {
         let o = case.run(&["scene.toml", "-o", out]);
         assert_eq!(o.status.code(), Some(2), "{out}: {}", stderr(&o));
@@ -340,14 +328,14 @@ fn bad_output_paths() {
 #[test]
 fn set_overrides_work_and_bad_ones_fail() {
     let case = Case::new();
-    case.write("scene.toml", GOOD);
-    let o = case.run(&["scene.toml", "-o", "a.png", "--set", "render.width=5", "--set", "objects.0.radius=0.5"]);
+    case.write("scene.toml", &good());
+    let o = case.run(&["scene.toml", "-o", "a.png", "--set", "render.width=5", "--set", "objects.1.radius=0.5"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_eq!(image_dims(&case.path("a.png")), (5, 6));
     for (set, needle) in [
         ("render.widht=5", "widht"),
         ("render.width=abc", "invalid type"),
-        ("objects.0.radius=-1", "objects.0.radius"),
+        ("objects.1.radius=-1", "objects.1.radius"),
         ("objects.9.radius=1", "out of range"),
         ("render.width", "KEY=VALUE"),
         ("camera.position=[0, nan, 1]", "finite"),
@@ -372,7 +360,7 @@ fn usage_errors_exit_2() {
 #[test]
 fn failed_write_keeps_the_earlier_file() {
     let case = Case::new();
-    case.write("scene.toml", GOOD);
+    case.write("scene.toml", &good());
     // A folder where the temporary file would be renamed to cannot be replaced.
     std::fs::create_dir(case.path("out.png")).unwrap();
     let o = case.run(&["scene.toml", "-o", "out.png"]);
@@ -389,7 +377,7 @@ fn interrupt(child: &std::process::Child) {
 
 /// A render long enough to interrupt: seconds to minutes on any machine.
 fn long_render(case: &Case) -> std::process::Child {
-    case.write("scene.toml", GOOD);
+    case.write("scene.toml", &good());
     let args = ["scene.toml", "-o", "out.png", "--stats-json", "s.json", "--set", "render.width=2000"];
     let more = ["--set", "render.height=2000", "--set", "render.aa.samples=64", "--threads", "2"];
     Command::new(BIN)
@@ -431,7 +419,7 @@ fn a_second_ctrl_c_exits_at_once() {
 #[cfg(all(feature = "exr", feature = "flip"))]
 fn compare_prints_metrics_and_rejects_bad_pairs() {
     let case = Case::new();
-    case.write("scene.toml", GOOD);
+    case.write("scene.toml", &good());
     assert_eq!(case.run(&["scene.toml", "-o", "a.png", "-q"]).status.code(), Some(0));
     assert_eq!(case.run(&["scene.toml", "-o", "a.exr", "-q"]).status.code(), Some(0));
     assert_eq!(case.run(&["scene.toml", "-o", "b.png", "-q", "--set", "render.width=9"]).status.code(), Some(0));
@@ -464,7 +452,7 @@ fn meshes_outside_the_scene_folder_are_allowed_and_reported() {
     std::fs::create_dir(case.path("scenes")).unwrap();
     std::fs::write(case.path("m.obj"), "v -1 0 0\nv 1 0 0\nv 0 2 0\nf 1 2 3\n").unwrap();
     let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"../m.obj\"\nmaterial = \"white\"\n";
-    std::fs::write(case.path("scenes/scene.toml"), format!("{GOOD}{mesh}")).unwrap();
+    std::fs::write(case.path("scenes/scene.toml"), format!("{}{mesh}", good())).unwrap();
     let o = case.run(&["scenes/scene.toml", "-o", "out.png", "--stats-json", "s.json"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(case.path("s.json")).unwrap()).unwrap();
@@ -473,7 +461,7 @@ fn meshes_outside_the_scene_folder_are_allowed_and_reported() {
     assert!(outside[0].as_str().unwrap().ends_with("m.obj"));
     // Inside the folder: nothing reported.
     std::fs::write(case.path("scenes/m.obj"), "v -1 0 0\nv 1 0 0\nv 0 2 0\nf 1 2 3\n").unwrap();
-    std::fs::write(case.path("scenes/in.toml"), format!("{GOOD}{}", mesh.replace("../m.obj", "m.obj"))).unwrap();
+    std::fs::write(case.path("scenes/in.toml"), format!("{}{}", good(), mesh.replace("../m.obj", "m.obj"))).unwrap();
     let o = case.run(&["scenes/in.toml", "-o", "in.png", "--stats-json", "t.json"]);
     assert_eq!(o.status.code(), Some(0));
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(case.path("t.json")).unwrap()).unwrap();
@@ -490,7 +478,7 @@ fn resource_limits_are_checked_before_work() {
     let f = std::fs::File::create(case.path("huge.obj")).unwrap();
     f.set_len(1 << 40).unwrap();
     let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"huge.obj\"\nmaterial = \"white\"\n";
-    case.write("scene.toml", &format!("{GOOD}{mesh}"));
+    case.write("scene.toml", &format!("{}{mesh}", good()));
     let o = case.run(&["scene.toml", "-o", "out.png"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("GiB") && stderr(&o).contains("objects.2.file"), "{}", stderr(&o));

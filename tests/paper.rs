@@ -162,52 +162,24 @@ fn dof_aware_and_early_stopping_are_bit_identical_across_threads() {
 }
 
 /// A floor under a quad light with two occluders: wide penumbrae.
-const SHADOWS: &str = r#"
-[render]
-width = 40
-height = 30
-[render.aa]
-samples = 2
-[render.shadows]
-mode = "adaptive"
-samples = 64
-[camera]
-position = [0, 3.2, 4.2]
-look_at = [0, 0.3, 0]
-fov_y = 45.0
-[materials.white]
-type = "diffuse"
-color = [0.8, 0.8, 0.8]
-[[lights]]
-type = "quad"
-corner = [-0.5, 3, -0.5]
-edge_u = [1, 0, 0]
-edge_v = [0, 0, 1]
-radiance = [6, 6, 6]
-[[objects]]
-type = "quad"
-corner = [-4, 0, -4]
-edge_u = [0, 0, 8]
-edge_v = [8, 0, 0]
-material = "white"
-[[objects]]
-type = "sphere"
-center = [-0.8, 0.9, 0.3]
-radius = 0.5
-material = "white"
-[[objects]]
-type = "sphere"
-center = [0.9, 0.5, -0.4]
-radius = 0.4
-material = "white"
-"#;
+fn shadows() -> String {
+    FloorScene {
+        render: "[render]\nwidth = 40\nheight = 30\n[render.aa]\nsamples = 2\n[render.shadows]\nmode = \"adaptive\"\nsamples = 64\n",
+        spheres: vec![
+            Sphere { center: [-0.8, 0.9, 0.3], radius: 0.5, material: "white" },
+            Sphere { center: [0.9, 0.5, -0.4], radius: 0.4, material: "white" },
+        ],
+        ..FloorScene::overhead()
+    }
+    .toml()
+}
 
 #[test]
 fn early_stopping_that_never_stops_is_the_fixed_n_image() {
-    let fixed = render_text(SHADOWS, &[], 2);
+    let fixed = render_text(&shadows(), &[], 2);
     for batch in ["render.shadows.batch=16", "render.shadows.batch=5", "render.shadows.batch=64"] {
         // No Wilson interval after at most 64 rays is narrower than ±1e-6.
-        let never = render_text(SHADOWS, &["render.shadows.tolerance=1e-6", batch], 2);
+        let never = render_text(&shadows(), &["render.shadows.tolerance=1e-6", batch], 2);
         assert!(bits(&fixed.image) == bits(&never.image), "{batch}: the image must be the fixed-n one, bit for bit");
         assert_eq!(fixed.stats.kinds(), never.stats.kinds(), "{batch}");
         assert_eq!(never.stats.penumbra_stopped, 0);
@@ -217,9 +189,9 @@ fn early_stopping_that_never_stops_is_the_fixed_n_image() {
 
 #[test]
 fn early_stopping_saves_rays_at_a_bounded_error() {
-    let reference = render_text(SHADOWS, &["render.shadows.mode=uniform", "render.shadows.samples=1024"], 2);
-    let fixed = render_text(SHADOWS, &[], 2);
-    let early = render_text(SHADOWS, &["render.shadows.tolerance=0.1"], 2);
+    let reference = render_text(&shadows(), &["render.shadows.mode=uniform", "render.shadows.samples=1024"], 2);
+    let fixed = render_text(&shadows(), &[], 2);
+    let early = render_text(&shadows(), &["render.shadows.tolerance=0.1"], 2);
     let (f, e) = (&fixed.stats, &early.stats);
     assert!(e.penumbra_stopped > 0 && e.penumbra_stopped <= e.penumbra_points);
     assert_eq!(e.penumbra_points, f.penumbra_points, "the probes decide the same points");
@@ -231,7 +203,7 @@ fn early_stopping_saves_rays_at_a_bounded_error() {
         f.penumbra_rays
     );
     let (ef, ee) = (rmse(&fixed.image, &reference.image), rmse(&early.image, &reference.image));
-    let uniform4 = render_text(SHADOWS, &["render.shadows.mode=uniform", "render.shadows.samples=4"], 2);
+    let uniform4 = render_text(&shadows(), &["render.shadows.mode=uniform", "render.shadows.samples=4"], 2);
     let e4 = rmse(&uniform4.image, &reference.image);
     assert!(ee < 3.0 * ef, "early stopping RMSE {ee} vs fixed n {ef}");
     assert!(ee < 0.5 * e4, "early stopping RMSE {ee} vs uniform 4 samples {e4}");
@@ -248,7 +220,7 @@ fn early_stopping_saves_rays_at_a_bounded_error() {
 }
 
 fn load_default_settings(sets: &[&str]) -> wavetrace::scene::Settings {
-    scene(SHADOWS, sets).settings
+    scene(&shadows(), sets).settings
 }
 
 fn scene_report() -> SceneReport {

@@ -7,19 +7,6 @@ use glam::Vec3;
 use std::f32::consts::PI;
 use support::*;
 
-/// Irradiance at `p` (normal `n`) from a uniform polygon of radiance `l`, by Lambert's
-/// formula: E = L/2 Σ acos(v_i·v_j) (n · normalize(v_i × v_j)), v unit vectors to vertices.
-fn polygon_irradiance(p: Vec3, n: Vec3, verts: &[Vec3], l: f32) -> f32 {
-    let mut sum = 0.0f64;
-    for i in 0..verts.len() {
-        let a = (verts[i] - p).normalize().as_dvec3();
-        let b = (verts[(i + 1) % verts.len()] - p).normalize().as_dvec3();
-        let c = a.cross(b);
-        sum += a.dot(b).clamp(-1.0, 1.0).acos() * n.as_dvec3().dot(c.normalize());
-    }
-    (0.5 * l as f64 * sum.abs()) as f32
-}
-
 const PLANE: &str = r#"
 [materials.white]
 type = "diffuse"

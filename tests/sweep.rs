@@ -3,55 +3,34 @@
 //! under a second in release.
 #![cfg(all(feature = "plot", feature = "exr"))]
 
+mod support;
+
 use std::path::{Path, PathBuf};
+use support::{FloorScene, Quad, QuadLight, Sphere};
 use wavetrace::tools::sweep::{self, parse_param, Reference, SweepOptions};
 use wavetrace::Error;
 
 /// A quad light over a floor with a sphere: soft shadows, and edges for AA.
-const TINY: &str = r#"
-[render]
-width = 16
-height = 16
-max_depth = 0
-[render.aa]
-samples = 2
-[render.shadows]
-samples = 4
-
-[camera]
-position = [0, 2, 4]
-look_at = [0, 0.3, 0]
-fov_y = 45.0
-
-[materials.grey]
-type = "diffuse"
-color = [0.7, 0.7, 0.7]
-
-[[lights]]
-type = "quad"
-corner = [-0.5, 2, -0.5]
-edge_u = [1, 0, 0]
-edge_v = [0, 0, 1]
-radiance = [5, 5, 5]
-
-[[objects]]
-type = "quad"
-corner = [-3, 0, -3]
-edge_u = [0, 0, 6]
-edge_v = [6, 0, 0]
-material = "grey"
-[[objects]]
-type = "sphere"
-center = [0, 0.6, 0]
-radius = 0.35
-material = "grey"
-"#;
+fn tiny() -> String {
+    FloorScene {
+        render: "[render]\nwidth = 16\nheight = 16\nmax_depth = 0\n[render.aa]\nsamples = 2\n[render.shadows]\nsamples = 4\n",
+        position: [0.0, 2.0, 4.0],
+        look_at: [0.0, 0.3, 0.0],
+        fov_y: Some(45.0),
+        materials: vec![FloorScene::diffuse("grey", [0.7; 3])],
+        light: QuadLight::square(2.0, 1.0, 5.0),
+        floor: Quad::floor(3.0, "grey"),
+        spheres: vec![Sphere { center: [0.0, 0.6, 0.0], radius: 0.35, material: "grey" }],
+        ..FloorScene::default()
+    }
+    .toml()
+}
 
 /// Writes the tiny scene into a fresh temporary folder.
 fn scene_dir() -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().expect("tempdir");
     let scene = dir.path().join("tiny.toml");
-    std::fs::write(&scene, TINY).expect("write scene");
+    std::fs::write(&scene, tiny()).expect("write scene");
     (dir, scene)
 }
 

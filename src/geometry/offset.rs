@@ -4,7 +4,7 @@
 //! the new origin is pushed along the normal just past that bound, then one float step
 //! further. The push thus scales with the scene and with the distance from the origin.
 //! (Wächter and Binder's fixed-ulp offset, tried first, left acne at scale 1e4 and
-//! pushed 2 units off a unit sphere at 1e5: tests/extremes.rs.)
+//! pushed 2 units off a unit sphere at 1e5: tests/extremes/offsets.rs.)
 
 use glam::Vec3;
 

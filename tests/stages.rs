@@ -1,0 +1,412 @@
+//! The shade and shadow-corner stages on hand-made waves: what each sends to which queue,
+//! with which slot, ray index and value. Hits come straight from the BVH, so only the
+//! stage under test runs.
+//!
+//! Each stage is called from one helper ([`shade`], [`shadow_corners`]), so a change of
+//! a stage's signature is a one-line change here.
+
+mod support;
+
+use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
+use support::{closest, polygon_irradiance, FloorScene};
+use wavetrace::geometry::tracer::{Kernel, Tracer};
+use wavetrace::light::SHADOW_TMAX_SCALE;
+use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
+use wavetrace::scene::{Light, Probe, ShadowMode};
+use wavetrace::stages::shadow_corner::probe_targets;
+use wavetrace::stages::{shade as shade_stage, shadow_corner};
+use wavetrace::Scene;
+
+// ---------------------------------------------------------------------------------------
+// The stages, one helper each
+
+/// What the shade stage wrote.
+struct Shaded {
+    shadow: ShadowQueue,
+    points: ShadowPointQueue,
+    specular: Vec<u32>,
+    film: FilmQueue,
+    /// The stage's return value: uniform-mode shadow rays of the queued points.
+    uniform_equivalent: u64,
+}
+
+/// The shade stage on one wave (the only call of `shade::shade` in this file).
+fn shade(scene: &Scene, rays: &RayQueue, hits: &HitQueue) -> Shaded {
+    let (mut shadow, mut points, mut specular, mut film) =
+        (ShadowQueue::default(), ShadowPointQueue::default(), IndexQueue::default(), FilmQueue::default());
+    let uniform_equivalent = shade_stage::shade(scene, rays, hits, &mut shadow, &mut points, &mut specular, &mut film);
+    Shaded { shadow, points, specular: specular.index, film, uniform_equivalent }
+}
+
+/// What the shadow-corner stage wrote.
+struct Cornered {
+    film: FilmQueue,
+    penumbra: Vec<u32>,
+    /// The stage's return value: probe rays cast.
+    cast: usize,
+}
+
+/// The shadow-corner stage (the only call of `shadow_corner::shadow_corners` here).
+fn shadow_corners(
+    scene: &mut Scene,
+    probe: Probe,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    points: &ShadowPointQueue,
+) -> Cornered {
+    // The stage reads its probe set from the scene's settings.
+    scene.settings.shadow_mode = ShadowMode::Adaptive(probe);
+    let (mut film, mut penumbra) = (FilmQueue::default(), IndexQueue::default());
+    let mut tracer = Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false);
+    let cast = shadow_corner::shadow_corners(scene, &mut tracer, rays, hits, points, &mut film, &mut penumbra);
+    Cornered { film, penumbra: penumbra.index, cast }
+}
+
+// ---------------------------------------------------------------------------------------
+// Waves and scenes
+
+/// A wave of rays `(origin, direction, slot, weight, depth)`; path key 7 + index.
+fn wave(rays: &[(Vec3, Vec3, u32, Vec3, u32)]) -> RayQueue {
+    let mut q = RayQueue::default();
+    for (i, &(o, d, slot, w, depth)) in rays.iter().enumerate() {
+        q.push(o, d.normalize(), slot, w, depth, 7 + i as u32);
+    }
+    q
+}
+
+/// Closest hits of a wave, straight from the BVH.
+fn trace(scene: &Scene, rays: &RayQueue) -> HitQueue {
+    let mut hits = HitQueue::default();
+    for i in 0..rays.len() {
+        match closest(scene, rays.origin(i), rays.dir(i)) {
+            Some((t, prim)) => hits.push(t, prim),
+            None => hits.push(f32::INFINITY, MISS),
+        }
+    }
+    hits
+}
+
+const BACKGROUND: Vec3 = Vec3::new(0.2, 0.4, 0.8);
+const ALBEDO: Vec3 = Vec3::new(0.5, 0.6, 0.7);
+const POINT: Vec3 = Vec3::new(0.3, 2.0, -0.2);
+const INTENSITY: Vec3 = Vec3::new(4.0, 5.0, 6.0);
+
+/// A diffuse floor (y = 0, x and z in [-5, 5]) beside a mirror floor (x in [10, 20]), under
+/// one point light at `light`; a blue background.
+fn point_lit(light: Vec3, sets: &[&str]) -> Scene {
+    let text = format!(
+        "[camera]\nposition = [0, 1, 4]\nlook_at = [0, 0, 0]\n[background]\ncolor = [0.2, 0.4, 0.8]\n\
+         [materials.white]\ntype = \"diffuse\"\ncolor = [0.5, 0.6, 0.7]\n\
+         [materials.mirror]\ntype = \"mirror\"\ncolor = [0.9, 0.9, 0.9]\n\
+         [[lights]]\ntype = \"point\"\nposition = [{}, {}, {}]\nintensity = [4, 5, 6]\n\
+         [[objects]]\ntype = \"quad\"\ncorner = [-5, 0, -5]\nedge_u = [0, 0, 10]\nedge_v = [10, 0, 0]\nmaterial = \"white\"\n\
+         [[objects]]\ntype = \"quad\"\ncorner = [10, 0, -5]\nedge_u = [0, 0, 10]\nedge_v = [10, 0, 0]\nmaterial = \"mirror\"\n",
+        light.x, light.y, light.z
+    );
+    support::scene(&text, sets)
+}
+
+/// The canonical floor scene without its sphere: a 10×10 floor of albedo 0.8 under a 2×2
+/// quad light of radiance 3 at height 3 (facing down), 16 shadow samples, a blue
+/// background; `extra` TOML is appended (occluders, more lights).
+fn quad_lit(extra: &str, sets: &[&str]) -> Scene {
+    let text = FloorScene {
+        render: "[render.shadows]\nsamples = 16\n",
+        background: Some(BACKGROUND.to_array()),
+        spheres: Vec::new(),
+        ..FloorScene::default()
+    }
+    .toml();
+    support::scene(&(text + extra), sets)
+}
+
+const ADAPTIVE: &str = "render.shadows.mode=adaptive";
+
+/// The quad light of `scene` (light 0): corner, edges, radiance.
+fn quad(scene: &Scene) -> (Vec3, Vec3, Vec3, Vec3) {
+    match scene.lights[0] {
+        Light::Quad { corner, u, v, radiance, .. } => (corner, u, v, radiance),
+        _ => panic!("light 0 is not a quad"),
+    }
+}
+
+/// The exact (polygon) irradiance at `p` on the floor from the quad light of `scene`.
+fn floor_irradiance(scene: &Scene, p: Vec3) -> f32 {
+    let (c, u, v, _) = quad(scene);
+    polygon_irradiance(p, Vec3::Y, &[c, c + u, c + u + v, c + v], 1.0)
+}
+
+/// Relative difference per channel.
+fn rel(a: Vec3, b: Vec3) -> f32 {
+    ((a - b).abs() / b.abs()).max_element()
+}
+
+const DOWN: Vec3 = Vec3::NEG_Y;
+
+// ---------------------------------------------------------------------------------------
+// Shade
+
+#[test]
+fn a_miss_sends_the_background_to_the_film_in_its_slot() {
+    let scene = point_lit(POINT, &[]);
+    let w = Vec3::new(0.5, 1.0, 0.25);
+    let rays = wave(&[(Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 42, w, 0)]);
+    let hits = trace(&scene, &rays);
+    assert_eq!(hits.prim[0], MISS);
+    let out = shade(&scene, &rays, &hits);
+    // Exact: one contribution, the ray's weight times the background, in its slot.
+    assert_eq!(out.film.len(), 1);
+    assert_eq!(out.film.slot[0], 42);
+    assert_eq!(Vec3::new(out.film.r[0], out.film.g[0], out.film.b[0]), w * BACKGROUND);
+    assert!(out.shadow.is_empty() && out.points.is_empty() && out.specular.is_empty());
+    // A black background adds nothing: no film entry at all.
+    let black = point_lit(POINT, &["background.color=[0, 0, 0]"]);
+    let out = shade(&black, &rays, &trace(&black, &rays));
+    assert!(out.film.is_empty() && out.shadow.is_empty());
+}
+
+#[test]
+fn a_diffuse_hit_under_a_point_light_casts_one_shadow_ray_just_short_of_it() {
+    let scene = point_lit(POINT, &[]);
+    let w = Vec3::new(1.0, 0.5, 0.25);
+    let rays = wave(&[(Vec3::new(0.0, 1.0, 0.0), DOWN, 5, w, 0)]);
+    let hits = trace(&scene, &rays);
+    let out = shade(&scene, &rays, &hits);
+    assert!(out.film.is_empty() && out.points.is_empty() && out.specular.is_empty());
+    assert_eq!(out.uniform_equivalent, 0);
+    // Exact: one shadow ray, in the ray's slot.
+    assert_eq!(out.shadow.len(), 1);
+    assert_eq!(out.shadow.slot[0], 5);
+    // Its origin is the hit point (0, 0, 0) pushed off the floor on the lit side, by
+    // less than 1e-4.
+    let o = out.shadow.origin(0);
+    assert!(o.y > 0.0 && o.length() < 1e-4, "origin {o}");
+    // Tolerance 1e-6: aimed at the light.
+    let to = POINT - o;
+    let dist = to.length();
+    assert!(out.shadow.dir(0).abs_diff_eq(to / dist, 1e-6), "direction {}", out.shadow.dir(0));
+    // The segment ends just short of the light: nothing at the light counts, nothing
+    // before it (within 1e-3 relative) is missed; it is the distance scaled by
+    // SHADOW_TMAX_SCALE (1e-6 relative).
+    let tmax = out.shadow.tmax[0];
+    assert!(tmax < dist && tmax > dist * (1.0 - 1e-3), "tmax {tmax}, light at {dist}");
+    assert!((tmax - dist * SHADOW_TMAX_SCALE).abs() <= 1e-6 * dist, "tmax {tmax}, light at {dist}");
+    // Tolerance 1e-5 relative: weight × Lambert × intensity × cos / r².
+    let cos = to.y / dist;
+    let expect = w * ALBEDO * FRAC_1_PI * INTENSITY * (cos / (dist * dist));
+    let got = out.shadow.radiance(0);
+    assert!(rel(got, expect) < 1e-5, "{got} vs {expect}");
+}
+
+#[test]
+fn a_point_light_lights_the_side_of_the_floor_it_is_on() {
+    let below = POINT * Vec3::new(1.0, -1.0, 1.0);
+    let scene = point_lit(below, &[]);
+    // From above, the light is behind the surface: no shadow ray (exact).
+    let from_above = wave(&[(Vec3::new(0.0, 1.0, 0.0), DOWN, 0, Vec3::ONE, 0)]);
+    let out = shade(&scene, &from_above, &trace(&scene, &from_above));
+    assert!(out.shadow.is_empty() && out.film.is_empty());
+    // From below, the two-sided floor is lit: one shadow ray starting below it.
+    let from_below = wave(&[(Vec3::new(0.0, -1.0, 0.0), Vec3::Y, 0, Vec3::ONE, 0)]);
+    let out = shade(&scene, &from_below, &trace(&scene, &from_below));
+    assert_eq!(out.shadow.len(), 1);
+    assert!(out.shadow.origin(0).y < 0.0 && out.shadow.dir(0).y < 0.0);
+}
+
+#[test]
+fn uniform_shadows_cast_at_most_samples_rays_per_quad_light() {
+    let scene = quad_lit("", &[]);
+    let adaptive = quad_lit("", &[ADAPTIVE]);
+    let (c, u, v, _) = quad(&scene);
+    // Under the light every sample faces the point: exactly `samples` rays.
+    let rays = wave(&[(Vec3::new(0.2, 1.0, 0.1), DOWN, 9, Vec3::ONE, 0)]);
+    let hits = trace(&scene, &rays);
+    let out = shade(&scene, &rays, &hits);
+    assert!(out.points.is_empty() && out.film.is_empty() && out.specular.is_empty());
+    assert_eq!(out.shadow.len(), 16);
+    let mut sum = Vec3::ZERO;
+    for i in 0..out.shadow.len() {
+        assert_eq!(out.shadow.slot[i], 9);
+        assert_eq!(out.shadow.origin(i), out.shadow.origin(0), "one shading point");
+        // Each ray ends just short of a point on the light (tolerance 1e-3 on the plane
+        // y = 3 and on the light's extent).
+        let end = out.shadow.origin(i) + out.shadow.dir(i) * (out.shadow.tmax[i] / SHADOW_TMAX_SCALE);
+        assert!((end.y - c.y).abs() < 1e-3, "ray {i} ends at {end}");
+        let (a, b) = ((end - c).dot(u) / u.length_squared(), (end - c).dot(v) / v.length_squared());
+        assert!((-1e-3..=1.0 + 1e-3).contains(&a) && (-1e-3..=1.0 + 1e-3).contains(&b), "ray {i} ends at {end}");
+        sum += out.shadow.radiance(i);
+    }
+    // Tolerance 1%: the 16 stratified samples estimate what adaptive mode computes exactly
+    // (measured: 0.1%).
+    let exact = shade(&adaptive, &rays, &trace(&adaptive, &rays)).points.unoccluded(0);
+    assert!(rel(sum, exact) < 0.01, "uniform {sum} vs exact {exact}");
+    // On the side of a sphere, part of the light is below the horizon: fewer rays.
+    let side =
+        quad_lit("[[objects]]\ntype = \"sphere\"\ncenter = [0, 0.5, 0]\nradius = 0.5\nmaterial = \"white\"\n", &[]);
+    let rays = wave(&[(Vec3::new(2.0, 0.5, 0.0), Vec3::NEG_X, 0, Vec3::ONE, 0)]);
+    let out = shade(&side, &rays, &trace(&side, &rays));
+    assert!(!out.shadow.is_empty() && out.shadow.len() < 16, "{} rays", out.shadow.len());
+}
+
+#[test]
+fn adaptive_shadows_queue_the_point_instead_of_casting_rays() {
+    let scene = quad_lit("", &[ADAPTIVE]);
+    let (_, _, _, radiance) = quad(&scene);
+    let w = Vec3::new(0.5, 0.25, 1.0);
+    // A miss first, so the point's ray index is 1.
+    let rays = wave(&[(Vec3::new(0.0, 4.0, 0.0), Vec3::Y, 3, Vec3::ONE, 0), (Vec3::new(0.2, 1.0, 0.1), DOWN, 4, w, 0)]);
+    let hits = trace(&scene, &rays);
+    let out = shade(&scene, &rays, &hits);
+    assert!(out.shadow.is_empty(), "no shadow rays in adaptive mode");
+    assert_eq!((out.film.len(), out.film.slot[0]), (1, 3), "the miss");
+    assert_eq!((out.points.ray.clone(), out.points.light.clone()), (vec![1], vec![0]));
+    // Exact count: uniform mode would have cast all 16 samples here.
+    assert_eq!(out.uniform_equivalent, 16);
+    // Tolerance 1e-4 relative: Lambert's exact polygon irradiance, times the weight.
+    let x = rays.origin(1) + hits.t[1] * DOWN;
+    let expect = w * Vec3::splat(0.8) * FRAC_1_PI * radiance * floor_irradiance(&scene, x);
+    assert!(rel(out.points.unoccluded(0), expect) < 1e-4, "{} vs {expect}", out.points.unoccluded(0));
+    // A point light still casts its shadow ray in adaptive mode.
+    let both = quad_lit("[[lights]]\ntype = \"point\"\nposition = [0, 2, 0]\nintensity = [1, 1, 1]\n", &[ADAPTIVE]);
+    let out = shade(&both, &rays, &trace(&both, &rays));
+    assert_eq!((out.shadow.len(), out.points.len()), (1, 1));
+    assert_eq!(out.shadow.slot[0], 4);
+}
+
+#[test]
+fn mirror_hits_go_to_the_specular_list_until_max_depth() {
+    let scene = point_lit(POINT, &["render.max_depth=2"]);
+    let mirror = Vec3::new(15.0, 1.0, 0.0);
+    let rays = wave(&[
+        (Vec3::new(0.0, 1.0, 0.0), DOWN, 0, Vec3::ONE, 0),
+        (mirror, DOWN, 1, Vec3::ONE, 1),
+        (Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 2, Vec3::ONE, 0),
+    ]);
+    let out = shade(&scene, &rays, &trace(&scene, &rays));
+    // Exact: the mirror hit (ray 1) is listed; the diffuse hit casts its shadow ray and
+    // the miss goes to the film.
+    assert_eq!(out.specular, vec![1]);
+    assert_eq!(out.shadow.slot, vec![0]);
+    assert_eq!(out.film.slot, vec![2]);
+    // At max_depth the path ends: nothing anywhere.
+    let deep = wave(&[(mirror, DOWN, 1, Vec3::ONE, 2)]);
+    let out = shade(&scene, &deep, &trace(&scene, &deep));
+    assert!(out.specular.is_empty() && out.shadow.is_empty() && out.film.is_empty() && out.points.is_empty());
+}
+
+#[test]
+fn an_emitter_adds_its_radiance_from_the_front_only() {
+    let scene = quad_lit("", &[]);
+    let (_, _, _, radiance) = quad(&scene);
+    let w = Vec3::new(0.5, 1.0, 0.75);
+    // From below (the light faces down): its radiance times the weight, in the slot.
+    let front = wave(&[(Vec3::new(0.1, 1.0, 0.0), Vec3::Y, 6, w, 0)]);
+    let out = shade(&scene, &front, &trace(&scene, &front));
+    assert_eq!(out.film.slot, vec![6]);
+    assert_eq!(Vec3::new(out.film.r[0], out.film.g[0], out.film.b[0]), w * radiance);
+    assert!(out.shadow.is_empty() && out.specular.is_empty());
+    // From above: black, and not a mirror either.
+    let back = wave(&[(Vec3::new(0.1, 5.0, 0.0), DOWN, 6, w, 0)]);
+    let hits = trace(&scene, &back);
+    assert_ne!(hits.prim[0], MISS);
+    let out = shade(&scene, &back, &hits);
+    assert!(out.film.is_empty() && out.shadow.is_empty() && out.specular.is_empty());
+}
+
+// ---------------------------------------------------------------------------------------
+// Shadow corner
+
+const PROBES: [Probe; 4] = [Probe::Corners, Probe::CornersCenter, Probe::Jittered, Probe::Grid3];
+
+/// A quad occluder at height 1.5 over x in [x0, x1], z in [-5, 5].
+fn occluder(x0: f32, x1: f32) -> String {
+    format!(
+        "[[objects]]\ntype = \"quad\"\ncorner = [{x0}, 1.5, -5]\nedge_u = [0, 0, 10]\nedge_v = [{}, 0, 0]\n\
+         material = \"white\"\n",
+        x1 - x0
+    )
+}
+
+/// Rays straight down onto the floor at `xs` (z = 0) from below the occluders, slot
+/// 10 + index; shaded in adaptive mode: (rays, hits, queued points).
+fn points_at(scene: &Scene, xs: &[f32]) -> (RayQueue, HitQueue, ShadowPointQueue) {
+    let list: Vec<_> =
+        xs.iter().enumerate().map(|(i, &x)| (Vec3::new(x, 1.0, 0.0), DOWN, 10 + i as u32, Vec3::ONE, 0)).collect();
+    let rays = wave(&list);
+    let hits = trace(scene, &rays);
+    let out = shade(scene, &rays, &hits);
+    assert_eq!(out.points.len(), xs.len(), "every point is queued");
+    (rays, hits, out.points)
+}
+
+#[test]
+fn an_unoccluded_point_sends_its_unoccluded_value_to_the_film() {
+    let mut scene = quad_lit("", &[ADAPTIVE]);
+    let (rays, hits, points) = points_at(&scene, &[0.3]);
+    for probe in PROBES {
+        let out = shadow_corners(&mut scene, probe, &rays, &hits, &points);
+        // Exact: every probe cast, the unoccluded value in the point's slot, no penumbra.
+        assert_eq!(out.cast, probe.rays() as usize, "{probe:?}");
+        assert_eq!(out.film.slot, vec![10], "{probe:?}");
+        assert_eq!(Vec3::new(out.film.r[0], out.film.g[0], out.film.b[0]), points.unoccluded(0), "{probe:?}");
+        assert!(out.penumbra.is_empty(), "{probe:?}");
+    }
+}
+
+#[test]
+fn a_fully_occluded_point_sends_nothing() {
+    let mut scene = quad_lit(&occluder(-5.0, 5.0), &[ADAPTIVE]);
+    let (rays, hits, points) = points_at(&scene, &[0.3]);
+    for probe in PROBES {
+        let out = shadow_corners(&mut scene, probe, &rays, &hits, &points);
+        assert_eq!(out.cast, probe.rays() as usize, "{probe:?}");
+        assert!(out.film.is_empty() && out.penumbra.is_empty(), "{probe:?}");
+    }
+}
+
+#[test]
+fn a_half_occluded_point_lands_in_the_penumbra_list() {
+    // The occluder covers x ≤ -0.2 at height 1.5, halfway to the light (x in [-1, 1]):
+    // seen from x = 0, the probes to x = -1 are blocked and those to x ≥ 0 are not; from
+    // x = 3 none is, from x = -3 all are.
+    let mut scene = quad_lit(&occluder(-5.0, -0.2), &[ADAPTIVE]);
+    let (rays, hits, points) = points_at(&scene, &[3.0, -3.0, 0.0]);
+    // Jittered probes are random within each quarter of the light: left out.
+    for probe in [Probe::Corners, Probe::CornersCenter, Probe::Grid3] {
+        let out = shadow_corners(&mut scene, probe, &rays, &hits, &points);
+        // Exact: the lit point's value in its slot, the dark one nowhere, the half-lit
+        // one (point 2) in the penumbra list.
+        assert_eq!(out.cast, 3 * probe.rays() as usize, "{probe:?}");
+        assert_eq!(out.film.slot, vec![10], "{probe:?}");
+        assert_eq!(out.penumbra, vec![2], "{probe:?}");
+    }
+}
+
+#[test]
+fn probe_targets_are_the_corners_centre_grid_or_one_per_quarter() {
+    let scene = quad_lit("", &[ADAPTIVE]);
+    let (c, u, v, _) = quad(&scene);
+    let at = |a: f32, b: f32| c + a * u + b * v;
+    // Grid3: the 3×3 grid, row by row along u (exact), whatever the path key.
+    let grid = probe_targets(&scene, Probe::Grid3, 0, 1);
+    for (i, p) in grid.iter().enumerate() {
+        assert_eq!(*p, at(0.5 * (i % 3) as f32, 0.5 * (i / 3) as f32), "grid point {i}");
+    }
+    assert_eq!(grid, probe_targets(&scene, Probe::Grid3, 0, 2));
+    // Corners, then the centre (exact).
+    let corners = [at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0)];
+    assert_eq!(probe_targets(&scene, Probe::Corners, 0, 1)[..4], corners);
+    let five = probe_targets(&scene, Probe::CornersCenter, 0, 1);
+    assert_eq!((five[..4].to_vec(), five[4]), (corners.to_vec(), at(0.5, 0.5)));
+    // Jittered: one point in each quarter, the same for the same key, new for another.
+    let j1 = probe_targets(&scene, Probe::Jittered, 0, 1);
+    for (i, p) in j1[..4].iter().enumerate() {
+        let (a, b) = ((*p - c).dot(u) / u.length_squared(), (*p - c).dot(v) / v.length_squared());
+        let (qa, qb) = (0.5 * (i & 1) as f32, 0.5 * (i >> 1) as f32);
+        assert!((qa..=qa + 0.5).contains(&a) && (qb..=qb + 0.5).contains(&b), "probe {i} at ({a}, {b})");
+        assert!((p.y - c.y).abs() < 1e-6, "probe {i} off the light");
+    }
+    assert_eq!(j1, probe_targets(&scene, Probe::Jittered, 0, 1));
+    assert_ne!(j1[..4], probe_targets(&scene, Probe::Jittered, 0, 2)[..4]);
+}

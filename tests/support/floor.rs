@@ -1,0 +1,153 @@
+//! The scene most render tests start from: a diffuse floor quad under a square quad
+//! light, with spheres standing on it. [`FloorScene::default`] is the canonical one;
+//! a test changes the parts it needs (struct update syntax) and calls
+//! [`FloorScene::toml`].
+
+/// A one-sided quad light emitting towards `edge_u × edge_v`, with grey radiance.
+#[derive(Clone, Copy, Debug)]
+pub struct QuadLight {
+    pub corner: [f32; 3],
+    pub edge_u: [f32; 3],
+    pub edge_v: [f32; 3],
+    pub radiance: f32,
+}
+
+impl QuadLight {
+    /// A square of side `side` centred over the origin at height `y`, facing down.
+    pub fn square(y: f32, side: f32, radiance: f32) -> QuadLight {
+        QuadLight {
+            corner: [-side / 2.0, y, -side / 2.0],
+            edge_u: [side, 0.0, 0.0],
+            edge_v: [0.0, 0.0, side],
+            radiance,
+        }
+    }
+}
+
+/// A quad object.
+#[derive(Clone, Copy, Debug)]
+pub struct Quad {
+    pub corner: [f32; 3],
+    pub edge_u: [f32; 3],
+    pub edge_v: [f32; 3],
+    pub material: &'static str,
+}
+
+impl Quad {
+    /// The floor: the square `[-half, half]²` of the plane y = 0, normal +y.
+    pub fn floor(half: f32, material: &'static str) -> Quad {
+        Quad { corner: [-half, 0.0, -half], edge_u: [0.0, 0.0, 2.0 * half], edge_v: [2.0 * half, 0.0, 0.0], material }
+    }
+}
+
+/// A sphere object.
+#[derive(Clone, Copy, Debug)]
+pub struct Sphere {
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub material: &'static str,
+}
+
+/// A floor under a quad light with spheres on it; see the module documentation.
+#[derive(Clone, Debug)]
+pub struct FloorScene {
+    /// `[render]` and its sub-tables, verbatim, at the top of the text (empty: defaults).
+    pub render: &'static str,
+    pub position: [f32; 3],
+    pub look_at: [f32; 3],
+    /// `None`: the loader's default field of view.
+    pub fov_y: Option<f32>,
+    /// `None`: no `[background]` table (black).
+    pub background: Option<[f32; 3]>,
+    /// `[materials.NAME]` tables in order: the name and the table's lines.
+    pub materials: Vec<(&'static str, String)>,
+    pub light: QuadLight,
+    /// The first object.
+    pub floor: Quad,
+    /// Objects after the floor.
+    pub spheres: Vec<Sphere>,
+}
+
+impl Default for FloorScene {
+    /// A 2×2 light of radiance 3 at height 3 over a 10×10 white floor with a white
+    /// sphere of radius 0.5 at the origin, seen from 4 units away.
+    fn default() -> FloorScene {
+        FloorScene {
+            render: "",
+            position: [0.0, 1.0, 4.0],
+            look_at: [0.0, 0.4, 0.0],
+            fov_y: None,
+            background: None,
+            materials: vec![FloorScene::diffuse("white", [0.8; 3])],
+            light: QuadLight::square(3.0, 2.0, 3.0),
+            floor: Quad::floor(5.0, "white"),
+            spheres: vec![Sphere { center: [0.0, 0.5, 0.0], radius: 0.5, material: "white" }],
+        }
+    }
+}
+
+/// `[x, y, z]` with each number as Rust prints it (shortest round trip, TOML-valid).
+fn vec3(v: [f32; 3]) -> String {
+    format!("[{}, {}, {}]", v[0], v[1], v[2])
+}
+
+impl FloorScene {
+    /// A diffuse material table.
+    pub fn diffuse(name: &'static str, color: [f32; 3]) -> (&'static str, String) {
+        (name, format!("type = \"diffuse\"\ncolor = {}", vec3(color)))
+    }
+
+    /// The shadow test bench of scenes/penumbra.toml: a 1×1 light of radiance 6 at height
+    /// 3 over an 8×8 white floor, seen from above and in front; no spheres yet.
+    pub fn overhead() -> FloorScene {
+        FloorScene {
+            position: [0.0, 3.2, 4.2],
+            look_at: [0.0, 0.3, 0.0],
+            fov_y: Some(45.0),
+            light: QuadLight::square(3.0, 1.0, 6.0),
+            floor: Quad::floor(4.0, "white"),
+            spheres: Vec::new(),
+            ..FloorScene::default()
+        }
+    }
+
+    /// The scene text.
+    pub fn toml(&self) -> String {
+        let mut s = String::from(self.render);
+        s += &format!("[camera]\nposition = {}\nlook_at = {}\n", vec3(self.position), vec3(self.look_at));
+        if let Some(fov) = self.fov_y {
+            s += &format!("fov_y = {fov}\n");
+        }
+        if let Some(c) = self.background {
+            s += &format!("[background]\ncolor = {}\n", vec3(c));
+        }
+        for (name, body) in &self.materials {
+            s += &format!("[materials.{name}]\n{body}\n");
+        }
+        let l = &self.light;
+        s += &format!(
+            "[[lights]]\ntype = \"quad\"\ncorner = {}\nedge_u = {}\nedge_v = {}\nradiance = {}\n",
+            vec3(l.corner),
+            vec3(l.edge_u),
+            vec3(l.edge_v),
+            vec3([l.radiance; 3])
+        );
+        let f = &self.floor;
+        s += &format!(
+            "[[objects]]\ntype = \"quad\"\ncorner = {}\nedge_u = {}\nedge_v = {}\nmaterial = \"{}\"\n",
+            vec3(f.corner),
+            vec3(f.edge_u),
+            vec3(f.edge_v),
+            f.material
+        );
+        for sp in &self.spheres {
+            s += &format!(
+                "[[objects]]\ntype = \"sphere\"\ncenter = {}\nradius = {}\nmaterial = \"{}\"\n",
+                vec3(sp.center),
+                sp.radius,
+                sp.material
+            );
+        }
+        s
+    }
+}
