@@ -96,6 +96,32 @@ pub struct StageCounters {
     pub packet_lanes: u64,
 }
 
+/// One stage in the report: its counters, and what an item cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct StageReport {
+    /// The counters.
+    #[serde(flatten)]
+    pub counters: StageCounters,
+    /// Nanoseconds per item the stage read (per ray it wrote, for camera generation,
+    /// which reads none), with the seconds summed over threads: the cost of one item on
+    /// one thread. 0 for a stage that had nothing to do.
+    pub ns_per_ray: f64,
+}
+
+impl StageReport {
+    /// The report of `stage` from its counters.
+    pub fn new(stage: Stage, c: StageCounters) -> StageReport {
+        let items = if stage == Stage::Camera { c.rays_out } else { c.rays_in };
+        let ns_per_ray = if items > 0 { c.seconds * 1e9 / items as f64 } else { 0.0 };
+        StageReport { counters: c, ns_per_ray }
+    }
+}
+
+/// Per-stage reports by stage name, in pipeline order of names.
+fn stage_reports(stats: &Stats) -> BTreeMap<&'static str, StageReport> {
+    Stage::ALL.iter().map(|&s| (s.name(), StageReport::new(s, *stats.stage(s)))).collect()
+}
+
 /// Counters of one worker, or of the whole render once merged.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Stats {
@@ -272,8 +298,8 @@ pub struct Report {
     /// Penumbra early stopping, when `render.shadows.tolerance` is on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub penumbra_early_stop: Option<EarlyStopReport>,
-    /// Per-stage counters, seconds summed over threads.
-    pub stages: BTreeMap<&'static str, StageCounters>,
+    /// Per-stage counters, seconds summed over threads, and ns per ray.
+    pub stages: BTreeMap<&'static str, StageReport>,
     /// Per ray BVH work of the stages that trace rays (absent when counters were off).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub traversal: BTreeMap<&'static str, TraversalReport>,
@@ -351,8 +377,8 @@ pub struct ThreadReport {
     pub tiles: u64,
     /// Seconds spent in stages.
     pub busy_seconds: f64,
-    /// This thread's per-stage counters.
-    pub stages: BTreeMap<&'static str, StageCounters>,
+    /// This thread's per-stage counters and ns per ray.
+    pub stages: BTreeMap<&'static str, StageReport>,
 }
 
 /// Traversal cost of a stage that traces rays, per ray.
@@ -405,7 +431,7 @@ impl Report {
                 rays: t.penumbra_rays,
                 saved: t.penumbra_saved_rays,
             }),
-            stages: Stage::ALL.iter().map(|&s| (s.name(), *total.stage(s))).collect(),
+            stages: stage_reports(total),
             traversal: [Stage::Focus, Stage::Intersect, Stage::Shadow, Stage::ShadowCorner, Stage::Penumbra]
                 .iter()
                 .filter_map(|&st| {
@@ -445,7 +471,7 @@ impl Report {
                     rays: t.total_rays(),
                     tiles: t.tiles,
                     busy_seconds: t.stages.iter().map(|c| c.seconds).sum(),
-                    stages: Stage::ALL.iter().map(|&s| (s.name(), *t.stage(s))).collect(),
+                    stages: stage_reports(t),
                 })
                 .collect(),
         }
@@ -469,20 +495,22 @@ impl Report {
     /// The per-stage table of `--stats`.
     pub fn table(&self) -> String {
         let mut s = format!(
-            "{:<14} {:>14} {:>14} {:>10} {:>10} {:>10}\n",
-            "stage", "rays in", "rays out", "seconds", "nodes/ray", "prims/ray"
+            "{:<14} {:>14} {:>14} {:>10} {:>9} {:>10} {:>10}\n",
+            "stage", "rays in", "rays out", "seconds", "ns/ray", "nodes/ray", "prims/ray"
         );
         for st in Stage::ALL {
-            let c = &self.stages[st.name()];
+            let r = &self.stages[st.name()];
+            let c = &r.counters;
             let (n, p) = self.traversal.get(st.name()).map_or((String::new(), String::new()), |t| {
                 (format!("{:.1}", t.nodes_per_ray), format!("{:.1}", t.prims_per_ray))
             });
             s += &format!(
-                "{:<14} {:>14} {:>14} {:>10.3} {:>10} {:>10}\n",
+                "{:<14} {:>14} {:>14} {:>10.3} {:>9.1} {:>10} {:>10}\n",
                 st.name(),
                 c.rays_in,
                 c.rays_out,
                 c.seconds,
+                r.ns_per_ray,
                 n,
                 p
             );

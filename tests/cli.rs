@@ -110,6 +110,18 @@ fn good_scene_renders_and_writes_stats_json() {
     assert_eq!(json["stages"]["camera"]["rays_out"], rays["camera"]);
     assert_eq!(json["stages"]["shadow"]["rays_in"], rays["shadow"]);
     assert_eq!(json["stages"]["scatter"]["rays_out"], rays["secondary"]);
+    // ns per ray: seconds (summed over threads) over the rays read, or written for camera.
+    for (stage, items) in
+        [("camera", "rays_out"), ("intersect", "rays_in"), ("shade", "rays_in"), ("shadow", "rays_in")]
+    {
+        let st = &json["stages"][stage];
+        let expected = st["seconds"].as_f64().unwrap() * 1e9 / st[items].as_f64().unwrap();
+        let got = st["ns_per_ray"].as_f64().unwrap();
+        assert!((got - expected).abs() <= 1e-9 * expected.max(1.0), "{stage}: ns_per_ray {got}, expected {expected}");
+    }
+    assert_eq!(json["stages"]["penumbra"]["ns_per_ray"], 0.0, "a stage that ran on nothing costs 0");
+    assert!(json["per_thread"][0]["stages"]["intersect"]["ns_per_ray"].as_f64().unwrap() > 0.0);
+    assert!(stdout.contains("ns/ray"), "{stdout}");
     assert_eq!(case.outputs(&["scene.toml"]), vec!["out.png".to_string(), "s.json".to_string()]);
 }
 
