@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use crate::sampling::{cmj_cell, dim, hash};
+use crate::sampling::{cmj_grid, dim, hash, sobol_owen};
 use crate::scene::{Light, Scene};
 use crate::surface::{diffuse_brdf, Surface};
 
@@ -12,25 +12,35 @@ use crate::surface::{diffuse_brdf, Surface};
 /// (a lamp flush with a ceiling) does not shadow it.
 pub const SHADOW_TMAX_SCALE: f32 = 1.0 - 1e-4;
 
-/// The CMJ pattern of quad light `li`'s samples seen from a point whose path key is `key`.
+/// The seed of quad light `li`'s sample sequence seen from the points named by `key`.
 #[inline]
-pub fn light_pattern(key: u32, li: usize) -> u32 {
+pub fn light_seed(key: u32, li: usize) -> u32 {
     hash(&[key, li as u32, dim::LIGHT])
 }
 
 /// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
 /// (both cosines positive), calling `f(cell, direction, distance, contribution)`, where
-/// `cell` is the sample's cell in the pattern's grid ([`crate::sampling::cmj_cell`]).
-/// Contributions are already divided by the sample count, so unoccluded ones sum to the
-/// estimate.
+/// `cell` is the row-major cell of the sample in the [`cmj_grid`] of `shadows.samples`
+/// cells (the order early stopping walks them in). Contributions are already divided by
+/// the sample count, so unoccluded ones sum to the estimate.
+///
+/// Shadow sample j of the path's camera sample i is sample i·n + j of an Owen-scrambled
+/// Sobol sequence seeded by the path's point and light ([`sobol_owen`]): the light
+/// samples of all a pixel's paths are stratified together, and each path's n samples
+/// among themselves when n is a power of two.
 #[inline]
 pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(u32, Vec3, f32, Vec3)) {
     let Light::Quad { corner, u, v, normal, area, radiance } = scene.lights[li] else { return };
     let count = scene.settings.shadow_samples;
-    let pattern = light_pattern(surf.key, li);
+    let seed = light_seed(surf.key, li);
+    let first = surf.sample.wrapping_mul(count);
+    let (cols, rows) = cmj_grid(count);
     let scale = area / count as f32;
     for j in 0..count {
-        let (uv, cell) = cmj_cell(j, count, pattern);
+        // Past 2^32 samples of a point the indices wrap: each sample stays uniform over
+        // the light (unbiased), only the stratification between the wrapped ones is lost.
+        let uv = sobol_owen(first.wrapping_add(j), seed);
+        let cell = ((uv.y * rows as f32) as u32).min(rows - 1) * cols + ((uv.x * cols as f32) as u32).min(cols - 1);
         let to = corner + uv.x * u + uv.y * v - surf.o;
         let dist2 = to.length_squared();
         let dist = dist2.sqrt();

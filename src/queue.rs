@@ -120,11 +120,17 @@ soa! {
         wb: f32,
         /// Number of reflection/refraction bounces before this ray (0 for camera rays).
         depth: u32,
-        /// Path key: a hash naming this path uniquely within the pixel, for sampling.
+        /// Point key: a hash naming the point the path started from (a pixel, a corner,
+        /// a refinement estimate) and the branches it took at dielectrics; the seed of the
+        /// point's sample sequences, shared by all its samples.
         key: u32,
+        /// Index of the path's camera sample among its point's samples: with `key`, it
+        /// names the path, and it indexes the point's stratified sequences (the light
+        /// samples of all the point's paths are stratified together).
+        sample: u32,
     }
     push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; slot: u32 => slot; w: Vec3 => wr, wg, wb;
-         depth: u32 => depth; key: u32 => key)
+         depth: u32 => depth; key: u32 => key; sample: u32 => sample)
     get(origin => ox, oy, oz; dir => dx, dy, dz; weight => wr, wg, wb)
 }
 
@@ -355,15 +361,15 @@ mod tests {
         /// Every field a ray is pushed with comes back unchanged, at its index, after
         /// `append_range` and `gather` too; `clear` empties every field.
         #[test]
-        fn ray_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), any::<u32>(), vec3(), any::<u32>(), any::<u32>()), 1..40)) {
+        fn ray_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), any::<u32>(), vec3(), any::<u32>(), any::<(u32, u32)>()), 1..40)) {
             let mut q = RayQueue::default();
-            for &(o, d, slot, w, depth, key) in &rays {
-                q.push(o, d, slot, w, depth, key);
+            for &(o, d, slot, w, depth, (key, sample)) in &rays {
+                q.push(o, d, slot, w, depth, key, sample);
             }
             prop_assert_eq!(q.len(), rays.len());
-            for (i, &(o, d, slot, w, depth, key)) in rays.iter().enumerate() {
+            for (i, &(o, d, slot, w, depth, (key, sample))) in rays.iter().enumerate() {
                 prop_assert_eq!((q.origin(i), q.dir(i), q.weight(i)), (o, d, w));
-                prop_assert_eq!((q.slot[i], q.depth[i], q.key[i]), (slot, depth, key));
+                prop_assert_eq!((q.slot[i], q.depth[i], q.key[i], q.sample[i]), (slot, depth, key, sample));
             }
             let mut tail = RayQueue::default();
             tail.append_range(&q, 1..q.len());
@@ -378,10 +384,10 @@ mod tests {
                 let i = i as usize;
                 prop_assert_eq!((rev.dir(j), rev.weight(j), rev.slot[j]), (q.dir(i), q.weight(i), q.slot[i]));
             }
-            prop_assert!(q.bytes() >= 12 * 4 * q.len());
+            prop_assert!(q.bytes() >= 13 * 4 * q.len());
             q.clear();
             prop_assert!(q.is_empty());
-            prop_assert!(q.ox.is_empty() && q.dz.is_empty() && q.wb.is_empty() && q.key.is_empty());
+            prop_assert!(q.ox.is_empty() && q.dz.is_empty() && q.wb.is_empty() && q.key.is_empty() && q.sample.is_empty());
         }
 
         /// The same for a shadow queue, whose fields differ in kind and order.

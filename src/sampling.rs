@@ -131,6 +131,63 @@ pub fn cmj_cell(s: u32, n: u32, pattern: u32) -> (Vec2, u32) {
     (Vec2::new(x.min(ONE_MINUS_EPS), y.min(ONE_MINUS_EPS)), s)
 }
 
+/// Laine and Karras's hash-based Owen scrambling of the bits of `x` from the low end:
+/// bit b is flipped depending only on `seed` and the bits below b (Burley 2020).
+#[inline]
+fn laine_karras(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// Owen (nested uniform) scrambling of a binary fraction: each digit, from the most
+/// significant, flipped depending on the digits before it. It maps every aligned block
+/// of 2^k values onto an aligned block of 2^k values.
+#[inline]
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// Point `i` of the first two dimensions of the Sobol sequence, as 32-bit binary
+/// fractions: dimension 0 is the van der Corput sequence, dimension 1 has the direction
+/// numbers v₁ = 2⁻¹, vₖ₊₁ = vₖ ⊕ (vₖ ≫ 1). Together a (0, 2)-sequence in base 2: every
+/// aligned block of 2^k points has one point in each elementary interval of area 2^-k.
+///
+/// Direction number vₖ has fraction bit p set exactly when C(k, p) is odd, that is when
+/// p's bits are a subset of k's (Lucas), so bit p of dimension 1 is the XOR of the index
+/// bits k ⊇ p: a superset-XOR transform of the index, five shift-and-mask steps instead
+/// of a loop over the index's 32 bits.
+#[inline]
+fn sobol2(i: u32) -> (u32, u32) {
+    let mut w = i;
+    w ^= (w >> 1) & 0x5555_5555;
+    w ^= (w >> 2) & 0x3333_3333;
+    w ^= (w >> 4) & 0x0f0f_0f0f;
+    w ^= (w >> 8) & 0x00ff_00ff;
+    w ^= (w >> 16) & 0x0000_ffff;
+    (i.reverse_bits(), w.reverse_bits())
+}
+
+/// Sample `index` of an Owen-scrambled 2D Sobol sequence keyed by `seed` (Burley 2020,
+/// "Practical Hash-based Owen Scrambling"), in [0,1)². A pure function, like every
+/// sample here. The index is Owen-scrambled too, which shuffles the order but keeps
+/// aligned blocks aligned, so:
+/// - the first N = 2^k indices (a pixel's whole budget) are a (0, k, 2)-net: one point in
+///   every elementary interval of area 1/N, both 1D projections stratified;
+/// - so is each aligned block of 2^j consecutive indices (one camera sample's 2^j shadow
+///   rays, when shadow ray j of camera sample i is index i·2^j + j);
+/// - each point alone is uniform over the square (the scrambling is random), so every
+///   estimate stays unbiased, whatever the index.
+pub fn sobol_owen(index: u32, seed: u32) -> Vec2 {
+    let (x, y) = sobol2(owen_scramble(index, mix(seed ^ 0x5bd1_e995)));
+    let x = owen_scramble(x, mix(seed ^ 0x1b87_3593));
+    let y = owen_scramble(y, mix(seed ^ 0xcc9e_2d51));
+    Vec2::new(to_unit(x).min(ONE_MINUS_EPS), to_unit(y).min(ONE_MINUS_EPS))
+}
+
 /// Base-4 digits (Morton levels) needed for a grid of `cols`×`rows` cells.
 pub fn morton_levels(cols: u32, rows: u32) -> u32 {
     32 - (cols.max(rows).max(1) - 1).leading_zeros()
@@ -311,6 +368,77 @@ mod tests {
                 "n {n}: top tenth holds {last_row}, expected {expect}"
             );
         }
+    }
+
+    #[test]
+    fn sobol_dimension_one_matches_its_direction_numbers() {
+        // The textbook loop: XOR of direction numbers v₁ = 2⁻¹, vₖ₊₁ = vₖ ⊕ (vₖ ≫ 1).
+        let reference = |i: u32| {
+            let (mut y, mut v, mut bits) = (0u32, 1u32 << 31, i);
+            while bits != 0 {
+                if bits & 1 != 0 {
+                    y ^= v;
+                }
+                bits >>= 1;
+                v ^= v >> 1;
+            }
+            y
+        };
+        let mut x = 1u32;
+        for i in (0..70_000).chain([u32::MAX, u32::MAX - 1, 1 << 31, 0xdead_beef]) {
+            assert_eq!(sobol2(i).1, reference(i), "index {i}");
+            x = mix(x);
+            assert_eq!(sobol2(x).1, reference(x), "index {x}");
+        }
+    }
+
+    /// Counts, for a 2^k-point set, the points in every elementary interval of area 2^-k
+    /// (every split 2^a × 2^(k-a)); each must hold exactly one.
+    fn assert_net(points: &[Vec2], k: u32, what: &str) {
+        for a in 0..=k {
+            let (cols, rows) = (1u32 << a, 1u32 << (k - a));
+            let mut count = vec![0u32; 1 << k];
+            for p in points {
+                let (c, r) = ((p.x * cols as f32) as u32, (p.y * rows as f32) as u32);
+                count[(r * cols + c) as usize] += 1;
+            }
+            assert!(count.iter().all(|&n| n == 1), "{what}: {cols}x{rows} intervals not stratified: {count:?}");
+        }
+    }
+
+    #[test]
+    fn sobol_owen_prefixes_and_aligned_blocks_are_nets() {
+        for seed in [0u32, 1, 0xdead_beef, 12345] {
+            for k in 0..=8 {
+                let n = 1u32 << k;
+                let prefix: Vec<Vec2> = (0..n).map(|i| sobol_owen(i, seed)).collect();
+                assert_net(&prefix, k, &format!("seed {seed}, first {n}"));
+                // Blocks of 2^j (one camera sample's shadow rays) inside a 2^k budget.
+                for j in 0..=k.min(4) {
+                    for b in 0..(n >> j) {
+                        let block: Vec<Vec2> = (b << j..(b + 1) << j).map(|i| sobol_owen(i, seed)).collect();
+                        assert_net(&block, j, &format!("seed {seed}, block {b} of {}", 1 << j));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sobol_owen_is_a_pure_function_in_the_unit_square_and_seeds_differ() {
+        for i in 0..4096 {
+            let p = sobol_owen(i, 7);
+            assert_eq!(p, sobol_owen(i, 7));
+            assert!((0.0..1.0).contains(&p.x) && (0.0..1.0).contains(&p.y), "{p}");
+        }
+        let differ = (0..64).filter(|&i| sobol_owen(i, 1) != sobol_owen(i, 2)).count();
+        assert!(differ > 60, "seeds must scramble differently ({differ} of 64 differ)");
+        // The scrambled points are uniform: the mean of many is the square's centre.
+        let mean = (0..1u32 << 14).map(|i| sobol_owen(i, 99)).sum::<Vec2>() / (1u32 << 14) as f32;
+        assert!((mean - Vec2::splat(0.5)).abs().max_element() < 1e-3, "{mean}");
+        // Across seeds, one index is uniform too (unbiased estimates for any index).
+        let mean = (0..1u32 << 14).map(|s| sobol_owen(5, s)).sum::<Vec2>() / (1u32 << 14) as f32;
+        assert!((mean - Vec2::splat(0.5)).abs().max_element() < 0.01, "{mean}");
     }
 
     #[test]

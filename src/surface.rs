@@ -44,6 +44,8 @@ pub struct Surface {
     pub slot: u32,
     /// Path key of the incoming ray.
     pub key: u32,
+    /// Camera sample index of the incoming ray's path.
+    pub sample: u32,
 }
 
 /// The diffuse surface that ray `i` hit, or `None` if it hit something else.
@@ -71,5 +73,6 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
         w: rays.weight(i),
         slot: rays.slot[i],
         key: rays.key[i],
+        sample: rays.sample[i],
     })
 }

@@ -70,7 +70,7 @@ fn shadow_corners(
 fn wave(rays: &[(Vec3, Vec3, u32, Vec3, u32)]) -> RayQueue {
     let mut q = RayQueue::default();
     for (i, &(o, d, slot, w, depth)) in rays.iter().enumerate() {
-        q.push(o, d.normalize(), slot, w, depth, 7 + i as u32);
+        q.push(o, d.normalize(), slot, w, depth, 7 + i as u32, 0);
     }
     q
 }
@@ -409,4 +409,48 @@ fn probe_targets_are_the_corners_centre_grid_or_one_per_quarter() {
     }
     assert_eq!(j1, probe_targets(&scene, Probe::Jittered, 0, 1));
     assert_ne!(j1[..4], probe_targets(&scene, Probe::Jittered, 0, 2)[..4]);
+}
+
+/// Where a shadow ray from `o` along `d` crosses the quad light, in its (u, v) coordinates.
+fn light_uv(scene: &Scene, o: Vec3, d: Vec3) -> (f32, f32) {
+    let (corner, u, v, _) = quad(scene);
+    let n = u.cross(v);
+    let p = o + d * ((corner - o).dot(n) / d.dot(n)) - corner;
+    (p.dot(u) / u.length_squared(), p.dot(v) / v.length_squared())
+}
+
+#[test]
+fn a_pixels_shadow_rays_are_stratified_over_all_its_camera_samples() {
+    // One shading point seen by 16 camera samples of one point (same key, samples 0..16),
+    // 16 shadow rays each: the 256 rays hit the light once in each of every 2^a × 2^(8-a)
+    // grid's cells, and each camera sample's 16 once in each cell of every 16-cell grid.
+    let scene = quad_lit("", &["render.shadows.samples=16"]);
+    let mut rays = RayQueue::default();
+    for sample in 0..16 {
+        rays.push(Vec3::new(0.1, 1.0, 0.2), DOWN, 0, Vec3::ONE, 0, 0x5eed, sample);
+    }
+    let hits = trace(&scene, &rays);
+    let out = shade(&scene, &rays, &hits);
+    assert_eq!(out.shadow.len(), 256, "every sample of the light faces the point");
+    let uv: Vec<(f32, f32)> = (0..256).map(|i| light_uv(&scene, out.shadow.origin(i), out.shadow.dir(i))).collect();
+    let stratified = |points: &[(f32, f32)], k: u32| {
+        (0..=k).all(|a| {
+            let (cols, rows) = (1u32 << a, 1u32 << (k - a));
+            let mut cells = vec![0; 1 << k];
+            for &(x, y) in points {
+                let (c, r) = (((x * cols as f32) as u32).min(cols - 1), ((y * rows as f32) as u32).min(rows - 1));
+                cells[(r * cols + c) as usize] += 1;
+            }
+            cells.iter().all(|&n| n == 1)
+        })
+    };
+    assert!(stratified(&uv, 8), "the pixel's 256 light samples form a (0, 8, 2)-net");
+    for s in 0..16 {
+        assert!(stratified(&uv[s * 16..(s + 1) * 16], 4), "camera sample {s}'s 16 light samples form a net");
+    }
+    // A different point key draws a different (scrambled) pattern.
+    let mut other = RayQueue::default();
+    other.push(Vec3::new(0.1, 1.0, 0.2), DOWN, 0, Vec3::ONE, 0, 0x5eee, 0);
+    let o = shade(&scene, &other, &trace(&scene, &other));
+    assert_ne!(light_uv(&scene, o.shadow.origin(0), o.shadow.dir(0)), uv[0]);
 }

@@ -10,7 +10,7 @@ use std::ops::Range;
 
 use super::Tile;
 use crate::queue::RayQueue;
-use crate::sampling::{cmj, concentric_disk, dim, hash};
+use crate::sampling::{cmj, concentric_disk, dim, hash, sobol_owen};
 use crate::scene::Scene;
 
 /// How many lens rays each point of a pass gets, and how a flattened ray index splits
@@ -87,19 +87,17 @@ impl Iterator for LensRays<'_> {
     }
 }
 
-/// Pushes one camera ray through film position `film` (pixels). `lens_pattern` and
-/// `lens` pick lens sample `lens` of `lens_count` (ignored for a pinhole).
-#[allow(clippy::too_many_arguments)] // one ray's film point, lens sample and path values, hot: no struct per ray
+/// Pushes one camera ray through film position `film` (pixels), through lens position
+/// `lens()` in [0,1)² (not evaluated for a pinhole), named by its point `key` and
+/// `sample` index.
 #[inline]
 fn push(
     scene: &Scene,
     film: Vec2,
-    lens_pattern: u32,
-    lens: u32,
-    lens_count: u32,
+    lens: impl FnOnce() -> Vec2,
     slot: u32,
     w: Vec3,
-    key: u32,
+    (key, sample): (u32, u32),
     rays: &mut RayQueue,
 ) {
     let s = &scene.settings;
@@ -108,18 +106,21 @@ fn push(
     if cam.aperture > 0.0 {
         // Thin lens: every ray through the same film point meets on the focus plane.
         let focus = cam.position + d * (cam.focus_distance / d.dot(cam.forward));
-        let l = cam.aperture * concentric_disk(cmj(lens, lens_count, lens_pattern));
+        let l = cam.aperture * concentric_disk(lens());
         let o = cam.position + l.x * cam.right + l.y * cam.up;
-        rays.push(o, (focus - o).normalize(), slot, w, 0, key);
+        rays.push(o, (focus - o).normalize(), slot, w, 0, key, sample);
     } else {
-        rays.push(cam.position, d, slot, w, 0, key);
+        rays.push(cam.position, d, slot, w, 0, key, sample);
     }
 }
 
 /// Uniform mode: camera rays for the flattened (pixel, sample) indices `ks` of `tile`:
 /// k is pixel k / spp of the tile in [`block_slot`] order and per-pixel sample j = k % spp, which is
-/// AA sample j / dof_samples and lens sample j % dof_samples. Slot: the pixel's index in
-/// the tile. Each ray carries weight 1 / spp, so a pixel's sum is its mean.
+/// AA sample j / dof_samples and lens sample j % dof_samples. Film positions are a CMJ
+/// pattern of the pixel's AA samples; lens positions a CMJ pattern of each AA sample's
+/// lens rays, or, with one lens ray per AA sample, sample j of an Owen-scrambled Sobol
+/// sequence of the pixel (stratified over the pixel's AA samples). Slot: the pixel's index
+/// in the tile. Each ray carries weight 1 / spp, so a pixel's sum is its mean.
 pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
     rays.clear();
     let s = &scene.settings;
@@ -132,10 +133,17 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
         let j = (k % spp) as u32;
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
-        let (aa, lens) = (j / dof, j % dof);
+        let (aa, l) = (j / dof, j % dof);
         let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, hash(&[s.seed, pixel, dim::PIXEL]));
-        let key = hash(&[s.seed, pixel, j, dim::PATH]);
-        push(scene, film, hash(&[s.seed, pixel, aa, dim::LENS]), lens, dof, slot, w, key, rays);
+        // Each AA sample's lens rays are a CMJ pattern of their own, so every film
+        // position gets a stratified set of lens positions (measured better on the DOF
+        // scenes than one sequence over the pixel); with one lens ray per AA sample that
+        // pattern is a single random point, so the lens then follows the pixel's sequence.
+        let lens = || match dof {
+            1 => sobol_owen(j, hash(&[s.seed, pixel, dim::LENS])),
+            _ => cmj(l, dof, hash(&[s.seed, pixel, aa, dim::LENS])),
+        };
+        push(scene, film, lens, slot, w, (hash(&[s.seed, pixel, dim::PATH]), j), rays);
     }
 }
 
@@ -180,9 +188,9 @@ fn corner_ray(scene: &Scene, ci: u32, lens: u32, count: u32, slot: u32, rays: &m
     let s = &scene.settings;
     let (cx, cy) = (ci % (s.width + 1), ci / (s.width + 1));
     let w = Vec3::splat(1.0 / count as f32);
-    let key = hash(&[s.seed, ci, lens, dim::CORNER]);
     let film = Vec2::new(cx as f32, cy as f32);
-    push(scene, film, hash(&[s.seed, ci, dim::CORNER]), lens, count, slot, w, key, rays);
+    let pattern = hash(&[s.seed, ci, dim::CORNER]);
+    push(scene, film, || cmj(lens, count, pattern), slot, w, (pattern, lens), rays);
 }
 
 /// Adaptive AA, shared corners: rays through the corners of `grid`, a rectangle of the
@@ -220,9 +228,9 @@ pub fn generate_centres(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, 
         let w = Vec3::splat(1.0 / count as f32);
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
-        let key = hash(&[s.seed, pixel, l, dim::CENTRE]);
+        let pattern = hash(&[s.seed, pixel, dim::CENTRE]);
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-        push(scene, film, hash(&[s.seed, pixel, dim::CENTRE]), l, count, slot, w, key, rays);
+        push(scene, film, || cmj(l, count, pattern), slot, w, (pattern, l), rays);
     }
 }
 
@@ -253,8 +261,9 @@ pub fn generate_refine(
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
         let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, hash(&[s.seed, pixel, level, dim::REFINE]));
-        let key = hash(&[s.seed, pixel, level, j, dim::REFINE]);
-        push(scene, film, hash(&[s.seed, pixel, level, sample, dim::LENS]), l, count, slot, w, key, rays);
+        let key = hash(&[s.seed, pixel, level, dim::REFINE]);
+        let lens = || cmj(l, count, hash(&[s.seed, pixel, level, sample, dim::LENS]));
+        push(scene, film, lens, slot, w, (key, j), rays);
     }
 }
 

@@ -25,7 +25,7 @@ pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, ra
     let first = range.start;
     for i in range {
         let d = cam.pinhole_dir(film(i as u32), s.width, s.height);
-        rays.push(cam.position, d, (i - first) as u32, glam::Vec3::ZERO, 0, 0);
+        rays.push(cam.position, d, (i - first) as u32, glam::Vec3::ZERO, 0, 0, 0);
     }
 }
 

@@ -120,7 +120,7 @@ fn generate(
         let end = q.rays.len() as u32;
         q.points.push(start, end, 0, 0);
         if progressive {
-            let scramble = hash(&[surf.key, li as u32, dim::STOP_ORDER]);
+            let scramble = hash(&[surf.key, surf.sample, li as u32, dim::STOP_ORDER]);
             progressive_order(&mut q.cells, levels, scramble, &mut q.merge);
             for c in &q.cells {
                 q.per_ray.push(i as u32, false, c.item);

@@ -89,11 +89,11 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &Index
         let (d, w) = (rays.dir(i), rays.weight(i));
         let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
         let ng = prim.shape.normal(x).normalize();
-        let (slot, depth, key) = (rays.slot[i], rays.depth[i] + 1, rays.key[i]);
+        let (slot, depth, key, sample) = (rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
         match scene.materials[prim.material as usize] {
             Material::Mirror { color } => {
                 let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-                next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * color, depth, hash(&[key, 1]));
+                next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * color, depth, hash(&[key, 1]), sample);
             }
             Material::Dielectric { ior, ratio, tint } => {
                 let side = interface(d, ng, ior);
@@ -105,11 +105,19 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &Index
                     (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(n), side.eta),
                 };
                 if c > 0.0 {
-                    next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * c, depth, hash(&[key, 1]));
+                    next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * c, depth, hash(&[key, 1]), sample);
                 }
                 if let Some(t) = refracted {
                     if c < 1.0 {
-                        next.push(offset_ray_origin(x, err, -n), t, slot, w * tint * (1.0 - c), depth, hash(&[key, 2]));
+                        next.push(
+                            offset_ray_origin(x, err, -n),
+                            t,
+                            slot,
+                            w * tint * (1.0 - c),
+                            depth,
+                            hash(&[key, 2]),
+                            sample,
+                        );
                     }
                 }
             }

@@ -12,7 +12,8 @@ use crate::sampling::{dim, hash, to_unit};
 use crate::scene::{Light, Probe, Scene, ShadowMode};
 use crate::surface::diffuse_surface;
 
-/// The probe targets on quad light `li` for a shading point with path key `key`; the
+/// The probe targets on quad light `li` for a shading point whose path is named by
+/// `key` (its point key hashed with its sample index); the
 /// first `probe.rays()` entries are used.
 #[inline]
 pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3; 9] {
@@ -57,7 +58,7 @@ pub fn shadow_corners(
     let mut cast = 0;
     for k in 0..points.len() {
         let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
-        let targets = probe_targets(scene, probe, points.light[k] as usize, surf.key);
+        let targets = probe_targets(scene, probe, points.light[k] as usize, hash(&[surf.key, surf.sample]));
         let n = probe.rays() as usize;
         let mut visible = 0;
         for target in &targets[..n] {

@@ -155,7 +155,8 @@ pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
         for i in 0..rays.len() {
             primary.push((rays.origin(i), rays.dir(i)));
             if let Some(surf) = diffuse_surface(scene, &rays, &hits, i) {
-                let (u1, u2) = (to_unit(hash(&[surf.key, 0, dim::BENCH])), to_unit(hash(&[surf.key, 1, dim::BENCH])));
+                let h = |d: u32| to_unit(hash(&[surf.key, surf.sample, d, dim::BENCH]));
+                let (u1, u2) = (h(0), h(1));
                 bounces.push((surf.o, cosine_direction(surf.n, u1, u2)));
                 for li in 0..scene.lights.len() {
                     uniform_shadow_rays(scene, &surf, li, |wi, tmax, _| shadow.push((surf.o, wi, tmax)));
@@ -168,7 +169,7 @@ pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
         let chunk = |c: &[(Vec3, Vec3)]| {
             let mut q = RayQueue::default();
             for (k, &(o, d)) in c.iter().enumerate() {
-                q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0);
+                q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0);
             }
             q
         };
