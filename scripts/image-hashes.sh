@@ -29,7 +29,7 @@ modes=(
 # Timings, the per-thread split (which thread took which tile) and the queues' allocated
 # bytes (capacities grow with the tiles a worker happened to take) vary run to run.
 strip='del(.seconds, .mrays_per_s, .per_thread, .queue_bytes, .scene.bvh_seconds, .scene.load_seconds)
-       | .stages |= map_values(del(.seconds))'
+       | .stages |= map_values(del(.seconds, .ns_per_ray))'
 
 for scene in scenes/*.toml scenes/paper/*.toml; do
   for mode in "${modes[@]}"; do
