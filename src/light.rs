@@ -18,10 +18,23 @@ pub fn light_seed(key: u32, li: usize) -> u32 {
     hash(&[key, li as u32, dim::LIGHT])
 }
 
+/// The grid of `n` light samples early stopping orders them on ([`quad_light_samples`]'s
+/// cells): for n = 2^k a 2^⌈k/2⌉ × 2^⌊k/2⌋ grid, in which a point's samples (a (0, k, 2)-net)
+/// hold one cell each; else the [`cmj_grid`] of n, whose first n cells they are given in
+/// sample order.
+pub fn sample_grid(n: u32) -> (u32, u32) {
+    if n.is_power_of_two() {
+        let k = n.trailing_zeros();
+        (1 << k.div_ceil(2), 1 << (k / 2))
+    } else {
+        cmj_grid(n)
+    }
+}
+
 /// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
 /// (both cosines positive), calling `f(cell, direction, distance, contribution)`, where
-/// `cell` is the row-major cell of the sample in the [`cmj_grid`] of `shadows.samples`
-/// cells (the order early stopping walks them in). Contributions are already divided by
+/// `cell` is the sample's row-major cell in the [`sample_grid`] of `shadows.samples`:
+/// distinct for the samples of one point (the order early stopping walks them in). Contributions are already divided by
 /// the sample count, so unoccluded ones sum to the estimate.
 ///
 /// Shadow sample j of the path's camera sample i is sample i·n + j of an Owen-scrambled
@@ -34,13 +47,16 @@ pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
     let count = scene.settings.shadow_samples;
     let seed = light_seed(surf.key, li);
     let first = surf.sample.wrapping_mul(count);
-    let (cols, rows) = cmj_grid(count);
+    let (cols, rows) = sample_grid(count);
+    let net = count.is_power_of_two();
     let scale = area / count as f32;
     for j in 0..count {
         // Past 2^32 samples of a point the indices wrap: each sample stays uniform over
         // the light (unbiased), only the stratification between the wrapped ones is lost.
         let uv = sobol_owen(first.wrapping_add(j), seed);
-        let cell = ((uv.y * rows as f32) as u32).min(rows - 1) * cols + ((uv.x * cols as f32) as u32).min(cols - 1);
+        // Scaling by a power of two and truncating reads the fraction's top bits exactly,
+        // so the net's points land in distinct cells.
+        let cell = if net { (uv.y * rows as f32) as u32 * cols + (uv.x * cols as f32) as u32 } else { j };
         let to = corner + uv.x * u + uv.y * v - surf.o;
         let dist2 = to.length_squared();
         let dist = dist2.sqrt();

@@ -253,3 +253,19 @@ fn options_only_take_effect_where_they_mean_something() {
     );
     assert_eq!(Mode::of(&s(&["render.aa.mode=uniform"])), Mode::Uniform);
 }
+
+#[test]
+fn early_stopping_orders_any_sample_count() {
+    // Counts that are powers of two (a net: one sample per cell of a 2^a × 2^b grid) and
+    // counts that are not (cells in sample order): each point's cells must be distinct
+    // for the progressive order, at every count.
+    for n in ["1", "3", "8", "12", "128"] {
+        let samples = format!("render.shadows.samples={n}");
+        let fixed = render_text(&shadows(), &[samples.as_str()], 2);
+        let early =
+            render_text(&shadows(), &[samples.as_str(), "render.shadows.tolerance=0.2", "render.shadows.batch=2"], 2);
+        let (f, e) = (&fixed.stats, &early.stats);
+        assert_eq!(e.penumbra_rays + e.penumbra_saved_rays, f.penumbra_rays, "{n}: traced + saved = the fixed-n rays");
+        assert!(early.image.pixels.iter().all(|p| p.is_finite()), "{n}");
+    }
+}

@@ -14,9 +14,9 @@
 //! traces through the shadow stage's kernel, the tracer.
 
 use crate::geometry::tracer::Tracer;
-use crate::light::{quad_light_samples, SHADOW_TMAX_SCALE};
+use crate::light::{quad_light_samples, sample_grid, SHADOW_TMAX_SCALE};
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, PenumbraQueues, RayQueue, ShadowPointQueue};
-use crate::sampling::{cmj_grid, dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
+use crate::sampling::{dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
 use crate::surface::diffuse_surface;
 
@@ -98,7 +98,7 @@ fn generate(
     q.points.clear();
     q.per_ray.clear();
     q.active.clear();
-    let (cols, rows) = cmj_grid(scene.settings.shadow_samples);
+    let (cols, rows) = sample_grid(scene.settings.shadow_samples);
     let levels = morton_levels(cols, rows);
     for (i, &k) in penumbra.index.iter().enumerate() {
         let k = k as usize;
