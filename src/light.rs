@@ -34,8 +34,9 @@ pub fn sample_grid(n: u32) -> (u32, u32) {
 /// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
 /// (both cosines positive), calling `f(cell, direction, distance, contribution)`, where
 /// `cell` is the sample's row-major cell in the [`sample_grid`] of `shadows.samples`:
-/// distinct for the samples of one point (the order early stopping walks them in). Contributions are already divided by
-/// the sample count, so unoccluded ones sum to the estimate.
+/// distinct for the samples of one point (the order early stopping walks them in).
+/// Contributions are already divided by the sample count, so unoccluded ones sum to the
+/// estimate.
 ///
 /// Shadow sample j of the path's camera sample i is sample i·n + j of an Owen-scrambled
 /// Sobol sequence seeded by the path's point and light ([`sobol_owen`]): the light
