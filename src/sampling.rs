@@ -109,8 +109,7 @@ pub fn cmj_grid(n: u32) -> (u32, u32) {
     (m, n.div_ceil(m))
 }
 
-/// [`cmj`]'s sample, and the grid cell it lies in (row-major index in the [`cmj_grid`]):
-/// what [`progressive_key`] orders samples by.
+/// [`cmj`]'s sample, and the grid cell it lies in (row-major index in the [`cmj_grid`]).
 pub fn cmj_cell(s: u32, n: u32, pattern: u32) -> (Vec2, u32) {
     debug_assert!(s < n);
     if n == 1 {
