@@ -18,6 +18,7 @@ pub mod queue;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod simd;
 pub mod stages;
 pub mod stats;
 pub mod surface;

@@ -6,6 +6,8 @@
 
 use glam::Vec2;
 
+use crate::simd::{Real, Word};
+
 /// Sample dimensions: each use of randomness gets its own, so streams never correlate.
 pub mod dim {
     /// Position of a camera sample inside its pixel.
@@ -32,66 +34,90 @@ pub mod dim {
     pub const BENCH: u32 = 100;
 }
 
-/// A 32-bit integer hash with good avalanche (Wellons' "lowbias32").
-#[inline]
-pub fn mix(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x7feb_352d);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x846c_a68b);
-    x ^= x >> 16;
+/// A 32-bit integer hash with good avalanche (Wellons' "lowbias32"), on one word or on
+/// lanes of them.
+#[inline(always)]
+pub fn mix<W: Word>(mut x: W) -> W {
+    x = x ^ (x >> 16);
+    x = x.wmul(W::splat(0x7feb_352d));
+    x = x ^ (x >> 15);
+    x = x.wmul(W::splat(0x846c_a68b));
+    x = x ^ (x >> 16);
     x
+}
+
+/// The start of every [`hash`].
+const HASH_START: u32 = 0x9e37_79b9;
+
+/// One key folded into a hash state.
+#[inline(always)]
+fn hash_step<W: Word>(h: W, k: W) -> W {
+    mix(h ^ k.wadd(W::splat(0x632b_e5ab)))
 }
 
 /// Hashes a list of counters into one well-mixed key.
 #[inline]
 pub fn hash(keys: &[u32]) -> u32 {
-    let mut h = 0x9e37_79b9u32;
-    for &k in keys {
-        h = mix(h ^ k.wrapping_add(0x632b_e5ab));
-    }
-    h
+    keys.iter().fold(HASH_START, |h, &k| hash_step(h, k))
+}
+
+/// [`hash`] of the pair `[a, b]`, on lanes of `a`.
+#[inline(always)]
+pub fn hash2<W: Word>(a: W, b: u32) -> W {
+    hash_step(hash_step(W::splat(HASH_START), a), W::splat(b))
 }
 
 /// A float in [0, 1) from a hash value (24 bits of mantissa).
 #[inline]
 pub fn to_unit(h: u32) -> f32 {
-    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+    unit(h)
+}
+
+/// [`to_unit`] on lanes.
+#[inline(always)]
+fn unit<W: Word>(h: W) -> W::Real {
+    (h >> 8).real() * W::Real::splat(1.0 / 16_777_216.0)
 }
 
 /// Kensler's hashed permutation of `i` within `0..len` ("Correlated Multi-Jittered
-/// Sampling", Pixar 2013): a bijection chosen by `pattern`, computed without tables.
-fn permute(mut i: u32, len: u32, pattern: u32) -> u32 {
+/// Sampling", Pixar 2013): a bijection chosen by `pattern`, computed without tables. On
+/// lanes, each lane repeats the rounds until its value falls below `len`, as one word does.
+#[inline(always)]
+fn permute<W: Word>(i: W, len: u32, pattern: u32) -> W {
     let mut w = len.wrapping_sub(1);
     w |= w >> 1;
     w |= w >> 2;
     w |= w >> 4;
     w |= w >> 8;
     w |= w >> 16;
+    let (w, p) = (W::splat(w), W::splat(pattern));
+    let (len_w, mut i, mut done) = (W::splat(len), i, W::splat(0));
     loop {
-        i ^= pattern;
-        i = i.wrapping_mul(0xe170_893d);
-        i ^= pattern >> 16;
-        i ^= (i & w) >> 4;
-        i ^= pattern >> 8;
-        i = i.wrapping_mul(0x0929_eb3f);
-        i ^= pattern >> 23;
-        i ^= (i & w) >> 1;
-        i = i.wrapping_mul(1 | pattern >> 27);
-        i = i.wrapping_mul(0x6935_fa69);
-        i ^= (i & w) >> 11;
-        i = i.wrapping_mul(0x74dc_b303);
-        i ^= (i & w) >> 2;
-        i = i.wrapping_mul(0x9e50_1cc3);
-        i ^= (i & w) >> 2;
-        i = i.wrapping_mul(0xc860_a3df);
-        i &= w;
-        i ^= i >> 5;
-        if i < len {
+        let mut j = i ^ p;
+        j = j.wmul(W::splat(0xe170_893d));
+        j = j ^ (p >> 16);
+        j = j ^ ((j & w) >> 4);
+        j = j ^ (p >> 8);
+        j = j.wmul(W::splat(0x0929_eb3f));
+        j = j ^ (p >> 23);
+        j = j ^ ((j & w) >> 1);
+        j = j.wmul(W::splat(1) | (p >> 27));
+        j = j.wmul(W::splat(0x6935_fa69));
+        j = j ^ ((j & w) >> 11);
+        j = j.wmul(W::splat(0x74dc_b303));
+        j = j ^ ((j & w) >> 2);
+        j = j.wmul(W::splat(0x9e50_1cc3));
+        j = j ^ ((j & w) >> 2);
+        j = j.wmul(W::splat(0xc860_a3df));
+        j = j & w;
+        j = j ^ (j >> 5);
+        i = W::select(done, i, j);
+        done = done | i.lt(len_w);
+        if W::all(done) {
             break;
         }
     }
-    (i.wrapping_add(pattern)) % len
+    i.add_rem(pattern, len)
 }
 
 /// Sample `s` of `n` of a correlated multi-jittered 2D pattern in [0,1)^2 (Kensler 2013).
@@ -111,43 +137,58 @@ pub fn cmj_grid(n: u32) -> (u32, u32) {
 
 /// [`cmj`]'s sample, and the grid cell it lies in (row-major index in the [`cmj_grid`]).
 pub fn cmj_cell(s: u32, n: u32, pattern: u32) -> (Vec2, u32) {
-    debug_assert!(s < n);
+    let (x, y, cell) = cmj_lanes(s, n, pattern);
+    (Vec2::new(x, y), cell)
+}
+
+/// Largest sample count [`cmj_lanes`] takes on vector lanes (their division is exact
+/// below 2²⁴).
+pub const CMJ_LANES_MAX: u32 = 1 << 23;
+
+/// [`cmj_cell`] for lanes of sample indices `s` (each below `n`): the x and y lanes and
+/// the cells. On vector lanes `n` must be at most [`CMJ_LANES_MAX`].
+#[inline(always)]
+pub fn cmj_lanes<W: Word>(s: W, n: u32, pattern: u32) -> (W::Real, W::Real, W) {
     if n == 1 {
-        return (Vec2::new(to_unit(hash(&[pattern, 1])), to_unit(hash(&[pattern, 2]))), 0);
+        let (x, y) = (to_unit(hash(&[pattern, 1])), to_unit(hash(&[pattern, 2])));
+        return (W::Real::splat(x), W::Real::splat(y), W::splat(0));
     }
     let (m, k) = cmj_grid(n);
     // Permute over all m·k cells, not just the first n: when n < m·k the n samples then
     // fill a random subset of the grid instead of always leaving the last row short,
     // which would bias every estimate.
     let s = permute(s, m * k, pattern.wrapping_mul(0x5163_3e2d));
-    let sx = permute(s % m, m, pattern.wrapping_mul(0x68bc_21eb));
-    let sy = permute(s / m, k, pattern.wrapping_mul(0x02e5_be93));
-    let jx = to_unit(hash(&[s, pattern.wrapping_mul(0x967a_889b)]));
-    let jy = to_unit(hash(&[s, pattern.wrapping_mul(0x368c_c8b7)]));
-    let x = ((s % m) as f32 + (sy as f32 + jx) / k as f32) / m as f32;
-    let y = ((s / m) as f32 + (sx as f32 + jy) / m as f32) / k as f32;
+    let (row, col) = s.div_rem(m);
+    let sx = permute(col, m, pattern.wrapping_mul(0x68bc_21eb));
+    let sy = permute(row, k, pattern.wrapping_mul(0x02e5_be93));
+    let jx = unit(hash2(s, pattern.wrapping_mul(0x967a_889b)));
+    let jy = unit(hash2(s, pattern.wrapping_mul(0x368c_c8b7)));
+    let (mf, kf) = (W::Real::splat(m as f32), W::Real::splat(k as f32));
+    let x = (col.real() + (sy.real() + jx) / kf) / mf;
+    let y = (row.real() + (sx.real() + jy) / mf) / kf;
     // Rounding in the divisions can give exactly 1.0; keep the half-open interval.
-    (Vec2::new(x.min(ONE_MINUS_EPS), y.min(ONE_MINUS_EPS)), s)
+    let one = W::Real::splat(ONE_MINUS_EPS);
+    (x.min(one), y.min(one), s)
 }
 
 /// Laine and Karras's hash-based Owen scrambling of the bits of `x` from the low end:
 /// bit b is flipped depending only on `seed` and the bits below b (Burley 2020).
 #[inline]
-fn laine_karras(mut x: u32, seed: u32) -> u32 {
-    x = x.wrapping_add(seed);
-    x ^= x.wrapping_mul(0x6c50_b47c);
-    x ^= x.wrapping_mul(0xb82f_1e52);
-    x ^= x.wrapping_mul(0xc7af_e638);
-    x ^= x.wrapping_mul(0x8d22_f6e6);
+fn laine_karras<W: Word>(mut x: W, seed: u32) -> W {
+    x = x.wadd(W::splat(seed));
+    x = x ^ x.wmul(W::splat(0x6c50_b47c));
+    x = x ^ x.wmul(W::splat(0xb82f_1e52));
+    x = x ^ x.wmul(W::splat(0xc7af_e638));
+    x = x ^ x.wmul(W::splat(0x8d22_f6e6));
     x
 }
 
 /// Owen (nested uniform) scrambling of a binary fraction: each digit, from the most
 /// significant, flipped depending on the digits before it. It maps every aligned block
 /// of 2^k values onto an aligned block of 2^k values.
-#[inline]
-fn owen_scramble(x: u32, seed: u32) -> u32 {
-    laine_karras(x.reverse_bits(), seed).reverse_bits()
+#[inline(always)]
+fn owen_scramble<W: Word>(x: W, seed: u32) -> W {
+    laine_karras(x.reverse(), seed).reverse()
 }
 
 /// Point `i` of the first two dimensions of the Sobol sequence, as 32-bit binary
@@ -159,15 +200,15 @@ fn owen_scramble(x: u32, seed: u32) -> u32 {
 /// p's bits are a subset of k's (Lucas), so bit p of dimension 1 is the XOR of the index
 /// bits k ⊇ p: a superset-XOR transform of the index, five shift-and-mask steps instead
 /// of a loop over the index's 32 bits.
-#[inline]
-fn sobol2(i: u32) -> (u32, u32) {
+#[inline(always)]
+fn sobol2<W: Word>(i: W) -> (W, W) {
     let mut w = i;
-    w ^= (w >> 1) & 0x5555_5555;
-    w ^= (w >> 2) & 0x3333_3333;
-    w ^= (w >> 4) & 0x0f0f_0f0f;
-    w ^= (w >> 8) & 0x00ff_00ff;
-    w ^= (w >> 16) & 0x0000_ffff;
-    (i.reverse_bits(), w.reverse_bits())
+    w = w ^ ((w >> 1) & W::splat(0x5555_5555));
+    w = w ^ ((w >> 2) & W::splat(0x3333_3333));
+    w = w ^ ((w >> 4) & W::splat(0x0f0f_0f0f));
+    w = w ^ ((w >> 8) & W::splat(0x00ff_00ff));
+    w = w ^ ((w >> 16) & W::splat(0x0000_ffff));
+    (i.reverse(), w.reverse())
 }
 
 /// Sample `index` of an Owen-scrambled 2D Sobol sequence keyed by `seed` (Burley 2020,
@@ -181,10 +222,18 @@ fn sobol2(i: u32) -> (u32, u32) {
 /// - each point alone is uniform over the square (the scrambling is random), so every
 ///   estimate stays unbiased, whatever the index.
 pub fn sobol_owen(index: u32, seed: u32) -> Vec2 {
+    let (x, y) = sobol_owen_lanes(index, seed);
+    Vec2::new(x, y)
+}
+
+/// [`sobol_owen`] for lanes of indices: the x and y lanes.
+#[inline(always)]
+pub fn sobol_owen_lanes<W: Word>(index: W, seed: u32) -> (W::Real, W::Real) {
     let (x, y) = sobol2(owen_scramble(index, mix(seed ^ 0x5bd1_e995)));
     let x = owen_scramble(x, mix(seed ^ 0x1b87_3593));
     let y = owen_scramble(y, mix(seed ^ 0xcc9e_2d51));
-    Vec2::new(to_unit(x).min(ONE_MINUS_EPS), to_unit(y).min(ONE_MINUS_EPS))
+    let one = W::Real::splat(ONE_MINUS_EPS);
+    (unit(x).min(one), unit(y).min(one))
 }
 
 /// Base-4 digits (Morton levels) needed for a grid of `cols`×`rows` cells.
@@ -316,6 +365,34 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lanes_give_the_scalar_bits() {
+        use wide::u32x16;
+        for n in [1u32, 2, 3, 5, 7, 16, 17, 64, 100, 1000, 4099] {
+            for pattern in [0u32, 1, 0xdead_beef, u32::MAX, 0x8000_0000] {
+                for first in (0..n).step_by(16) {
+                    let s = u32x16::from(std::array::from_fn::<u32, 16, _>(|k| (first + k as u32).min(n - 1)));
+                    let (x, y, cell) = cmj_lanes(s, n, pattern);
+                    let (sobol_x, sobol_y) = sobol_owen_lanes(s, pattern);
+                    for k in 0..16 {
+                        let i = (first + k as u32).min(n - 1);
+                        let (p, c) = cmj_cell(i, n, pattern);
+                        assert_eq!(
+                            (x.to_array()[k].to_bits(), y.to_array()[k].to_bits()),
+                            (p.x.to_bits(), p.y.to_bits())
+                        );
+                        assert_eq!(cell.to_array()[k], c, "n {n} pattern {pattern} sample {i}");
+                        let q = sobol_owen(i, pattern);
+                        assert_eq!(
+                            (sobol_x.to_array()[k].to_bits(), sobol_y.to_array()[k].to_bits()),
+                            (q.x.to_bits(), q.y.to_bits())
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn permute_is_a_bijection() {

@@ -7,11 +7,13 @@
 
 use glam::{Vec2, Vec3};
 use std::ops::Range;
+use wide::{f32x16, u32x16};
 
 use super::Tile;
 use crate::queue::RayQueue;
-use crate::sampling::{cmj, concentric_disk, dim, hash, sobol_owen};
+use crate::sampling::{cmj, cmj_lanes, concentric_disk, dim, hash, sobol_owen, CMJ_LANES_MAX};
 use crate::scene::Scene;
+use crate::simd::{iota, words, Real, Word, LANES, V3};
 
 /// How many lens rays each point of a pass gets, and how a flattened ray index splits
 /// into (point, ray of the point).
@@ -104,14 +106,22 @@ fn push(
     let cam = &scene.camera;
     let d = cam.pinhole_dir(film, s.width, s.height);
     if cam.aperture > 0.0 {
-        // Thin lens: every ray through the same film point meets on the focus plane.
-        let focus = cam.position + d * (cam.focus_distance / d.dot(cam.forward));
-        let l = cam.aperture * concentric_disk(lens());
-        let o = cam.position + l.x * cam.right + l.y * cam.up;
-        rays.push(o, (focus - o).normalize(), slot, w, 0, key, sample);
+        let (o, d) = thin_lens(scene, d, lens());
+        rays.push(o, d, slot, w, 0, key, sample);
     } else {
         rays.push(cam.position, d, slot, w, 0, key, sample);
     }
+}
+
+/// The thin-lens ray whose pinhole direction is `d`, through lens position `lens` in
+/// [0,1)²: every ray through the same film point meets on the focus plane.
+#[inline]
+fn thin_lens(scene: &Scene, d: Vec3, lens: Vec2) -> (Vec3, Vec3) {
+    let cam = &scene.camera;
+    let focus = cam.position + d * (cam.focus_distance / d.dot(cam.forward));
+    let l = cam.aperture * concentric_disk(lens);
+    let o = cam.position + l.x * cam.right + l.y * cam.up;
+    (o, (focus - o).normalize())
 }
 
 /// Uniform mode: camera rays for the flattened (pixel, sample) indices `ks` of `tile`:
@@ -124,27 +134,102 @@ fn push(
 pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
     rays.clear();
     let s = &scene.settings;
-    let dof = s.dof_samples;
-    let spp = s.aa_samples as u64 * dof as u64;
-    let w = Vec3::splat(1.0 / spp as f32);
-    let tw = tile.x1 - tile.x0;
-    for k in ks {
-        let slot = block_slot(tile, (k / spp) as u32);
-        let j = (k % spp) as u32;
-        let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
-        let pixel = y * s.width + x;
-        let (aa, l) = (j / dof, j % dof);
-        let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, hash(&[s.seed, pixel, dim::PIXEL]));
-        // Each AA sample's lens rays are a CMJ pattern of their own, so every film
-        // position gets a stratified set of lens positions (measured better on the DOF
-        // scenes than one sequence over the pixel); with one lens ray per AA sample that
-        // pattern is a single random point, so the lens then follows the pixel's sequence.
-        let lens = || match dof {
-            1 => sobol_owen(j, hash(&[s.seed, pixel, dim::LENS])),
-            _ => cmj(l, dof, hash(&[s.seed, pixel, aa, dim::LENS])),
-        };
-        push(scene, film, lens, slot, w, (hash(&[s.seed, pixel, dim::PATH]), j), rays);
+    let spp = s.aa_samples as u64 * s.dof_samples as u64;
+    let mut k = ks.start;
+    while k < ks.end {
+        let q = k / spp;
+        let end = (ks.end - q * spp).min(spp);
+        pixel_samples(scene, tile, q as u32, (k - q * spp) as u32..end as u32, rays);
+        k = q * spp + end;
     }
+}
+
+/// Samples `js` of the `q`-th pixel of `tile` (see [`generate`]): 16 at a time on SIMD
+/// lanes (film position, pinhole direction), with the lens, when the aperture is open,
+/// ray by ray.
+fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut RayQueue) {
+    let s = &scene.settings;
+    let cam = &scene.camera;
+    let dof = s.dof_samples;
+    let spp = s.aa_samples * dof;
+    let w = Vec3::splat(1.0 / spp as f32);
+    let slot = block_slot(tile, q);
+    let tw = tile.x1 - tile.x0;
+    let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
+    let pixel = y * s.width + x;
+    let pattern = hash(&[s.seed, pixel, dim::PIXEL]);
+    let key = hash(&[s.seed, pixel, dim::PATH]);
+    let lens_seed = hash(&[s.seed, pixel, dim::LENS]);
+    if spp > CMJ_LANES_MAX {
+        for j in js {
+            let (aa, l) = (j / dof, j % dof);
+            let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, pattern);
+            let lens = || lens_sample(scene, pixel, aa, l, j, lens_seed);
+            push(scene, film, lens, slot, w, (key, j), rays);
+        }
+        return;
+    }
+    let (fx0, fy0) = (f32x16::splat(x as f32), f32x16::splat(y as f32));
+    for j0 in js.clone().step_by(LANES) {
+        let count = (js.end - j0).min(LANES as u32) as usize;
+        // Lanes past the last sample repeat it (a valid index) and are not written.
+        let j = iota(j0).min(u32x16::splat(js.end - 1));
+        let aa = if dof == 1 { j } else { j.div_rem(dof).0 };
+        let (cx, cy, _) = cmj_lanes(aa, s.aa_samples, pattern);
+        let (fx, fy) = (fx0 + cx, fy0 + cy);
+        let d = pinhole_lanes(scene, fx, fy);
+        let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
+        let jw = words(j);
+        if cam.aperture > 0.0 {
+            let aw = words(aa);
+            for k in 0..count {
+                let lens = lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed);
+                let (o, dir) = thin_lens(scene, Vec3::new(dx[k], dy[k], dz[k]), lens);
+                rays.push(o, dir, slot, w, 0, key, jw[k]);
+            }
+            continue;
+        }
+        let n = rays.len() + count;
+        let fill = |v: &mut Vec<f32>, x: f32| v.resize(n, x);
+        fill(&mut rays.ox, cam.position.x);
+        fill(&mut rays.oy, cam.position.y);
+        fill(&mut rays.oz, cam.position.z);
+        rays.dx.extend_from_slice(&dx[..count]);
+        rays.dy.extend_from_slice(&dy[..count]);
+        rays.dz.extend_from_slice(&dz[..count]);
+        rays.slot.resize(n, slot);
+        fill(&mut rays.wr, w.x);
+        fill(&mut rays.wg, w.y);
+        fill(&mut rays.wb, w.z);
+        rays.depth.resize(n, 0);
+        rays.key.resize(n, key);
+        rays.sample.extend_from_slice(&jw[..count]);
+    }
+}
+
+/// Lens position of AA sample `aa`'s lens ray `l` (per-pixel sample `j`) in `pixel`.
+/// Each AA sample's lens rays are a CMJ pattern of their own, so every film position gets
+/// a stratified set of lens positions (measured better on the DOF scenes than one
+/// sequence over the pixel); with one lens ray per AA sample that pattern is a single
+/// random point, so the lens then follows the pixel's sequence (`lens_seed`).
+#[inline]
+fn lens_sample(scene: &Scene, pixel: u32, aa: u32, l: u32, j: u32, lens_seed: u32) -> Vec2 {
+    let s = &scene.settings;
+    match s.dof_samples {
+        1 => sobol_owen(j, lens_seed),
+        dof => cmj(l, dof, hash(&[s.seed, pixel, aa, dim::LENS])),
+    }
+}
+
+/// [`Camera::pinhole_dir`](crate::scene::Camera::pinhole_dir) on lanes of film positions:
+/// the same operations in the same order, so the same bits.
+#[inline(always)]
+fn pinhole_lanes<R: Real>(scene: &Scene, fx: R, fy: R) -> V3<R> {
+    let (s, cam) = (&scene.settings, &scene.camera);
+    let (two, one) = (R::splat(2.0), R::splat(1.0));
+    let sx = (two * fx / R::splat(s.width as f32) - one) * R::splat(cam.tan_half_fov) * R::splat(cam.aspect);
+    let sy = (one - two * fy / R::splat(s.height as f32)) * R::splat(cam.tan_half_fov);
+    V3::splat(cam.forward).add(V3::splat(cam.right).scale(sx)).add(V3::splat(cam.up).scale(sy)).normalize()
 }
 
 /// Side of the screen blocks camera rays are generated in.

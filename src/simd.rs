@@ -1,0 +1,316 @@
+//! Lanes for the stages outside traversal: [`Word`] is a `u32` or 16 of them
+//! (`wide::u32x16`), [`Real`] an `f32` or 16 of them (`wide::f32x16`). A sample pattern
+//! or a ray formula written once, generic over them, runs ray by ray and 16 rays at a
+//! time with the same operations in the same order, so both give the same bits (Rust
+//! never fuses a multiply and an add on its own).
+
+use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Not, Shl, Shr, Sub};
+use wide::{f32x16, i32x16, u32x16};
+
+/// Number of lanes of the vector instances.
+pub const LANES: usize = 16;
+
+/// 32-bit words: wrapping integer arithmetic and lane masks (all bits set or none).
+pub trait Word:
+    Copy
+    + BitAnd<Output = Self>
+    + BitOr<Output = Self>
+    + BitXor<Output = Self>
+    + Not<Output = Self>
+    + Shr<u32, Output = Self>
+    + Shl<u32, Output = Self>
+{
+    /// The matching float lanes.
+    type Real: Real;
+    /// Every lane `x`.
+    fn splat(x: u32) -> Self;
+    /// Wrapping sum.
+    fn wadd(self, o: Self) -> Self;
+    /// Wrapping product.
+    fn wmul(self, o: Self) -> Self;
+    /// The bits in reverse order.
+    fn reverse(self) -> Self;
+    /// Mask of `self < o` (unsigned).
+    fn lt(self, o: Self) -> Self;
+    /// Lane-wise `mask ? t : f`.
+    fn select(mask: Self, t: Self, f: Self) -> Self;
+    /// True when every lane of `mask` is set.
+    fn all(mask: Self) -> bool;
+    /// Quotient and remainder by `d` ≥ 1, for values below 2²⁴.
+    fn div_rem(self, d: u32) -> (Self, Self);
+    /// `(self + p) mod len` with the sum wrapping at 2³², for `self < len`.
+    fn add_rem(self, p: u32, len: u32) -> Self;
+    /// The value as a float (exact below 2²⁴).
+    fn real(self) -> Self::Real;
+}
+
+/// 32-bit floats.
+pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> {
+    /// Every lane `x`.
+    fn splat(x: f32) -> Self;
+    /// Lane-wise minimum (neither operand is NaN where it is used).
+    fn min(self, o: Self) -> Self;
+    /// Lane-wise square root (correctly rounded, like `f32::sqrt`).
+    fn sqrt(self) -> Self;
+}
+
+impl Word for u32 {
+    type Real = f32;
+    #[inline(always)]
+    fn splat(x: u32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn wadd(self, o: Self) -> Self {
+        self.wrapping_add(o)
+    }
+    #[inline(always)]
+    fn wmul(self, o: Self) -> Self {
+        self.wrapping_mul(o)
+    }
+    #[inline(always)]
+    fn reverse(self) -> Self {
+        self.reverse_bits()
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> Self {
+        if self < o {
+            !0
+        } else {
+            0
+        }
+    }
+    #[inline(always)]
+    fn select(mask: Self, t: Self, f: Self) -> Self {
+        if mask != 0 {
+            t
+        } else {
+            f
+        }
+    }
+    #[inline(always)]
+    fn all(mask: Self) -> bool {
+        mask != 0
+    }
+    #[inline(always)]
+    fn div_rem(self, d: u32) -> (Self, Self) {
+        (self / d, self % d)
+    }
+    #[inline(always)]
+    fn add_rem(self, p: u32, len: u32) -> Self {
+        self.wrapping_add(p) % len
+    }
+    #[inline(always)]
+    fn real(self) -> f32 {
+        self as f32
+    }
+}
+
+impl Real for f32 {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        f32::min(self, o)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32::sqrt(self)
+    }
+}
+
+impl Word for u32x16 {
+    type Real = f32x16;
+    #[inline(always)]
+    fn splat(x: u32) -> Self {
+        u32x16::splat(x)
+    }
+    #[inline(always)]
+    fn wadd(self, o: Self) -> Self {
+        self + o
+    }
+    #[inline(always)]
+    fn wmul(self, o: Self) -> Self {
+        self * o
+    }
+    #[inline(always)]
+    fn reverse(self) -> Self {
+        let mut x = self;
+        x = ((x >> 1) & u32x16::splat(0x5555_5555)) | ((x & u32x16::splat(0x5555_5555)) << 1);
+        x = ((x >> 2) & u32x16::splat(0x3333_3333)) | ((x & u32x16::splat(0x3333_3333)) << 2);
+        x = ((x >> 4) & u32x16::splat(0x0f0f_0f0f)) | ((x & u32x16::splat(0x0f0f_0f0f)) << 4);
+        x = ((x >> 8) & u32x16::splat(0x00ff_00ff)) | ((x & u32x16::splat(0x00ff_00ff)) << 8);
+        (x >> 16) | (x << 16)
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> Self {
+        self.simd_lt(o)
+    }
+    #[inline(always)]
+    fn select(mask: Self, t: Self, f: Self) -> Self {
+        mask.select(t, f)
+    }
+    #[inline(always)]
+    fn all(mask: Self) -> bool {
+        mask.all()
+    }
+    #[inline(always)]
+    fn div_rem(self, d: u32) -> (Self, Self) {
+        // Both below 2²⁴, so exact as floats; the correctly rounded quotient is within
+        // one of the true one, and the remainder's sign and size say which way.
+        let x: i32x16 = wide::bytemuck::cast(self);
+        let df = f32x16::splat(d as f32);
+        let q = (f32x16::from_i32x16(x) / df).trunc_int();
+        let di = i32x16::splat(d as i32);
+        let r = x - q * di;
+        let neg = r.simd_lt(i32x16::ZERO);
+        let (q, r) = (neg.select(q - i32x16::ONE, q), neg.select(r + di, r));
+        let over = r.simd_ge(di);
+        let (q, r) = (over.select(q + i32x16::ONE, q), over.select(r - di, r));
+        (wide::bytemuck::cast(q), wide::bytemuck::cast(r))
+    }
+    #[inline(always)]
+    fn add_rem(self, p: u32, len: u32) -> Self {
+        // With P = p mod len and C = 2³² mod len: without wrap the answer is
+        // (self + P) mod len, with wrap (self + P − C) mod len; self + P < 2·len.
+        let sum = self + u32x16::splat(p);
+        let wrapped = sum.simd_lt(self);
+        let c = ((1u64 << 32) % len as u64) as u32;
+        let len_v = u32x16::splat(len);
+        let t = self + u32x16::splat(p % len);
+        // t − C may go below zero (a huge unsigned value): add len back there.
+        let below = t.simd_lt(u32x16::splat(c));
+        let t_wrapped = below.select(t + len_v - u32x16::splat(c), t - u32x16::splat(c));
+        let t = wrapped.select(t_wrapped, t);
+        let over = t.simd_lt(len_v);
+        over.select(t, t - len_v)
+    }
+    #[inline(always)]
+    fn real(self) -> f32x16 {
+        f32x16::from_i32x16(wide::bytemuck::cast(self))
+    }
+}
+
+impl Real for f32x16 {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        f32x16::splat(x)
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        f32x16::min(self, o)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f32x16::sqrt(self)
+    }
+}
+
+/// A vector of three coordinates, each a [`Real`]: glam's `Vec3` operations on lanes, in
+/// glam's order of operations.
+#[derive(Clone, Copy, Debug)]
+pub struct V3<R> {
+    /// x coordinates.
+    pub x: R,
+    /// y coordinates.
+    pub y: R,
+    /// z coordinates.
+    pub z: R,
+}
+
+impl<R: Real> V3<R> {
+    /// Every lane `v`.
+    #[inline(always)]
+    pub fn splat(v: glam::Vec3) -> Self {
+        V3 { x: R::splat(v.x), y: R::splat(v.y), z: R::splat(v.z) }
+    }
+    /// Sum.
+    #[inline(always)]
+    pub fn add(self, o: Self) -> Self {
+        V3 { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
+    }
+    /// Difference.
+    #[inline(always)]
+    pub fn sub(self, o: Self) -> Self {
+        V3 { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
+    }
+    /// Product with a scalar per lane.
+    #[inline(always)]
+    pub fn scale(self, s: R) -> Self {
+        V3 { x: self.x * s, y: self.y * s, z: self.z * s }
+    }
+    /// Dot product, as `Vec3::dot`.
+    #[inline(always)]
+    pub fn dot(self, o: Self) -> R {
+        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
+    }
+    /// Unit vector, as `Vec3::normalize` (times the reciprocal of the length).
+    #[inline(always)]
+    pub fn normalize(self) -> Self {
+        self.scale(R::splat(1.0) / self.dot(self).sqrt())
+    }
+}
+
+/// Lane `k` of every vector: `u32x16`s as arrays.
+#[inline(always)]
+pub fn words(v: u32x16) -> [u32; LANES] {
+    v.to_array()
+}
+
+/// The lanes `first, first + 1, …, first + 15`.
+#[inline(always)]
+pub fn iota(first: u32) -> u32x16 {
+    u32x16::splat(first) + u32x16::from([0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lanes(f: impl Fn(usize) -> u32) -> u32x16 {
+        u32x16::from(std::array::from_fn::<u32, 16, _>(f))
+    }
+
+    #[test]
+    fn word_lanes_equal_the_scalar_word() {
+        let mut h = 0x1234_5678u32;
+        let mut next = || {
+            h = crate::sampling::mix(h.wrapping_add(0x9e37_79b9));
+            h
+        };
+        for round in 0..4000 {
+            let a: [u32; 16] = std::array::from_fn(|_| next());
+            let v = u32x16::from(a);
+            let r = words(v.reverse());
+            for k in 0..16 {
+                assert_eq!(r[k], a[k].reverse_bits());
+            }
+            // Divisors of every size the patterns use, dividends below 2²⁴.
+            let d = 1 + next() % if round % 2 == 0 { 70 } else { 1 << 20 };
+            let small = lanes(|k| a[k] >> 8);
+            let (q, m) = small.div_rem(d);
+            let (q, m) = (words(q), words(m));
+            for k in 0..16 {
+                assert_eq!((q[k], m[k]), ((a[k] >> 8) / d, (a[k] >> 8) % d), "{} / {d}", a[k] >> 8);
+            }
+            // add_rem over the whole range of p, including sums that wrap.
+            let len = 1 + next() % if round % 3 == 0 { 7 } else { 5000 };
+            let p = if round % 5 == 0 { u32::MAX - next() % 8 } else { next() };
+            let i = lanes(|k| a[k] % len);
+            let got = words(i.add_rem(p, len));
+            for k in 0..16 {
+                assert_eq!(got[k], (a[k] % len).add_rem(p, len), "({} + {p}) % {len}", a[k] % len);
+            }
+            let lt = words(v.lt(lanes(|k| a[(k + 1) % 16])));
+            for k in 0..16 {
+                assert_eq!(lt[k], a[k].lt(a[(k + 1) % 16]));
+            }
+            let f = words(wide::bytemuck::cast(small.real().to_bits()));
+            for k in 0..16 {
+                assert_eq!(f[k], ((a[k] >> 8) as f32).to_bits());
+            }
+        }
+    }
+}
