@@ -226,16 +226,6 @@ impl<R: Real> V3<R> {
     pub fn splat(v: glam::Vec3) -> Self {
         V3 { x: R::splat(v.x), y: R::splat(v.y), z: R::splat(v.z) }
     }
-    /// Sum.
-    #[inline(always)]
-    pub fn add(self, o: Self) -> Self {
-        V3 { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
-    }
-    /// Difference.
-    #[inline(always)]
-    pub fn sub(self, o: Self) -> Self {
-        V3 { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
-    }
     /// Product with a scalar per lane.
     #[inline(always)]
     pub fn scale(self, s: R) -> Self {
@@ -250,6 +240,22 @@ impl<R: Real> V3<R> {
     #[inline(always)]
     pub fn normalize(self) -> Self {
         self.scale(R::splat(1.0) / self.dot(self).sqrt())
+    }
+}
+
+impl<R: Real> Add for V3<R> {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        V3 { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
+    }
+}
+
+impl<R: Real> Sub for V3<R> {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        V3 { x: self.x - o.x, y: self.y - o.y, z: self.z - o.z }
     }
 }
 

@@ -229,7 +229,7 @@ fn pinhole_lanes<R: Real>(scene: &Scene, fx: R, fy: R) -> V3<R> {
     let (two, one) = (R::splat(2.0), R::splat(1.0));
     let sx = (two * fx / R::splat(s.width as f32) - one) * R::splat(cam.tan_half_fov) * R::splat(cam.aspect);
     let sy = (one - two * fy / R::splat(s.height as f32)) * R::splat(cam.tan_half_fov);
-    V3::splat(cam.forward).add(V3::splat(cam.right).scale(sx)).add(V3::splat(cam.up).scale(sy)).normalize()
+    (V3::splat(cam.forward) + V3::splat(cam.right).scale(sx) + V3::splat(cam.up).scale(sy)).normalize()
 }
 
 /// Side of the screen blocks camera rays are generated in.
