@@ -357,6 +357,50 @@ mod tests {
     use super::*;
 
     #[test]
+    fn lanes_give_the_rays_of_the_scalar_formulas() {
+        use crate::scene::{load, SceneSource};
+        for (aa, dof, aperture) in [(37, 1, 0.0), (64, 1, 0.0), (5, 3, 0.0), (16, 1, 0.1), (6, 4, 0.1)] {
+            let sets = [
+                "render.width=13".to_string(),
+                "render.height=7".to_string(),
+                format!("render.aa.samples={aa}"),
+                format!("render.dof.samples={dof}"),
+                format!("camera.aperture={aperture}"),
+            ];
+            let scene = load(&SceneSource::default_scene(), &sets).unwrap();
+            let s = &scene.settings;
+            let tile = Tile { x0: 2, y0: 1, x1: 11, y1: 6 };
+            let dof = s.dof_samples; // a pinhole takes one lens ray whatever is asked
+            let spp = (aa * dof) as u64;
+            let total = 45 * spp;
+            // Ranges that start and end inside pixels and inside a 16-lane group.
+            for ks in [0..total, 3..total - 5, spp + 17..3 * spp + 40] {
+                let mut rays = RayQueue::default();
+                generate(&scene, &tile, ks.clone(), &mut rays);
+                assert_eq!(rays.len() as u64, ks.end - ks.start);
+                for (i, k) in ks.enumerate() {
+                    let slot = block_slot(&tile, (k / spp) as u32);
+                    let j = (k % spp) as u32;
+                    let (x, y) = (tile.x0 + slot % 9, tile.y0 + slot / 9);
+                    let pixel = y * s.width + x;
+                    let film = Vec2::new(x as f32, y as f32) + cmj(j / dof, aa, hash(&[s.seed, pixel, dim::PIXEL]));
+                    let mut d = scene.camera.pinhole_dir(film, s.width, s.height);
+                    let mut o = scene.camera.position;
+                    if aperture > 0.0 {
+                        let lens = lens_sample(&scene, pixel, j / dof, j % dof, j, hash(&[s.seed, pixel, dim::LENS]));
+                        (o, d) = thin_lens(&scene, d, lens);
+                    }
+                    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                    assert_eq!((bits(rays.origin(i)), bits(rays.dir(i))), (bits(o), bits(d)), "{sets:?} ray {k}");
+                    assert_eq!((rays.slot[i], rays.sample[i], rays.depth[i]), (slot, j, 0));
+                    assert_eq!(rays.key[i], hash(&[s.seed, pixel, dim::PATH]));
+                    assert_eq!(rays.weight(i), Vec3::splat(1.0 / spp as f32));
+                }
+            }
+        }
+    }
+
+    #[test]
     fn lens_rays_walk_as_split_says() {
         let starts = [0u64, 1, 4, 4 + 70, 4 + 70 + 2];
         for lens in [Lens::Fixed(3), Lens::Fixed(1), Lens::PerPoint(&starts)] {
