@@ -4,8 +4,9 @@
 
 use glam::Vec3;
 
-use crate::sampling::{cmj_grid, dim, hash, sobol_owen};
+use crate::sampling::{cmj_grid, dim, hash_lanes, sobol_owen_lanes};
 use crate::scene::{Light, Scene};
+use crate::simd::{Real, Word, V3};
 use crate::surface::{diffuse_brdf, Surface};
 
 /// Shadow rays stop this fraction short of the light, so a surface the light lies on
@@ -15,7 +16,13 @@ pub const SHADOW_TMAX_SCALE: f32 = 1.0 - 1e-4;
 /// The seed of quad light `li`'s sample sequence seen from the points named by `key`.
 #[inline]
 pub fn light_seed(key: u32, li: usize) -> u32 {
-    hash(&[key, li as u32, dim::LIGHT])
+    light_seed_lanes(key, li as u32)
+}
+
+/// [`light_seed`] on lanes of keys and light indices.
+#[inline(always)]
+pub fn light_seed_lanes<W: Word>(key: W, li: W) -> W {
+    hash_lanes([key, li, W::splat(dim::LIGHT)])
 }
 
 /// The grid of `n` light samples early stopping orders them on ([`quad_light_samples`]'s
@@ -51,25 +58,81 @@ pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
     let (cols, rows) = sample_grid(count);
     let net = count.is_power_of_two();
     let scale = area / count as f32;
+    let quad = QuadLanes::<f32>::splat(corner, u, v, normal);
+    let (o, n) = (V3::splat(surf.o), V3::splat(surf.n));
     for j in 0..count {
         // Past 2^32 samples of a point the indices wrap: each sample stays uniform over
         // the light (unbiased), only the stratification between the wrapped ones is lost.
-        let uv = sobol_owen(first.wrapping_add(j), seed);
-        // Scaling by a power of two and truncating reads the fraction's top bits exactly,
-        // so the net's points land in distinct cells.
-        let cell = if net { (uv.y * rows as f32) as u32 * cols + (uv.x * cols as f32) as u32 } else { j };
-        let to = corner + uv.x * u + uv.y * v - surf.o;
-        let dist2 = to.length_squared();
-        let dist = dist2.sqrt();
-        let wi = to / dist;
-        let cos_x = surf.n.dot(wi);
-        let cos_y = -normal.dot(wi);
-        if cos_x <= 0.0 || cos_y <= 0.0 {
+        let index = first.wrapping_add(j);
+        let q = quad_sample(&quad, o, n, index, seed);
+        if q.cos_x <= 0.0 || q.cos_y <= 0.0 {
             continue;
         }
+        // Scaling by a power of two and truncating reads the fraction's top bits exactly,
+        // so the net's points land in distinct cells.
+        let cell = if net { (q.uv.1 * rows as f32) as u32 * cols + (q.uv.0 * cols as f32) as u32 } else { j };
+        let wi = q.wi.vec();
         let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
-        f(cell, wi, dist, surf.w * brdf * radiance * (cos_x * cos_y * scale / dist2));
+        f(cell, wi, q.dist, surf.w * brdf * radiance * (q.cos_x * q.cos_y * scale / q.dist2));
     }
+}
+
+/// A quad light's corner, edges and normal on lanes: one light on every lane, or a light
+/// per lane.
+#[derive(Clone, Copy, Debug)]
+pub struct QuadLanes<R> {
+    /// Corner.
+    pub corner: V3<R>,
+    /// First edge.
+    pub u: V3<R>,
+    /// Second edge.
+    pub v: V3<R>,
+    /// Unit normal of the emitting side.
+    pub normal: V3<R>,
+}
+
+impl<R: Real> QuadLanes<R> {
+    /// The same light on every lane.
+    #[inline(always)]
+    pub fn splat(corner: Vec3, u: Vec3, v: Vec3, normal: Vec3) -> Self {
+        QuadLanes { corner: V3::splat(corner), u: V3::splat(u), v: V3::splat(v), normal: V3::splat(normal) }
+    }
+}
+
+/// One light sample of a quad, on lanes: what [`quad_sample`] computes.
+#[derive(Clone, Copy, Debug)]
+pub struct QuadSample<R> {
+    /// The sample's position in [0,1)² over the quad.
+    pub uv: (R, R),
+    /// Unit direction from the shading point to the sample.
+    pub wi: V3<R>,
+    /// Distance to the sample.
+    pub dist: R,
+    /// Its square.
+    pub dist2: R,
+    /// Cosine at the shading point (n · wi).
+    pub cos_x: R,
+    /// Cosine at the light (−normal · wi).
+    pub cos_y: R,
+}
+
+/// Sample `index` of the Owen-scrambled Sobol sequence `seed` on `quad`, seen from origin
+/// `o` with normal `n`: the one formula behind every quad-light sample, for one ray
+/// ([`quad_light_samples`]) and for 16 (the shade stage's lanes), with the same bits.
+#[inline(always)]
+pub fn quad_sample<W: Word>(
+    quad: &QuadLanes<W::Real>,
+    o: V3<W::Real>,
+    n: V3<W::Real>,
+    index: W,
+    seed: W,
+) -> QuadSample<W::Real> {
+    let (x, y) = sobol_owen_lanes(index, seed);
+    let to = quad.corner + quad.u.scale(x) + quad.v.scale(y) - o;
+    let dist2 = to.dot(to);
+    let dist = dist2.sqrt();
+    let wi = to.over(dist);
+    QuadSample { uv: (x, y), wi, dist, dist2, cos_x: n.dot(wi), cos_y: -quad.normal.dot(wi) }
 }
 
 /// Irradiance at `o` (unit normal `n`) from a parallelogram of unit radiance with

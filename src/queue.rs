@@ -310,6 +310,62 @@ impl PenumbraQueues {
     }
 }
 
+soa! {
+    /// Diffuse shading points the shade stage lights lane by lane (a
+    /// [`Surface`](crate::surface::Surface) per entry).
+    pub struct SurfaceQueue {
+        /// Shadow-ray origin x.
+        ox: f32,
+        /// Shadow-ray origin y.
+        oy: f32,
+        /// Shadow-ray origin z.
+        oz: f32,
+        /// Unit normal x, on the side the ray arrived from.
+        nx: f32,
+        /// Normal y.
+        ny: f32,
+        /// Normal z.
+        nz: f32,
+        /// Direction back along the incoming ray, x.
+        wox: f32,
+        /// Back direction y.
+        woy: f32,
+        /// Back direction z.
+        woz: f32,
+        /// Albedo red.
+        cr: f32,
+        /// Albedo green.
+        cg: f32,
+        /// Albedo blue.
+        cb: f32,
+        /// Phong reflectance red.
+        sr: f32,
+        /// Phong reflectance green.
+        sg: f32,
+        /// Phong reflectance blue.
+        sb: f32,
+        /// Phong exponent.
+        shininess: f32,
+        /// Path throughput red.
+        wr: f32,
+        /// Path throughput green.
+        wg: f32,
+        /// Path throughput blue.
+        wb: f32,
+        /// Accumulation slot.
+        slot: u32,
+        /// Path key.
+        key: u32,
+        /// Camera sample index of the path.
+        sample: u32,
+    }
+    push(o: Vec3 => ox, oy, oz; n: Vec3 => nx, ny, nz; wo: Vec3 => wox, woy, woz; color: Vec3 => cr, cg, cb;
+         specular: Vec3 => sr, sg, sb; shininess: f32 => shininess; w: Vec3 => wr, wg, wb; slot: u32 => slot;
+         key: u32 => key; sample: u32 => sample)
+    get(origin => ox, oy, oz; normal => nx, ny, nz; wo => wox, woy, woz; color => cr, cg, cb;
+        specular => sr, sg, sb; weight => wr, wg, wb)
+}
+
 /// The queues of one wave, owned by a worker and reused from wave to wave.
 #[derive(Default, Debug, Clone)]
 pub struct WaveQueues {
@@ -319,6 +375,8 @@ pub struct WaveQueues {
     pub hits: HitQueue,
     /// Shadow rays of point lights and of uniform-mode quad lights.
     pub shadow: ShadowQueue,
+    /// Uniform shadows: the diffuse points the shade stage lights on lanes.
+    pub surfaces: SurfaceQueue,
     /// Adaptive shadows: the shadow-corner queue.
     pub points: ShadowPointQueue,
     /// Adaptive shadows: the points the corner test could not decide.
@@ -339,6 +397,7 @@ impl WaveQueues {
         self.rays.bytes()
             + self.hits.bytes()
             + self.shadow.bytes()
+            + self.surfaces.bytes()
             + self.points.bytes()
             + self.penumbra.bytes()
             + self.penumbra_rays.bytes()

@@ -61,10 +61,10 @@ pub fn hash(keys: &[u32]) -> u32 {
     keys.iter().fold(HASH_START, |h, &k| hash_step(h, k))
 }
 
-/// [`hash`] of the pair `[a, b]`, on lanes of `a`.
+/// [`hash`] on lanes of keys.
 #[inline(always)]
-pub fn hash2<W: Word>(a: W, b: u32) -> W {
-    hash_step(hash_step(W::splat(HASH_START), a), W::splat(b))
+pub fn hash_lanes<W: Word, const N: usize>(keys: [W; N]) -> W {
+    keys.into_iter().fold(W::splat(HASH_START), hash_step)
 }
 
 /// A float in [0, 1) from a hash value (24 bits of mantissa).
@@ -161,8 +161,8 @@ pub fn cmj_lanes<W: Word>(s: W, n: u32, pattern: u32) -> (W::Real, W::Real, W) {
     let (row, col) = s.div_rem(m);
     let sx = permute(col, m, pattern.wrapping_mul(0x68bc_21eb));
     let sy = permute(row, k, pattern.wrapping_mul(0x02e5_be93));
-    let jx = unit(hash2(s, pattern.wrapping_mul(0x967a_889b)));
-    let jy = unit(hash2(s, pattern.wrapping_mul(0x368c_c8b7)));
+    let jx = unit(hash_lanes([s, W::splat(pattern.wrapping_mul(0x967a_889b))]));
+    let jy = unit(hash_lanes([s, W::splat(pattern.wrapping_mul(0x368c_c8b7))]));
     let (mf, kf) = (W::Real::splat(m as f32), W::Real::splat(k as f32));
     let x = (col.real() + (sy.real() + jx) / kf) / mf;
     let y = (row.real() + (sx.real() + jy) / mf) / kf;
@@ -174,8 +174,8 @@ pub fn cmj_lanes<W: Word>(s: W, n: u32, pattern: u32) -> (W::Real, W::Real, W) {
 /// Laine and Karras's hash-based Owen scrambling of the bits of `x` from the low end:
 /// bit b is flipped depending only on `seed` and the bits below b (Burley 2020).
 #[inline]
-fn laine_karras<W: Word>(mut x: W, seed: u32) -> W {
-    x = x.wadd(W::splat(seed));
+fn laine_karras<W: Word>(mut x: W, seed: W) -> W {
+    x = x.wadd(seed);
     x = x ^ x.wmul(W::splat(0x6c50_b47c));
     x = x ^ x.wmul(W::splat(0xb82f_1e52));
     x = x ^ x.wmul(W::splat(0xc7af_e638));
@@ -187,7 +187,7 @@ fn laine_karras<W: Word>(mut x: W, seed: u32) -> W {
 /// significant, flipped depending on the digits before it. It maps every aligned block
 /// of 2^k values onto an aligned block of 2^k values.
 #[inline(always)]
-fn owen_scramble<W: Word>(x: W, seed: u32) -> W {
+fn owen_scramble<W: Word>(x: W, seed: W) -> W {
     laine_karras(x.reverse(), seed).reverse()
 }
 
@@ -226,12 +226,12 @@ pub fn sobol_owen(index: u32, seed: u32) -> Vec2 {
     Vec2::new(x, y)
 }
 
-/// [`sobol_owen`] for lanes of indices: the x and y lanes.
+/// [`sobol_owen`] for lanes of indices and seeds: the x and y lanes.
 #[inline(always)]
-pub fn sobol_owen_lanes<W: Word>(index: W, seed: u32) -> (W::Real, W::Real) {
-    let (x, y) = sobol2(owen_scramble(index, mix(seed ^ 0x5bd1_e995)));
-    let x = owen_scramble(x, mix(seed ^ 0x1b87_3593));
-    let y = owen_scramble(y, mix(seed ^ 0xcc9e_2d51));
+pub fn sobol_owen_lanes<W: Word>(index: W, seed: W) -> (W::Real, W::Real) {
+    let (x, y) = sobol2(owen_scramble(index, mix(seed ^ W::splat(0x5bd1_e995))));
+    let x = owen_scramble(x, mix(seed ^ W::splat(0x1b87_3593)));
+    let y = owen_scramble(y, mix(seed ^ W::splat(0xcc9e_2d51)));
     let one = W::Real::splat(ONE_MINUS_EPS);
     (unit(x).min(one), unit(y).min(one))
 }
@@ -374,7 +374,7 @@ mod tests {
                 for first in (0..n).step_by(16) {
                     let s = u32x16::from(std::array::from_fn::<u32, 16, _>(|k| (first + k as u32).min(n - 1)));
                     let (x, y, cell) = cmj_lanes(s, n, pattern);
-                    let (sobol_x, sobol_y) = sobol_owen_lanes(s, pattern);
+                    let (sobol_x, sobol_y) = sobol_owen_lanes(s, u32x16::splat(pattern));
                     for k in 0..16 {
                         let i = (first + k as u32).min(n - 1);
                         let (p, c) = cmj_cell(i, n, pattern);

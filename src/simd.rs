@@ -4,7 +4,7 @@
 //! time with the same operations in the same order, so both give the same bits (Rust
 //! never fuses a multiply and an add on its own).
 
-use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Not, Shl, Shr, Sub};
+use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Shl, Shr, Sub};
 use wide::{f32x16, i32x16, u32x16};
 
 /// Number of lanes of the vector instances.
@@ -45,7 +45,9 @@ pub trait Word:
 }
 
 /// 32-bit floats.
-pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> {
+pub trait Real:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
+{
     /// Every lane `x`.
     fn splat(x: f32) -> Self;
     /// Lane-wise minimum (neither operand is NaN where it is used).
@@ -231,6 +233,11 @@ impl<R: Real> V3<R> {
     pub fn scale(self, s: R) -> Self {
         V3 { x: self.x * s, y: self.y * s, z: self.z * s }
     }
+    /// Quotient by a scalar per lane, as `Vec3 / f32` (three divisions).
+    #[inline(always)]
+    pub fn over(self, s: R) -> Self {
+        V3 { x: self.x / s, y: self.y / s, z: self.z / s }
+    }
     /// Dot product, as `Vec3::dot`.
     #[inline(always)]
     pub fn dot(self, o: Self) -> R {
@@ -240,6 +247,14 @@ impl<R: Real> V3<R> {
     #[inline(always)]
     pub fn normalize(self) -> Self {
         self.scale(R::splat(1.0) / self.dot(self).sqrt())
+    }
+}
+
+impl V3<f32> {
+    /// As a glam vector.
+    #[inline(always)]
+    pub fn vec(self) -> glam::Vec3 {
+        glam::Vec3::new(self.x, self.y, self.z)
     }
 }
 

@@ -12,7 +12,7 @@ use std::f32::consts::FRAC_1_PI;
 use support::{closest, polygon_irradiance, FloorScene};
 use wavetrace::geometry::tracer::{Kernel, Tracer};
 use wavetrace::light::SHADOW_TMAX_SCALE;
-use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, MISS};
+use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use wavetrace::scene::{Light, Probe, ShadowMode};
 use wavetrace::stages::shadow_corner::probe_targets;
 use wavetrace::stages::{shade as shade_stage, shadow_corner};
@@ -35,7 +35,9 @@ struct Shaded {
 fn shade(scene: &Scene, rays: &RayQueue, hits: &HitQueue) -> Shaded {
     let (mut shadow, mut points, mut specular, mut film) =
         (ShadowQueue::default(), ShadowPointQueue::default(), IndexQueue::default(), FilmQueue::default());
-    let uniform_equivalent = shade_stage::shade(scene, rays, hits, &mut shadow, &mut points, &mut specular, &mut film);
+    let mut surfaces = SurfaceQueue::default();
+    let uniform_equivalent =
+        shade_stage::shade(scene, rays, hits, &mut shadow, &mut points, &mut surfaces, &mut specular, &mut film);
     Shaded { shadow, points, specular: specular.index, film, uniform_equivalent }
 }
 
@@ -146,6 +148,49 @@ const DOWN: Vec3 = Vec3::NEG_Y;
 
 // ---------------------------------------------------------------------------------------
 // Shade
+
+#[test]
+fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
+    // Cornell with two more quad lights, one dark; Lambert and Phong walls; 1, 3 and 16
+    // samples a light, so lanes hold one point, several, and parts of one.
+    let mut text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml")).unwrap();
+    text += "\n[[lights]]\ntype = \"quad\"\ncorner = [0.9, 0.5, -0.3]\nedge_u = [0, 0.6, 0]\nedge_v = [0, 0, 0.6]\nradiance = [0, 0, 0]\n";
+    text += "\n[[lights]]\ntype = \"quad\"\ncorner = [-0.95, 1.2, -0.2]\nedge_u = [0, 0, 0.4]\nedge_v = [0, 0.4, 0]\nradiance = [3, 3, 3]\n";
+    for n in [1, 3, 16] {
+        let scene = support::scene_in(
+            std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes")),
+            &text,
+            &[&format!("render.shadows.samples={n}"), "render.width=24", "render.height=18"],
+        );
+        let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 24, y1: 18 };
+        let mut rays = RayQueue::default();
+        let spp = scene.settings.aa_samples as u64 * scene.settings.dof_samples as u64;
+        wavetrace::stages::camera::generate(&scene, &tile, 0..24 * 18 * spp, &mut rays);
+        let hits = trace(&scene, &rays);
+        let out = shade(&scene, &rays, &hits);
+        let mut want = ShadowQueue::default();
+        for i in 0..rays.len() {
+            let Some(surf) = wavetrace::surface::diffuse_surface(&scene, &rays, &hits, i) else { continue };
+            for li in 0..scene.lights.len() {
+                wavetrace::light::uniform_shadow_rays(&scene, &surf, li, |wi, tmax, l| {
+                    want.push(surf.o, wi, tmax, surf.slot, l)
+                });
+            }
+        }
+        assert_eq!(scene.lights.len(), 3);
+        assert!(want.len() > 1000, "{n} samples: only {} shadow rays", want.len());
+        let bits = |q: &ShadowQueue| {
+            (0..q.len())
+                .map(|i| {
+                    [q.ox[i], q.oy[i], q.oz[i], q.dx[i], q.dy[i], q.dz[i], q.tmax[i], q.lr[i], q.lg[i], q.lb[i]]
+                        .map(f32::to_bits)
+                })
+                .zip(q.slot.iter().copied())
+                .collect::<Vec<_>>()
+        };
+        assert!(bits(&out.shadow) == bits(&want), "{n} samples: the lanes' shadow queue differs from the scalar one");
+    }
+}
 
 #[test]
 fn a_miss_sends_the_background_to_the_film_in_its_slot() {

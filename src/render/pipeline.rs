@@ -115,7 +115,16 @@ impl<'a> Pipeline<'a> {
         intersect::intersect(tr, &q.rays, coherence, &mut q.hits);
         t = m.intersect(q, heat, tr, t);
 
-        let uniform = shade::shade(scene, &q.rays, &q.hits, &mut q.shadow, &mut q.points, &mut q.specular, &mut q.film);
+        let uniform = shade::shade(
+            scene,
+            &q.rays,
+            &q.hits,
+            &mut q.shadow,
+            &mut q.points,
+            &mut q.surfaces,
+            &mut q.specular,
+            &mut q.film,
+        );
         t = m.shade(q, uniform, t);
 
         let lit = shadow::occlusion(tr, &q.shadow, &mut q.film);

@@ -17,7 +17,7 @@ use std::path::Path;
 use wavetrace::film::Image;
 use wavetrace::geometry::tracer::{Coherence, Kernel, Tracer};
 use wavetrace::geometry::Traversal;
-use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue};
+use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue};
 use wavetrace::scene::{load, SceneSource};
 use wavetrace::stages::{intersect, scatter, shade};
 use wavetrace::{render, RenderOptions, RenderOutput, Scene};
@@ -94,7 +94,8 @@ pub fn step_all(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue, ShadowQu
     let (mut shadow, mut spec, mut film) = (ShadowQueue::default(), IndexQueue::default(), FilmQueue::default());
     let mut tracer = Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false);
     intersect::intersect(&mut tracer, rays, Coherence::Camera, &mut hits);
-    shade::shade(scene, rays, &hits, &mut shadow, &mut ShadowPointQueue::default(), &mut spec, &mut film);
+    let (mut points, mut surfaces) = (ShadowPointQueue::default(), SurfaceQueue::default());
+    shade::shade(scene, rays, &hits, &mut shadow, &mut points, &mut surfaces, &mut spec, &mut film);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next);
     (next, hits, shadow, film)
