@@ -358,10 +358,12 @@ soa! {
         key: u32,
         /// Camera sample index of the path.
         sample: u32,
+        /// Index of the ray that hit the point, in the shaded ray queue.
+        ray: u32,
     }
     push(o: Vec3 => ox, oy, oz; n: Vec3 => nx, ny, nz; wo: Vec3 => wox, woy, woz; color: Vec3 => cr, cg, cb;
          specular: Vec3 => sr, sg, sb; shininess: f32 => shininess; w: Vec3 => wr, wg, wb; slot: u32 => slot;
-         key: u32 => key; sample: u32 => sample)
+         key: u32 => key; sample: u32 => sample; ray: u32 => ray)
     get(origin => ox, oy, oz; normal => nx, ny, nz; wo => wox, woy, woz; color => cr, cg, cb;
         specular => sr, sg, sb; weight => wr, wg, wb)
 }
@@ -375,7 +377,7 @@ pub struct WaveQueues {
     pub hits: HitQueue,
     /// Shadow rays of point lights and of uniform-mode quad lights.
     pub shadow: ShadowQueue,
-    /// Uniform shadows: the diffuse points the shade stage lights on lanes.
+    /// The diffuse points the shade stage lights.
     pub surfaces: SurfaceQueue,
     /// Adaptive shadows: the shadow-corner queue.
     pub points: ShadowPointQueue,

@@ -54,6 +54,13 @@ pub trait Real:
     fn min(self, o: Self) -> Self;
     /// Lane-wise square root (correctly rounded, like `f32::sqrt`).
     fn sqrt(self) -> Self;
+    /// Lane-wise absolute value.
+    fn abs(self) -> Self;
+    /// Lane-wise `test < 0 ? a : b`.
+    fn if_negative(test: Self, a: Self, b: Self) -> Self;
+    /// One float step toward the sign of `s`: `next_up` where `s > 0`, `next_down` where
+    /// `s < 0`, unchanged where `s` is zero (or NaN).
+    fn step(self, s: Self) -> Self;
 }
 
 impl Word for u32 {
@@ -120,6 +127,28 @@ impl Real for f32 {
     #[inline(always)]
     fn sqrt(self) -> Self {
         f32::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn if_negative(test: Self, a: Self, b: Self) -> Self {
+        if test < 0.0 {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn step(self, s: Self) -> Self {
+        if s > 0.0 {
+            self.next_up()
+        } else if s < 0.0 {
+            self.next_down()
+        } else {
+            self
+        }
     }
 }
 
@@ -208,6 +237,33 @@ impl Real for f32x16 {
     fn sqrt(self) -> Self {
         f32x16::sqrt(self)
     }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32x16::abs(self)
+    }
+    #[inline(always)]
+    fn if_negative(test: Self, a: Self, b: Self) -> Self {
+        test.simd_lt(f32x16::ZERO).select(a, b)
+    }
+    #[inline(always)]
+    fn step(self, s: Self) -> Self {
+        // f32::next_up / next_down on the bits: NaN and the infinity in the step's
+        // direction stay, ±0 goes to the smallest subnormal of that sign, else the
+        // magnitude grows or shrinks by one unit in the last place.
+        let bits = self.to_bits();
+        let one = u32x16::splat(1);
+        let sign = u32x16::splat(0x8000_0000);
+        let abs = bits & !sign;
+        let zero = abs.simd_eq(u32x16::ZERO);
+        let positive = bits.simd_eq(abs);
+        let up = zero.select(one, positive.select(bits + one, bits - one));
+        let down = zero.select(sign | one, positive.select(bits - one, bits + one));
+        let nan = self.is_nan().to_bits();
+        let up = (nan | bits.simd_eq(u32x16::splat(f32::INFINITY.to_bits()))).select(bits, up);
+        let down = (nan | bits.simd_eq(u32x16::splat(f32::NEG_INFINITY.to_bits()))).select(bits, down);
+        let (gt, lt) = (s.simd_gt(f32x16::ZERO).to_bits(), s.simd_lt(f32x16::ZERO).to_bits());
+        f32x16::from_bits(gt.select(up, lt.select(down, bits)))
+    }
 }
 
 /// A vector of three coordinates, each a [`Real`]: glam's `Vec3` operations on lanes, in
@@ -238,6 +294,21 @@ impl<R: Real> V3<R> {
     pub fn over(self, s: R) -> Self {
         V3 { x: self.x / s, y: self.y / s, z: self.z / s }
     }
+    /// Cross product, as `Vec3::cross`.
+    #[inline(always)]
+    pub fn cross(self, o: Self) -> Self {
+        V3 { x: self.y * o.z - o.y * self.z, y: self.z * o.x - o.z * self.x, z: self.x * o.y - o.x * self.y }
+    }
+    /// Component-wise absolute value.
+    #[inline(always)]
+    pub fn abs(self) -> Self {
+        V3 { x: self.x.abs(), y: self.y.abs(), z: self.z.abs() }
+    }
+    /// Lane-wise `test < 0 ? a : b`.
+    #[inline(always)]
+    pub fn if_negative(test: R, a: Self, b: Self) -> Self {
+        V3 { x: R::if_negative(test, a.x, b.x), y: R::if_negative(test, a.y, b.y), z: R::if_negative(test, a.z, b.z) }
+    }
     /// Dot product, as `Vec3::dot`.
     #[inline(always)]
     pub fn dot(self, o: Self) -> R {
@@ -251,6 +322,11 @@ impl<R: Real> V3<R> {
 }
 
 impl V3<f32> {
+    /// From a glam vector.
+    #[inline(always)]
+    pub fn from_vec(v: glam::Vec3) -> Self {
+        V3 { x: v.x, y: v.y, z: v.z }
+    }
     /// As a glam vector.
     #[inline(always)]
     pub fn vec(self) -> glam::Vec3 {
@@ -263,6 +339,14 @@ impl<R: Real> Add for V3<R> {
     #[inline(always)]
     fn add(self, o: Self) -> Self {
         V3 { x: self.x + o.x, y: self.y + o.y, z: self.z + o.z }
+    }
+}
+
+impl<R: Real> Neg for V3<R> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        V3 { x: -self.x, y: -self.y, z: -self.z }
     }
 }
 
@@ -292,6 +376,45 @@ mod tests {
 
     fn lanes(f: impl Fn(usize) -> u32) -> u32x16 {
         u32x16::from(std::array::from_fn::<u32, 16, _>(f))
+    }
+
+    #[test]
+    fn step_lanes_equal_next_up_and_next_down() {
+        let specials = [
+            0.0f32,
+            -0.0,
+            1.0,
+            -1.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::from_bits(0x8000_0001),
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            3.5e-39,
+            -7.25e12,
+            1e-45,
+        ];
+        let mut h = 7u32;
+        for round in 0..3000 {
+            let x: [f32; 16] = std::array::from_fn(|k| {
+                h = crate::sampling::mix(h.wrapping_add(0x9e37_79b9));
+                if round % 2 == 0 {
+                    specials[k]
+                } else {
+                    f32::from_bits(h)
+                }
+            });
+            for s in [1.0f32, -1.0, 0.0, -0.0, f32::NAN, 1e-40] {
+                let got = f32x16::from(x).step(f32x16::splat(s)).to_array();
+                for k in 0..16 {
+                    assert_eq!(got[k].to_bits(), x[k].step(s).to_bits(), "{} toward {s}", x[k]);
+                }
+            }
+        }
     }
 
     #[test]

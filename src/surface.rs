@@ -4,10 +4,14 @@
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use crate::geometry::offset::offset_ray_origin;
+use wide::f32x16;
+
+use crate::geometry::offset::{offset_lanes, offset_ray_origin};
+use crate::geometry::shapes::{quad_point, sphere_point, triangle_point, Shape};
 use crate::geometry::NO_LIGHT;
-use crate::queue::{HitQueue, RayQueue};
+use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
 use crate::scene::{Material, Scene};
+use crate::simd::{LANES, V3};
 
 /// Lambert plus normalised Phong: `color/π + specular·(n+2)/(2π)·max(0, r·wo)^n`,
 /// with `r` the mirror direction of `wi` about `n`.
@@ -48,16 +52,25 @@ pub struct Surface {
     pub sample: u32,
 }
 
-/// The diffuse surface that ray `i` hit, or `None` if it hit something else.
+/// The Lambert/Phong parameters (albedo, Phong reflectance, exponent) of primitive
+/// `prim` when it is a diffuse non-emitter, else `None`.
 #[inline]
-pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
-    let prim = scene.accel.prims.get(hits.prim[i] as usize)?;
+pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Vec3, Vec3, f32)> {
+    let prim = scene.accel.prims.get(prim as usize)?;
     if prim.light != NO_LIGHT {
         return None;
     }
-    let Material::Diffuse { color, specular, shininess } = scene.materials[prim.material as usize] else {
-        return None;
-    };
+    match scene.materials[prim.material as usize] {
+        Material::Diffuse { color, specular, shininess } => Some((color, specular, shininess)),
+        _ => None,
+    }
+}
+
+/// The diffuse surface that ray `i` hit, or `None` if it hit something else.
+#[inline]
+pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
+    let (color, specular, shininess) = diffuse_material(scene, hits.prim[i])?;
+    let prim = &scene.accel.prims[hits.prim[i] as usize];
     let d = rays.dir(i);
     let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
     let ng = prim.shape.normal(x).normalize();
@@ -75,4 +88,85 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
         key: rays.key[i],
         sample: rays.sample[i],
     })
+}
+
+/// Appends to `out`, in order, the diffuse surfaces of rays `ids` (at most 16, each of
+/// which hit a diffuse primitive), computed on lanes: every lane runs the sphere,
+/// parallelogram and triangle formulas of [`Shape::surface_point`] and keeps its own
+/// shape's, so the points are [`diffuse_surface`]'s bit for bit.
+pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], out: &mut SurfaceQueue) {
+    let Some(&last) = ids.last() else { return };
+    let id = |k: usize| ids.get(k).copied().unwrap_or(last) as usize;
+    let ray = |v: &[f32]| f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| v[id(k)]));
+    let (o, d) = (
+        V3 { x: ray(&rays.ox), y: ray(&rays.oy), z: ray(&rays.oz) },
+        V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) },
+    );
+    // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
+    // and edges, a triangle's vertices.
+    let (mut abc, mut kind) = ([[0.0f32; LANES]; 9], [0u32; LANES]);
+    for k in 0..LANES {
+        let (a, b, c, what) = match scene.accel.prims[hits.prim[id(k)] as usize].shape {
+            Shape::Sphere { center, radius } => (center, Vec3::splat(radius), Vec3::ZERO, 0),
+            Shape::Quad { corner, u, v } => (corner, u, v, 1),
+            Shape::Triangle { v0, v1, v2 } => (v0, v1, v2, 2),
+        };
+        for (j, x) in [a, b, c].iter().flat_map(|v| v.to_array()).enumerate() {
+            abc[j][k] = x;
+        }
+        kind[k] = what;
+    }
+    let v3 = |j: usize| V3 { x: f32x16::from(abc[j]), y: f32x16::from(abc[j + 1]), z: f32x16::from(abc[j + 2]) };
+    let (a, b, c) = (v3(0), v3(3), v3(6));
+    let x = o + d.scale(ray(&hits.t));
+    let (sphere, quad, triangle) = (sphere_point(a, b.x, x), quad_point(a, b, c, x), triangle_point(a, b, c, x));
+    let is = |what: u32| f32x16::from(kind.map(|k| if k == what { f32::from_bits(!0) } else { 0.0 }));
+    let (is_sphere, is_quad) = (is(0), is(1));
+    let pick = |s: V3<f32x16>, q: V3<f32x16>, t: V3<f32x16>| V3 {
+        x: is_sphere.select(s.x, is_quad.select(q.x, t.x)),
+        y: is_sphere.select(s.y, is_quad.select(q.y, t.y)),
+        z: is_sphere.select(s.z, is_quad.select(q.z, t.z)),
+    };
+    let (p, err) = (pick(sphere.0, quad.0, triangle.0), pick(sphere.1, quad.1, triangle.1));
+    // Shape::normal, then normalised and turned to the side the ray came from.
+    let ng = pick(sphere.0 - a, b.cross(c), (b - a).cross(c - a)).normalize();
+    let n = V3::if_negative(ng.dot(d), ng, -ng);
+    // Whole columns at once: one capacity check per column, not per value.
+    let count = ids.len();
+    let put = |col: &mut Vec<f32>, v: f32x16| col.extend_from_slice(&v.to_array()[..count]);
+    let put3 = |x: &mut Vec<f32>, y: &mut Vec<f32>, z: &mut Vec<f32>, v: V3<f32x16>| {
+        put(x, v.x);
+        put(y, v.y);
+        put(z, v.z);
+    };
+    put3(&mut out.ox, &mut out.oy, &mut out.oz, offset_lanes(p, err, n));
+    put3(&mut out.nx, &mut out.ny, &mut out.nz, n);
+    put3(&mut out.wox, &mut out.woy, &mut out.woz, -d);
+    put3(&mut out.wr, &mut out.wg, &mut out.wb, V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) });
+    let materials: [_; LANES] = std::array::from_fn(|k| diffuse_material(scene, hits.prim[id(k)]).unwrap_or_default());
+    let m = |f: &dyn Fn(&(Vec3, Vec3, f32)) -> f32| f32x16::from(materials.map(|m| f(&m)));
+    put3(&mut out.cr, &mut out.cg, &mut out.cb, V3 { x: m(&|m| m.0.x), y: m(&|m| m.0.y), z: m(&|m| m.0.z) });
+    put3(&mut out.sr, &mut out.sg, &mut out.sb, V3 { x: m(&|m| m.1.x), y: m(&|m| m.1.y), z: m(&|m| m.1.z) });
+    put(&mut out.shininess, m(&|m| m.2));
+    out.slot.extend(ids.iter().map(|&i| rays.slot[i as usize]));
+    out.key.extend(ids.iter().map(|&i| rays.key[i as usize]));
+    out.sample.extend(ids.iter().map(|&i| rays.sample[i as usize]));
+    out.ray.extend_from_slice(ids);
+}
+
+/// Entry `p` of `q` as a [`Surface`].
+#[inline]
+pub fn queued_surface(q: &SurfaceQueue, p: usize) -> Surface {
+    Surface {
+        o: q.origin(p),
+        n: q.normal(p),
+        wo: q.wo(p),
+        color: q.color(p),
+        specular: q.specular(p),
+        shininess: q.shininess[p],
+        w: q.weight(p),
+        slot: q.slot[p],
+        key: q.key[p],
+        sample: q.sample[p],
+    }
 }

@@ -150,6 +150,74 @@ const DOWN: Vec3 = Vec3::NEG_Y;
 // Shade
 
 #[test]
+fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
+    // Spheres, parallelograms and meshes, hit by camera rays and by rays from inside
+    // the scene in every direction, in groups of 1 to 16.
+    let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
+    let mut rng = support::Lcg(3);
+    let mut shapes = [0usize; 3];
+    for name in ["default", "cornell", "bunny", "penumbra"] {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+        let scene = support::scene_in(dir, &text, &[]);
+        let mut rays = RayQueue::default();
+        let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 16, y1: 12 };
+        let small = support::scene_in(dir, &text, &["render.width=16", "render.height=12", "render.aa.samples=4"]);
+        wavetrace::stages::camera::generate(&small, &tile, 0..16 * 12 * 4, &mut rays);
+        let (lo, hi) = scene
+            .accel
+            .prims
+            .iter()
+            .map(|p| p.shape.bounds())
+            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), (a, b)| {
+                (lo.min(a), hi.max(b))
+            });
+        for k in 0..3000 {
+            let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
+            rays.push(o, rng.unit(), k, Vec3::new(0.5, 1.0, 0.25), 0, k, k);
+        }
+        // And at the middle of diffuse primitives, so every shape gets hit.
+        let diffuse = |p: usize| wavetrace::surface::diffuse_material(&scene, p as u32).is_some();
+        let prims: Vec<usize> = (0..scene.accel.prims.len()).filter(|&p| diffuse(p)).collect();
+        for k in 0..3000u32 {
+            let (a, b) = scene.accel.prims[prims[(k as usize * 7919) % prims.len()]].shape.bounds();
+            let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
+            rays.push(o, (0.5 * (a + b) - o).normalize(), k, Vec3::ONE, 0, k, k);
+        }
+        let hits = trace(&scene, &rays);
+        let ids: Vec<u32> = (0..rays.len() as u32)
+            .filter(|&i| wavetrace::surface::diffuse_material(&scene, hits.prim[i as usize]).is_some())
+            .collect();
+        let mut lanes = SurfaceQueue::default();
+        let mut at = 0;
+        while at < ids.len() {
+            let len = (1 + at % 16).min(ids.len() - at);
+            wavetrace::surface::diffuse_surfaces(&scene, &rays, &hits, &ids[at..at + len], &mut lanes);
+            at += len;
+        }
+        assert_eq!(lanes.len(), ids.len());
+        for (p, &i) in ids.iter().enumerate() {
+            let want = wavetrace::surface::diffuse_surface(&scene, &rays, &hits, i as usize).unwrap();
+            let got = wavetrace::surface::queued_surface(&lanes, p);
+            let bits = |s: &wavetrace::surface::Surface| {
+                [s.o, s.n, s.wo, s.color, s.specular, s.w].map(|v| v.to_array().map(f32::to_bits))
+            };
+            assert_eq!(bits(&got), bits(&want), "{name}: ray {i}");
+            assert_eq!(
+                (got.shininess.to_bits(), got.slot, got.key, got.sample),
+                (want.shininess.to_bits(), want.slot, want.key, want.sample)
+            );
+            assert_eq!(lanes.ray[p], i);
+            shapes[match scene.accel.prims[hits.prim[i as usize] as usize].shape {
+                wavetrace::geometry::shapes::Shape::Sphere { .. } => 0,
+                wavetrace::geometry::shapes::Shape::Quad { .. } => 1,
+                wavetrace::geometry::shapes::Shape::Triangle { .. } => 2,
+            }] += 1;
+        }
+    }
+    assert!(shapes.iter().all(|&n| n > 500), "too few hits of some shape: {shapes:?}");
+}
+
+#[test]
 fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
     // Cornell with two more quad lights, one dark; Lambert and Phong walls; 1, 3 and 16
     // samples a light, so lanes hold one point, several, and parts of one.

@@ -8,24 +8,23 @@
 
 use glam::Vec3;
 
+use crate::simd::{Real, V3};
+
 /// Moves `p`, a surface point with per-component absolute error bound `err`, off the
 /// surface to the side `n` points to: by the error bound projected on `n`, then one more
 /// float step per component, so the result is strictly on that side (PBRT's
 /// OffsetRayOrigin). `n` need not be unit length but must be finite and non-zero.
 #[inline]
 pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
+    offset_lanes(V3::from_vec(p), V3::from_vec(err), V3::from_vec(n)).vec()
+}
+
+/// [`offset_ray_origin`] on lanes.
+#[inline(always)]
+pub fn offset_lanes<R: Real>(p: V3<R>, err: V3<R>, n: V3<R>) -> V3<R> {
     let n = n.normalize();
-    let q = p + n.abs().dot(err) * n;
-    let step = |x: f32, s: f32| {
-        if s > 0.0 {
-            x.next_up()
-        } else if s < 0.0 {
-            x.next_down()
-        } else {
-            x
-        }
-    };
-    Vec3::new(step(q.x, n.x), step(q.y, n.y), step(q.z, n.z))
+    let q = p + n.scale(n.abs().dot(err));
+    V3 { x: q.x.step(n.x), y: q.y.step(n.y), z: q.z.step(n.z) }
 }
 
 #[cfg(test)]

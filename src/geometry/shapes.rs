@@ -6,6 +6,8 @@
 use glam::Vec3;
 use obvhs::aabb::Aabb;
 
+use crate::simd::{Real, V3};
+
 /// Light index of a primitive that is not an emitter.
 pub const NO_LIGHT: u32 = u32::MAX;
 
@@ -83,33 +85,13 @@ impl Shape {
     /// its absolute rounding error (PBRT's γ bounds).
     #[inline]
     pub fn surface_point(&self, o: Vec3, d: Vec3, t: f32) -> (Vec3, Vec3) {
-        let x = o + t * d;
-        match *self {
-            Shape::Sphere { center, radius } => {
-                let v = x - center;
-                let r = v * (radius / v.length());
-                let p = center + r;
-                (p, gamma(1) * p.abs() + gamma(5) * r.abs())
-            }
-            Shape::Quad { corner, u, v } => {
-                let n = u.cross(v);
-                let w = n / n.length_squared();
-                let q = x - corner;
-                let (a, b) = (w.dot(q.cross(v)), w.dot(u.cross(q)));
-                let p = corner + a * u + b * v;
-                (p, gamma(3) * (corner.abs() + (a * u).abs() + (b * v).abs()))
-            }
-            Shape::Triangle { v0, v1, v2 } => {
-                let (e1, e2) = (v1 - v0, v2 - v0);
-                let n = e1.cross(e2);
-                let w = n / n.length_squared();
-                let q = x - v0;
-                let (b1, b2) = (w.dot(q.cross(e2)), w.dot(e1.cross(q)));
-                let b0 = 1.0 - b1 - b2;
-                let p = b0 * v0 + b1 * v1 + b2 * v2;
-                (p, gamma(7) * ((b0 * v0).abs() + (b1 * v1).abs() + (b2 * v2).abs()))
-            }
-        }
+        let x = V3::from_vec(o + t * d);
+        let (p, err) = match *self {
+            Shape::Sphere { center, radius } => sphere_point(V3::from_vec(center), radius, x),
+            Shape::Quad { corner, u, v } => quad_point(V3::from_vec(corner), V3::from_vec(u), V3::from_vec(v), x),
+            Shape::Triangle { v0, v1, v2 } => triangle_point(V3::from_vec(v0), V3::from_vec(v1), V3::from_vec(v2), x),
+        };
+        (p.vec(), err.vec())
     }
 
     /// Axis-aligned bounds.
@@ -229,6 +211,39 @@ pub fn intersect_triangle(v0: Vec3, v1: Vec3, v2: Vec3, o: Vec3, d: Vec3) -> f32
 pub fn gamma(n: u32) -> f32 {
     let e = n as f32 * f32::EPSILON * 0.5;
     e / (1.0 - e)
+}
+
+/// [`Shape::surface_point`] of a sphere for the point `x` near it, on lanes.
+#[inline(always)]
+pub fn sphere_point<R: Real>(center: V3<R>, radius: R, x: V3<R>) -> (V3<R>, V3<R>) {
+    let v = x - center;
+    let r = v.scale(radius / v.dot(v).sqrt());
+    let p = center + r;
+    (p, p.abs().scale(R::splat(gamma(1))) + r.abs().scale(R::splat(gamma(5))))
+}
+
+/// [`Shape::surface_point`] of a parallelogram for the point `x` near it, on lanes.
+#[inline(always)]
+pub fn quad_point<R: Real>(corner: V3<R>, u: V3<R>, v: V3<R>, x: V3<R>) -> (V3<R>, V3<R>) {
+    let n = u.cross(v);
+    let w = n.over(n.dot(n));
+    let q = x - corner;
+    let (a, b) = (w.dot(q.cross(v)), w.dot(u.cross(q)));
+    let p = corner + u.scale(a) + v.scale(b);
+    (p, (corner.abs() + u.scale(a).abs() + v.scale(b).abs()).scale(R::splat(gamma(3))))
+}
+
+/// [`Shape::surface_point`] of a triangle for the point `x` near it, on lanes.
+#[inline(always)]
+pub fn triangle_point<R: Real>(v0: V3<R>, v1: V3<R>, v2: V3<R>, x: V3<R>) -> (V3<R>, V3<R>) {
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let n = e1.cross(e2);
+    let w = n.over(n.dot(n));
+    let q = x - v0;
+    let (b1, b2) = (w.dot(q.cross(e2)), w.dot(e1.cross(q)));
+    let b0 = R::splat(1.0) - b1 - b2;
+    let p = v0.scale(b0) + v1.scale(b1) + v2.scale(b2);
+    (p, (v0.scale(b0).abs() + v1.scale(b1).abs() + v2.scale(b2).abs()).scale(R::splat(gamma(7))))
 }
 
 /// Ray–parallelogram intersection. Hits from both sides count.

@@ -17,7 +17,7 @@ use crate::light::{
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use crate::scene::{Light, Scene, ShadowMode};
 use crate::simd::{Word, LANES, V3};
-use crate::surface::{diffuse_brdf, diffuse_surface};
+use crate::surface::{diffuse_brdf, diffuse_material, diffuse_surfaces, queued_surface};
 
 /// Shades every ray of `rays` at its hit in `hits`: fills `shadow`, `points` and
 /// `specular` (cleared first) and appends to `film`. Returns the number of shadow rays
@@ -41,7 +41,9 @@ pub fn shade(
     // Uniform shadows go on lanes when every light is a quad (a point light's one ray
     // would interleave with them, and keeps the scalar loop).
     let lanes = !adaptive && scene.lights.iter().all(|l| matches!(l, Light::Quad { .. }));
-    let mut uniform_equivalent = 0u64;
+    // Diffuse hits go to the surface queue 16 at a time (in ray order); the rest is
+    // settled here.
+    let (mut group, mut len) = ([0u32; LANES], 0);
     for i in 0..rays.len() {
         if hits.prim[i] == MISS {
             if scene.background != Vec3::ZERO {
@@ -49,35 +51,35 @@ pub fn shade(
             }
             continue;
         }
-        let Some(surf) = diffuse_surface(scene, rays, hits, i) else {
-            let prim = &scene.accel.prims[hits.prim[i] as usize];
-            if prim.light != NO_LIGHT {
-                // One-sided emitter: radiance on the front, black from behind.
-                if let Light::Quad { radiance, normal, .. } = scene.lights[prim.light as usize] {
-                    if normal.dot(rays.dir(i)) < 0.0 {
-                        film.push(rays.slot[i], rays.weight(i) * radiance);
-                    }
-                }
-            } else if rays.depth[i] < scene.settings.max_depth {
-                specular.push(i as u32);
+        if diffuse_material(scene, hits.prim[i]).is_some() {
+            group[len] = i as u32;
+            len += 1;
+            if len == LANES {
+                diffuse_surfaces(scene, rays, hits, &group, surfaces);
+                len = 0;
             }
             continue;
-        };
-        if lanes {
-            surfaces.push(
-                surf.o,
-                surf.n,
-                surf.wo,
-                surf.color,
-                surf.specular,
-                surf.shininess,
-                surf.w,
-                surf.slot,
-                surf.key,
-                surf.sample,
-            );
-            continue;
         }
+        let prim = &scene.accel.prims[hits.prim[i] as usize];
+        if prim.light != NO_LIGHT {
+            // One-sided emitter: radiance on the front, black from behind.
+            if let Light::Quad { radiance, normal, .. } = scene.lights[prim.light as usize] {
+                if normal.dot(rays.dir(i)) < 0.0 {
+                    film.push(rays.slot[i], rays.weight(i) * radiance);
+                }
+            }
+        } else if rays.depth[i] < scene.settings.max_depth {
+            specular.push(i as u32);
+        }
+    }
+    diffuse_surfaces(scene, rays, hits, &group[..len], surfaces);
+    if lanes {
+        quad_shadow_lanes(scene, surfaces, shadow);
+        return 0;
+    }
+    let mut uniform_equivalent = 0u64;
+    for p in 0..surfaces.len() {
+        let (surf, i) = (queued_surface(surfaces, p), surfaces.ray[p]);
         for (li, light) in scene.lights.iter().enumerate() {
             match *light {
                 Light::Quad { corner, u, v, normal, radiance, .. } if adaptive && radiance != Vec3::ZERO => {
@@ -106,15 +108,12 @@ pub fn shade(
                         let e = quad_irradiance(surf.o, surf.n, corner, u, v);
                         sum = surf.w * surf.color * FRAC_1_PI * radiance * e;
                     }
-                    points.push(i as u32, li as u32, surf.slot, sum);
+                    points.push(i, li as u32, surf.slot, sum);
                     uniform_equivalent += n;
                 }
                 _ => uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l)),
             }
         }
-    }
-    if lanes {
-        quad_shadow_lanes(scene, surfaces, shadow);
     }
     uniform_equivalent
 }
@@ -128,11 +127,11 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
     let next_lit = |from: usize| (from..scene.lights.len()).find(|&li| lit(li));
     let Some(first) = next_lit(0) else { return };
     let (mut s, mut li, mut j) = (0, first, 0);
-    let mut lanes = [(0u32, 0u32, 0u32); LANES];
+    let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
     while s < surfaces.len() {
         let mut count = 0;
         while count < LANES && s < surfaces.len() {
-            lanes[count] = (s as u32, li as u32, j);
+            (lanes.point[count], lanes.light[count], lanes.sample[count]) = (s as u32, li as u32, j);
             count += 1;
             j += 1;
             if j == n {
@@ -144,63 +143,107 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
             }
         }
         // Lanes past the last triple repeat it and are not written.
-        let last = lanes[count - 1];
-        lanes[count..].fill(last);
-        quad_lanes(scene, surfaces, &lanes, count, shadow);
+        for k in count..LANES {
+            (lanes.point[k], lanes.light[k], lanes.sample[k]) =
+                (lanes.point[k - 1], lanes.light[k - 1], lanes.sample[k - 1]);
+        }
+        lanes.count = count;
+        quad_lanes(scene, surfaces, &lanes, shadow);
     }
 }
 
-/// The shadow rays of `count` (point, light, sample) `triples` on lanes: the scalar
-/// formulas of [`quad_light_samples`] (through [`quad_sample`]), Lambert on the
-/// lanes and a Phong point's BRDF by the scalar function.
-fn quad_lanes(
-    scene: &Scene,
-    q: &SurfaceQueue,
-    triples: &[(u32, u32, u32); LANES],
+/// One lane group of (point, light, sample) triples, the first `count` real.
+struct Triples {
+    point: [u32; LANES],
+    light: [u32; LANES],
+    sample: [u32; LANES],
     count: usize,
-    shadow: &mut ShadowQueue,
-) {
+}
+
+/// The quad lights of a lane group: their geometry, area / n and radiance per lane.
+struct LightLanes {
+    quad: QuadLanes<f32x16>,
+    scale: f32x16,
+    radiance: V3<f32x16>,
+}
+
+impl LightLanes {
+    /// The lights of `lights` (indices in the scene): splat when all lanes share one.
+    fn new(scene: &Scene, lights: &[u32; LANES]) -> LightLanes {
+        let n = scene.settings.shadow_samples as f32;
+        let params = |li: u32| match scene.lights[li as usize] {
+            Light::Quad { corner, u, v, normal, area, radiance } => (corner, u, v, normal, area / n, radiance),
+            Light::Point { .. } => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO),
+        };
+        if lights.iter().all(|&l| l == lights[0]) {
+            let (corner, u, v, normal, scale, radiance) = params(lights[0]);
+            let quad = QuadLanes::splat(corner, u, v, normal);
+            return LightLanes { quad, scale: f32x16::splat(scale), radiance: V3::splat(radiance) };
+        }
+        let p: [_; LANES] = std::array::from_fn(|k| params(lights[k]));
+        let f = |g: &dyn Fn(usize) -> f32| f32x16::from(std::array::from_fn::<f32, LANES, _>(g));
+        let v = |g: &dyn Fn(usize) -> Vec3| V3 { x: f(&|k| g(k).x), y: f(&|k| g(k).y), z: f(&|k| g(k).z) };
+        let quad = QuadLanes { corner: v(&|k| p[k].0), u: v(&|k| p[k].1), v: v(&|k| p[k].2), normal: v(&|k| p[k].3) };
+        LightLanes { quad, scale: f(&|k| p[k].4), radiance: v(&|k| p[k].5) }
+    }
+}
+
+/// The shadow rays of one lane group of `triples`: the scalar formulas of
+/// [`quad_light_samples`] (through [`quad_sample`]), Lambert on the lanes and a Phong
+/// point's BRDF by the scalar function.
+fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) {
     let n = scene.settings.shadow_samples;
-    let si = triples.map(|t| t.0 as usize);
+    let si = triples.point;
     // A run of consecutive points (one sample, one light) loads straight from the queue.
-    let run = (si[LANES - 1] == si[0] + LANES - 1).then_some(si[0]);
+    let run = (si[LANES - 1] == si[0] + LANES as u32 - 1).then_some(si[0] as usize);
     let f = |v: &[f32]| match run {
         Some(a) => f32x16::from(&v[a..a + LANES]),
-        None => f32x16::from(si.map(|i| v[i])),
+        None => f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| v[si[k] as usize])),
     };
     let v3 = |x: &[f32], y: &[f32], z: &[f32]| V3 { x: f(x), y: f(y), z: f(z) };
-    let u = |v: &[u32]| u32x16::from(si.map(|i| v[i]));
-    // Per lane: corner, edges, normal, area / n, radiance.
-    type Params = (Vec3, Vec3, Vec3, Vec3, f32, Vec3);
-    let lights: [Params; LANES] = triples.map(|t| match scene.lights[t.1 as usize] {
-        Light::Quad { corner, u, v, normal, area, radiance } => (corner, u, v, normal, area / n as f32, radiance),
-        Light::Point { .. } => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO),
-    });
-    let lv = |g: fn(&Params) -> Vec3| {
-        let p = lights.map(|l| g(&l));
-        V3 { x: f32x16::from(p.map(|p| p.x)), y: f32x16::from(p.map(|p| p.y)), z: f32x16::from(p.map(|p| p.z)) }
+    let u = |v: &[u32]| match run {
+        Some(a) => u32x16::from(&v[a..a + LANES]),
+        None => u32x16::from(std::array::from_fn::<u32, LANES, _>(|k| v[si[k] as usize])),
     };
-    let quad = QuadLanes { corner: lv(|l| l.0), u: lv(|l| l.1), v: lv(|l| l.2), normal: lv(|l| l.3) };
+    let lights = LightLanes::new(scene, &triples.light);
     let (o, normal) = (v3(&q.ox, &q.oy, &q.oz), v3(&q.nx, &q.ny, &q.nz));
-    let index = u(&q.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(triples.map(|t| t.2)));
-    let seed = light_seed_lanes(u(&q.key), u32x16::from(triples.map(|t| t.1)));
-    let s = quad_sample(&quad, o, normal, index, seed);
-    let factor = s.cos_x * s.cos_y * f32x16::from(lights.map(|l| l.4)) / s.dist2;
-    let (w, brdf, radiance) =
-        (v3(&q.wr, &q.wg, &q.wb), v3(&q.cr, &q.cg, &q.cb).scale(f32x16::splat(FRAC_1_PI)), lv(|l| l.5));
+    let index = u(&q.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(triples.sample));
+    let seed = light_seed_lanes(u(&q.key), u32x16::from(triples.light));
+    let s = quad_sample(&lights.quad, o, normal, index, seed);
+    let factor = s.cos_x * s.cos_y * lights.scale / s.dist2;
+    let (w, brdf) = (v3(&q.wr, &q.wg, &q.wb), v3(&q.cr, &q.cg, &q.cb).scale(f32x16::splat(FRAC_1_PI)));
+    let r = lights.radiance;
     let l = |w: f32x16, b: f32x16, r: f32x16| (w * b * r * factor).to_array();
-    let (lr, lg, lb) = (l(w.x, brdf.x, radiance.x), l(w.y, brdf.y, radiance.y), l(w.z, brdf.z, radiance.z));
+    let (mut lr, mut lg, mut lb) = (l(w.x, brdf.x, r.x), l(w.y, brdf.y, r.y), l(w.z, brdf.z, r.z));
     let (wx, wy, wz) = (s.wi.x.to_array(), s.wi.y.to_array(), s.wi.z.to_array());
     let tmax = (s.dist * f32x16::splat(SHADOW_TMAX_SCALE)).to_array();
-    let (factor, dark) =
-        (factor.to_array(), (s.cos_x.simd_le(f32x16::ZERO) | s.cos_y.simd_le(f32x16::ZERO)).to_bitmask());
-    for k in (0..count).filter(|&k| dark & (1 << k) == 0) {
-        let (p, wi) = (si[k], Vec3::new(wx[k], wy[k], wz[k]));
-        let mut l = Vec3::new(lr[k], lg[k], lb[k]);
+    let dark = (s.cos_x.simd_le(f32x16::ZERO) | s.cos_y.simd_le(f32x16::ZERO)).to_bitmask();
+    let (factor, (rx, ry, rz)) = (factor.to_array(), (r.x.to_array(), r.y.to_array(), r.z.to_array()));
+    // The lanes that cast a ray, then whole columns at once.
+    let (mut keep, mut m) = ([0usize; LANES], 0);
+    for k in (0..triples.count).filter(|&k| dark & (1 << k) == 0) {
+        keep[m] = k;
+        m += 1;
+        let p = si[k] as usize;
         if q.specular(p) != Vec3::ZERO {
+            let wi = Vec3::new(wx[k], wy[k], wz[k]);
             let brdf = diffuse_brdf(q.color(p), q.specular(p), q.shininess[p], q.normal(p), wi, q.wo(p));
-            l = q.weight(p) * brdf * lights[k].5 * factor[k];
+            let l = q.weight(p) * brdf * Vec3::new(rx[k], ry[k], rz[k]) * factor[k];
+            (lr[k], lg[k], lb[k]) = (l.x, l.y, l.z);
         }
-        shadow.push(q.origin(p), wi, tmax[k], q.slot[p], l);
     }
+    let keep = &keep[..m];
+    let put = |col: &mut Vec<f32>, v: &[f32; LANES]| col.extend(keep.iter().map(|&k| v[k]));
+    let (ox, oy, oz) = (o.x.to_array(), o.y.to_array(), o.z.to_array());
+    put(&mut shadow.ox, &ox);
+    put(&mut shadow.oy, &oy);
+    put(&mut shadow.oz, &oz);
+    put(&mut shadow.dx, &wx);
+    put(&mut shadow.dy, &wy);
+    put(&mut shadow.dz, &wz);
+    put(&mut shadow.tmax, &tmax);
+    put(&mut shadow.lr, &lr);
+    put(&mut shadow.lg, &lg);
+    put(&mut shadow.lb, &lb);
+    shadow.slot.extend(keep.iter().map(|&k| q.slot[si[k] as usize]));
 }
