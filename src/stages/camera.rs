@@ -117,10 +117,19 @@ fn push(
 /// [0,1)²: every ray through the same film point meets on the focus plane.
 #[inline]
 fn thin_lens(scene: &Scene, d: Vec3, lens: Vec2) -> (Vec3, Vec3) {
+    let disk = concentric_disk(lens);
+    let (o, d) = thin_lens_lanes(scene, V3::from_vec(d), disk.x, disk.y);
+    (o.vec(), d.vec())
+}
+
+/// [`thin_lens`] on lanes, from lens positions already mapped to the unit disk.
+#[inline(always)]
+fn thin_lens_lanes<R: Real>(scene: &Scene, d: V3<R>, disk_x: R, disk_y: R) -> (V3<R>, V3<R>) {
     let cam = &scene.camera;
-    let focus = cam.position + d * (cam.focus_distance / d.dot(cam.forward));
-    let l = cam.aperture * concentric_disk(lens);
-    let o = cam.position + l.x * cam.right + l.y * cam.up;
+    let position = V3::splat(cam.position);
+    let focus = position + d.scale(R::splat(cam.focus_distance) / d.dot(V3::splat(cam.forward)));
+    let (lx, ly) = (R::splat(cam.aperture) * disk_x, R::splat(cam.aperture) * disk_y);
+    let o = position + V3::splat(cam.right).scale(lx) + V3::splat(cam.up).scale(ly);
     (o, (focus - o).normalize())
 }
 
@@ -180,23 +189,33 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
         let d = pinhole_lanes(scene, fx, fy);
         let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
         let jw = words(j);
-        if cam.aperture > 0.0 {
-            let aw = words(aa);
-            for k in 0..count {
-                let lens = lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed);
-                let (o, dir) = thin_lens(scene, Vec3::new(dx[k], dy[k], dz[k]), lens);
-                rays.push(o, dir, slot, w, 0, key, jw[k]);
-            }
-            continue;
-        }
         let n = rays.len() + count;
+        if cam.aperture > 0.0 {
+            // The lens positions ray by ray (the disk mapping's sine and cosine are
+            // libm's), the thin-lens rays on lanes.
+            let (aw, mut disk) = (words(aa), [[0.0; LANES]; 2]);
+            for k in 0..LANES {
+                let lens = lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed);
+                (disk[0][k], disk[1][k]) = concentric_disk(lens).into();
+            }
+            let (o, d) = thin_lens_lanes(scene, d, f32x16::from(disk[0]), f32x16::from(disk[1]));
+            for (col, v) in [(&mut rays.ox, o.x), (&mut rays.oy, o.y), (&mut rays.oz, o.z)] {
+                col.extend_from_slice(&v.to_array()[..count]);
+            }
+            for (col, v) in [(&mut rays.dx, d.x), (&mut rays.dy, d.y), (&mut rays.dz, d.z)] {
+                col.extend_from_slice(&v.to_array()[..count]);
+            }
+        } else {
+            for (col, x) in
+                [(&mut rays.ox, cam.position.x), (&mut rays.oy, cam.position.y), (&mut rays.oz, cam.position.z)]
+            {
+                col.resize(n, x);
+            }
+            rays.dx.extend_from_slice(&dx[..count]);
+            rays.dy.extend_from_slice(&dy[..count]);
+            rays.dz.extend_from_slice(&dz[..count]);
+        }
         let fill = |v: &mut Vec<f32>, x: f32| v.resize(n, x);
-        fill(&mut rays.ox, cam.position.x);
-        fill(&mut rays.oy, cam.position.y);
-        fill(&mut rays.oz, cam.position.z);
-        rays.dx.extend_from_slice(&dx[..count]);
-        rays.dy.extend_from_slice(&dy[..count]);
-        rays.dz.extend_from_slice(&dz[..count]);
         rays.slot.resize(n, slot);
         fill(&mut rays.wr, w.x);
         fill(&mut rays.wg, w.y);
