@@ -90,18 +90,27 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
     })
 }
 
-/// Appends to `out`, in order, the diffuse surfaces of rays `ids` (at most 16, each of
-/// which hit a diffuse primitive), computed on lanes: every lane runs the sphere,
-/// parallelogram and triangle formulas of [`Shape::surface_point`] and keeps its own
-/// shape's, so the points are [`diffuse_surface`]'s bit for bit.
-pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], out: &mut SurfaceQueue) {
-    let Some(&last) = ids.last() else { return };
+/// Where 16 rays hit, on lanes: what [`Shape::surface_point`] and [`Shape::normal`] give
+/// each ray, bit for bit.
+pub struct HitLanes {
+    /// Ray directions.
+    pub d: V3<f32x16>,
+    /// Hit points, recomputed on the surfaces.
+    pub p: V3<f32x16>,
+    /// Bounds on the hit points' rounding errors.
+    pub err: V3<f32x16>,
+    /// Unit geometric normals (outward, not yet turned to the ray).
+    pub ng: V3<f32x16>,
+}
+
+/// The hits of rays `ids` (1 to 16; lanes past the last repeat it): every lane runs the
+/// sphere, parallelogram and triangle formulas and keeps its own shape's.
+pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -> HitLanes {
+    let last = ids[ids.len() - 1];
     let id = |k: usize| ids.get(k).copied().unwrap_or(last) as usize;
     let ray = |v: &[f32]| f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| v[id(k)]));
-    let (o, d) = (
-        V3 { x: ray(&rays.ox), y: ray(&rays.oy), z: ray(&rays.oz) },
-        V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) },
-    );
+    let o = V3 { x: ray(&rays.ox), y: ray(&rays.oy), z: ray(&rays.oz) };
+    let d = V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) };
     // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
     // and edges, a triangle's vertices.
     let (mut abc, mut kind) = ([[0.0f32; LANES]; 9], [0u32; LANES]);
@@ -128,8 +137,21 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
         z: is_sphere.select(s.z, is_quad.select(q.z, t.z)),
     };
     let (p, err) = (pick(sphere.0, quad.0, triangle.0), pick(sphere.1, quad.1, triangle.1));
-    // Shape::normal, then normalised and turned to the side the ray came from.
     let ng = pick(sphere.0 - a, b.cross(c), (b - a).cross(c - a)).normalize();
+    HitLanes { d, p, err, ng }
+}
+
+/// Appends to `out`, in order, the diffuse surfaces of rays `ids` (at most 16, each of
+/// which hit a diffuse primitive), computed on lanes ([`hit_lanes`]): [`diffuse_surface`]'s
+/// points bit for bit.
+pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], out: &mut SurfaceQueue) {
+    if ids.is_empty() {
+        return;
+    }
+    let HitLanes { d, p, err, ng } = hit_lanes(scene, rays, hits, ids);
+    let id = |k: usize| ids.get(k).copied().unwrap_or(ids[ids.len() - 1]) as usize;
+    let ray = |v: &[f32]| f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| v[id(k)]));
+    // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = V3::if_negative(ng.dot(d), ng, -ng);
     // Whole columns at once: one capacity check per column, not per value.
     let count = ids.len();

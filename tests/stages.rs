@@ -217,6 +217,106 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
     assert!(shapes.iter().all(|&n| n > 500), "too few hits of some shape: {shapes:?}");
 }
 
+/// The scatter stage's rays, as the scalar functions give them: the reference the
+/// stage's lanes must equal bit for bit.
+fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -> RayQueue {
+    use wavetrace::geometry::offset::offset_ray_origin;
+    use wavetrace::scene::{Material, ReflectRatio};
+    use wavetrace::stages::scatter::{fresnel, interface, reflect, refract};
+    let mut next = RayQueue::default();
+    for &i in ids {
+        let i = i as usize;
+        let prim = &scene.accel.prims[hits.prim[i] as usize];
+        let (d, w) = (rays.dir(i), rays.weight(i));
+        let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
+        let ng = prim.shape.normal(x).normalize();
+        let (slot, depth, key, sample) = (rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
+        let (k1, k2) = (wavetrace::sampling::hash(&[key, 1]), wavetrace::sampling::hash(&[key, 2]));
+        match scene.materials[prim.material as usize] {
+            Material::Mirror { color } => {
+                let n = if d.dot(ng) < 0.0 { ng } else { -ng };
+                next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * color, depth, k1, sample);
+            }
+            Material::Dielectric { ior, ratio, tint } => {
+                let side = interface(d, ng, ior);
+                let n = side.normal;
+                let refracted = refract(d, n, side.eta);
+                let c = match (refracted, ratio) {
+                    (None, _) => 1.0,
+                    (Some(_), ReflectRatio::Fixed(c)) => c,
+                    (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(n), side.eta),
+                };
+                if c > 0.0 {
+                    next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * c, depth, k1, sample);
+                }
+                if let Some(t) = refracted.filter(|_| c < 1.0) {
+                    next.push(offset_ray_origin(x, err, -n), t, slot, w * tint * (1.0 - c), depth, k2, sample);
+                }
+            }
+            Material::Diffuse { .. } => unreachable!("only specular hits are listed"),
+        }
+    }
+    next
+}
+
+#[test]
+fn scatter_on_lanes_gives_the_scalar_functions_rays_bit_for_bit() {
+    // Mirrors and dielectrics (Fresnel and a fixed ratio), hit from outside and inside,
+    // with total internal reflection, in lists of every length up to 40.
+    let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
+    let mut rng = support::Lcg(11);
+    let mut spawned = 0;
+    for (name, sets) in
+        [("default", vec![]), ("cornell", vec![]), ("default", vec!["materials.glass.reflect_ratio=0.3"])]
+    {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+        let scene = support::scene_in(dir, &text, &sets);
+        let specular = |p: u32| {
+            let prim = &scene.accel.prims[p as usize];
+            prim.light == wavetrace::geometry::NO_LIGHT && wavetrace::surface::diffuse_material(&scene, p).is_none()
+        };
+        let prims: Vec<usize> = (0..scene.accel.prims.len()).filter(|&p| specular(p as u32)).collect();
+        let mut rays = RayQueue::default();
+        for k in 0..4000u32 {
+            let (a, b) = scene.accel.prims[prims[k as usize % prims.len()]].shape.bounds();
+            let target = a + (b - a) * Vec3::new(rng.range(0.2, 0.8), rng.range(0.2, 0.8), rng.range(0.2, 0.8));
+            // From afar, or from inside the object's bounds (leaving a sphere from within).
+            let o = if k % 3 == 0 { 0.5 * (a + b) + 0.01 * rng.unit() } else { target + 5.0 * rng.unit() };
+            let d = if k % 3 == 0 { rng.unit() } else { (target - o).normalize() };
+            rays.push(o, d, k, Vec3::new(0.5, 1.0, 0.25), k % 4, k.wrapping_mul(2_654_435_761), k);
+        }
+        let hits = trace(&scene, &rays);
+        let ids: Vec<u32> = (0..rays.len() as u32)
+            .filter(|&i| hits.prim[i as usize] != MISS && specular(hits.prim[i as usize]))
+            .collect();
+        let mut at = 0;
+        while at < ids.len() {
+            let len = (1 + at % 40).min(ids.len() - at);
+            let list = IndexQueue { index: ids[at..at + len].to_vec() };
+            let mut next = RayQueue::default();
+            wavetrace::stages::scatter::scatter(&scene, &rays, &hits, &list, &mut next);
+            let want = scatter_reference(&scene, &rays, &hits, &list.index);
+            let bits = |q: &RayQueue| {
+                (0..q.len())
+                    .map(|i| {
+                        (
+                            [q.origin(i), q.dir(i), q.weight(i)].map(|v| v.to_array().map(f32::to_bits)),
+                            q.slot[i],
+                            q.depth[i],
+                            q.key[i],
+                            q.sample[i],
+                        )
+                    })
+                    .collect::<Vec<_>>()
+            };
+            assert!(bits(&next) == bits(&want), "{name} {sets:?}: hits {at}..{}", at + len);
+            spawned += next.len();
+            at += len;
+        }
+    }
+    assert!(spawned > 5000, "only {spawned} rays spawned");
+}
+
 #[test]
 fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
     // Cornell with two more quad lights, one dark; Lambert and Phong walls; 1, 3 and 16

@@ -9,15 +9,25 @@
 
 use glam::Vec3;
 
-use crate::geometry::offset::offset_ray_origin;
+use wide::{f32x16, u32x16};
+
+use crate::geometry::offset::offset_lanes;
 use crate::queue::{HitQueue, IndexQueue, RayQueue};
-use crate::sampling::hash;
+use crate::sampling::hash_lanes;
 use crate::scene::{Material, ReflectRatio, Scene};
+use crate::simd::{Real, LANES, V3};
+use crate::surface::{hit_lanes, HitLanes};
 
 /// Mirror direction of `d` about the unit normal `n`.
 #[inline]
 pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
-    d - 2.0 * d.dot(n) * n
+    reflect_lanes(V3::from_vec(d), V3::from_vec(n)).vec()
+}
+
+/// [`reflect`] on lanes.
+#[inline(always)]
+fn reflect_lanes<R: Real>(d: V3<R>, n: V3<R>) -> V3<R> {
+    d - n.scale(R::splat(2.0) * d.dot(n))
 }
 
 /// The side of a dielectric boundary a ray is on, and the quantities that depend on it.
@@ -45,83 +55,133 @@ pub fn interface(d: Vec3, ng: Vec3, ior: f32) -> Interface {
 
 /// cos²θt = 1 − η²(1 − cos²θi), evaluated as cos²θi − (η − 1)(η + 1)(1 − cos²θi): exact
 /// for η = 1 and free of the cancellation in 1 − sin²θt at grazing incidence when η ≈ 1.
-#[inline]
-pub fn cos2_transmitted(cos_i: f32, eta: f32) -> f32 {
-    let c2 = cos_i * cos_i;
-    c2 - (eta - 1.0) * (eta + 1.0) * (1.0 - c2)
+#[inline(always)]
+pub fn cos2_transmitted<R: Real>(cos_i: R, eta: R) -> R {
+    let (one, c2) = (R::splat(1.0), cos_i * cos_i);
+    c2 - (eta - one) * (eta + one) * (one - c2)
 }
 
 /// Snell refraction of unit `d` through a boundary with unit normal `n` facing `d`'s
 /// origin side and eta = n_i / n_t. `None` on total internal reflection.
 #[inline]
 pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
-    let cos_i = (-d.dot(n)).min(1.0);
-    let cos2_t = cos2_transmitted(cos_i, eta);
+    let (t, cos2_t) = refract_lanes(V3::from_vec(d), V3::from_vec(n), eta);
     if cos2_t <= 0.0 {
-        return None;
+        None
+    } else {
+        Some(t.vec())
     }
+}
+
+/// [`refract`] on lanes: the refracted directions, valid where the returned cos²θt is
+/// positive (total internal reflection elsewhere).
+#[inline(always)]
+fn refract_lanes<R: Real>(d: V3<R>, n: V3<R>, eta: R) -> (V3<R>, R) {
+    let cos_i = (-d.dot(n)).min(R::splat(1.0));
+    let cos2_t = cos2_transmitted(cos_i, eta);
     let cos_t = cos2_t.sqrt();
-    Some((eta * d + (eta * cos_i - cos_t) * n).normalize())
+    ((d.scale(eta) + n.scale(eta * cos_i - cos_t)).normalize(), cos2_t)
 }
 
 /// Unpolarised Fresnel reflectance of a smooth dielectric boundary for incidence cosine
 /// `cos_i` and eta = n_i / n_t; 1 under total internal reflection.
 #[inline]
 pub fn fresnel(cos_i: f32, eta: f32) -> f32 {
-    let cos_i = cos_i.clamp(0.0, 1.0);
-    let cos2_t = cos2_transmitted(cos_i, eta);
+    let (r, cos2_t) = fresnel_lanes(cos_i.clamp(0.0, 1.0), eta);
     if cos2_t <= 0.0 {
-        return 1.0;
+        1.0
+    } else {
+        r
     }
+}
+
+/// [`fresnel`] on lanes, for `cos_i` already clamped to [0, 1]: the reflectance, valid
+/// where the returned cos²θt is positive (1 elsewhere).
+#[inline(always)]
+fn fresnel_lanes<R: Real>(cos_i: R, eta: R) -> (R, R) {
+    let cos2_t = cos2_transmitted(cos_i, eta);
     let cos_t = cos2_t.sqrt();
     let rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    0.5 * (rs * rs + rp * rp)
+    (R::splat(0.5) * (rs * rs + rp * rp), cos2_t)
 }
 
 /// Spawns the reflection and refraction rays of every listed hit into `next` (cleared
-/// first).
+/// first), 16 hits at a time on lanes, in list order: a hit's reflection ray, then its
+/// refraction ray.
 pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &IndexQueue, next: &mut RayQueue) {
     next.clear();
-    for &i in &specular.index {
+    for ids in specular.index.chunks(LANES) {
+        scatter_lanes(scene, rays, hits, ids, next);
+    }
+}
+
+/// The rays [`scatter`] spawns from hits `ids` (1 to 16), on lanes. Mirrors reflect;
+/// dielectrics are oriented by the geometric normal ([`interface`]) and split between
+/// reflection (C, Fresnel, or all of it under total internal reflection) and refraction.
+fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], next: &mut RayQueue) {
+    let HitLanes { d, p, err, ng } = hit_lanes(scene, rays, hits, ids);
+    // Per lane: the material's ior (1 for a mirror), its split (reflection weight for a
+    // fixed ratio, NaN for Fresnel), its colour (mirror colour or dielectric tint) and
+    // whether it is a mirror (None: not a specular material, nothing to spawn).
+    let mut mat = [(1.0f32, 1.0f32, Vec3::ONE, None); LANES];
+    for (k, &i) in ids.iter().enumerate() {
+        let prim = &scene.accel.prims[hits.prim[i as usize] as usize];
+        mat[k] = match scene.materials[prim.material as usize] {
+            Material::Mirror { color } => (1.0, 1.0, color, Some(true)),
+            Material::Dielectric { ior, ratio: ReflectRatio::Fixed(c), tint } => (ior, c, tint, Some(false)),
+            Material::Dielectric { ior, ratio: ReflectRatio::Fresnel, tint } => (ior, f32::NAN, tint, Some(false)),
+            Material::Diffuse { .. } => {
+                debug_assert!(false, "diffuse hit in the specular list");
+                (1.0, 1.0, Vec3::ZERO, None)
+            }
+        };
+    }
+    let ior = f32x16::from(mat.map(|m| m.0));
+    // interface(): entering when d·ng < 0; then the normal faces the ray and eta = 1/ior.
+    let side = d.dot(ng);
+    let n = V3::if_negative(side, ng, -ng);
+    let eta = f32x16::if_negative(side, f32x16::ONE / ior, ior);
+    let (t, cos2_t) = refract_lanes(d, n, eta);
+    let cos_i = -d.dot(n);
+    let (r, fresnel_cos2_t) = fresnel_lanes(
+        cos_i.simd_lt(f32x16::ZERO).select(f32x16::ZERO, cos_i.simd_gt(f32x16::ONE).select(f32x16::ONE, cos_i)),
+        eta,
+    );
+    let fresnel_r = fresnel_cos2_t.simd_le(f32x16::ZERO).select(f32x16::ONE, r).to_array();
+    let arr = |v: V3<f32x16>| [v.x.to_array(), v.y.to_array(), v.z.to_array()];
+    let (refl_o, refl_d) = (arr(offset_lanes(p, err, n)), arr(reflect_lanes(d, n)));
+    let (refr_o, refr_d) = (arr(offset_lanes(p, err, -n)), arr(t));
+    // As refract(): no refraction where cos²θt ≤ 0 (a NaN refracts, as there).
+    let refracts = !cos2_t.simd_le(f32x16::ZERO).to_bitmask();
+    let keys = |branch: u32| {
+        let key = u32x16::from(std::array::from_fn::<u32, LANES, _>(|k| {
+            rays.key[ids.get(k).copied().unwrap_or(ids[0]) as usize]
+        }));
+        hash_lanes([key, u32x16::splat(branch)]).to_array()
+    };
+    let (key1, key2) = (keys(1), keys(2));
+    let at = |v: &[[f32; LANES]; 3], k: usize| Vec3::new(v[0][k], v[1][k], v[2][k]);
+    for (k, &i) in ids.iter().enumerate() {
         let i = i as usize;
-        let prim = &scene.accel.prims[hits.prim[i] as usize];
-        let (d, w) = (rays.dir(i), rays.weight(i));
-        let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
-        let ng = prim.shape.normal(x).normalize();
-        let (slot, depth, key, sample) = (rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
-        match scene.materials[prim.material as usize] {
-            Material::Mirror { color } => {
-                let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-                next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * color, depth, hash(&[key, 1]), sample);
-            }
-            Material::Dielectric { ior, ratio, tint } => {
-                let side = interface(d, ng, ior);
-                let n = side.normal;
-                let refracted = refract(d, n, side.eta);
-                let c = match (refracted, ratio) {
-                    (None, _) => 1.0,
-                    (Some(_), ReflectRatio::Fixed(c)) => c,
-                    (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(n), side.eta),
-                };
-                if c > 0.0 {
-                    next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * c, depth, hash(&[key, 1]), sample);
-                }
-                if let Some(t) = refracted {
-                    if c < 1.0 {
-                        next.push(
-                            offset_ray_origin(x, err, -n),
-                            t,
-                            slot,
-                            w * tint * (1.0 - c),
-                            depth,
-                            hash(&[key, 2]),
-                            sample,
-                        );
-                    }
-                }
-            }
-            Material::Diffuse { .. } => debug_assert!(false, "diffuse hit in the specular list"),
+        let (w, slot, depth, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.sample[i]);
+        let (_, fixed, color, mirror) = mat[k];
+        let Some(mirror) = mirror else { continue };
+        if mirror {
+            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample);
+            continue;
+        }
+        let refracted = refracts & (1 << k) != 0;
+        let c = match (refracted, fixed.is_nan()) {
+            (false, _) => 1.0,
+            (true, false) => fixed,
+            (true, true) => fresnel_r[k],
+        };
+        if c > 0.0 {
+            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample);
+        }
+        if refracted && c < 1.0 {
+            next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample);
         }
     }
 }
