@@ -7,16 +7,6 @@ use super::{Simd, MAX};
 use crate::geometry::bvh::CULL;
 use crate::geometry::shapes::{intersect_triangle, shear_axes, Shape};
 
-/// obvhs's `safe_inverse`, so lanes divide exactly as the scalar rays do.
-#[inline]
-fn safe_inverse(x: f32) -> f32 {
-    if x.abs() <= f32::EPSILON {
-        x.signum() / f32::EPSILON
-    } else {
-        1.0 / x
-    }
-}
-
 /// How a triangle's vertex components are permuted into each lane's sheared frame.
 pub(super) enum Axes<S> {
     /// Every lane uses the same permutation (the usual case for a coherent packet).
@@ -43,40 +33,63 @@ pub(super) struct Lanes<'a, S> {
 
 impl<'a, S: Simd> Lanes<'a, S> {
     pub(super) fn new(o: &'a [Vec3], d: &'a [Vec3], slack: f32) -> Self {
+        // Scalar work is only copying and choosing axes; every division runs on lanes
+        // (correctly rounded, so the same bits as the scalar rays' divisions).
         let mut oa = [[0.0f32; MAX]; 3];
-        let mut ia = [[1.0f32; MAX]; 3];
         let mut da = [[0.0f32; MAX]; 3];
         let mut so = [[0.0f32; MAX]; 3];
-        let mut sh = [[1.0f32; MAX]; 3];
-        let mut is = [[[0.0f32; MAX]; 3]; 2];
+        // d[kx], d[ky], d[kz]: unused lanes divide 1 by 1.
+        let mut dk = [[1.0f32; MAX]; 3];
         let first = d.first().map_or([0, 1, 2], |&d| shear_axes(d));
         let mut same = true;
-        let on = f32::from_bits(u32::MAX);
+        let mut axes = [[0usize; 3]; MAX];
         for (l, (o, d)) in o.iter().zip(d).enumerate() {
             let k = shear_axes(*d);
             same &= k == first;
+            axes[l] = k;
             for j in 0..3 {
                 oa[j][l] = o[j];
                 da[j][l] = d[j];
-                ia[j][l] = safe_inverse(d[j]);
                 so[j][l] = o[k[j]];
-                is[0][j][l] = if k[j] == 0 { on } else { 0.0 };
-                is[1][j][l] = if k[j] == 1 { on } else { 0.0 };
+                dk[j][l] = d[k[j]];
             }
-            sh[0][l] = d[k[0]] / d[k[2]];
-            sh[1][l] = d[k[1]] / d[k[2]];
-            sh[2][l] = 1.0 / d[k[2]];
         }
         let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
-        let axes = if same { Axes::Same(first) } else { Axes::Mixed(load3(&is[0]), load3(&is[1])) };
+        let axes = if same {
+            Axes::Same(first)
+        } else {
+            let on = f32::from_bits(u32::MAX);
+            let mut is = [[[0.0f32; MAX]; 3]; 2];
+            for (l, k) in axes.iter().enumerate().take(d.len()) {
+                for j in 0..3 {
+                    is[0][j][l] = if k[j] == 0 { on } else { 0.0 };
+                    is[1][j][l] = if k[j] == 1 { on } else { 0.0 };
+                }
+            }
+            Axes::Mixed(load3(&is[0]), load3(&is[1]))
+        };
+        let dir = load3(&da);
+        let [dx, dy, dz] = load3(&dk);
+        let one = S::splat(1.0);
+        // obvhs's safe_inverse on lanes: ±1/ε where |x| ≤ ε (the sign of x, zeros
+        // included), else 1/x. Unused lanes get 1.
+        let inv = dir.map(|x| {
+            let tiny = S::le(S::max(x, -x), S::splat(f32::EPSILON));
+            let signed = S::select(S::negative(x), S::splat(-1.0 / f32::EPSILON), S::splat(1.0 / f32::EPSILON));
+            S::select(tiny, signed, one / x)
+        });
+        let mut used = [0.0f32; MAX];
+        used[..d.len()].fill(f32::from_bits(u32::MAX));
+        let used = S::load(&used);
+        let inv = inv.map(|x| S::select(used, x, one));
         Lanes {
             o,
             d,
             origin: load3(&oa),
-            dir: load3(&da),
-            inv: load3(&ia),
+            dir,
+            inv,
             sheared_origin: load3(&so),
-            shear: load3(&sh),
+            shear: [dx / dz, dy / dz, one / dz],
             axes,
             slack: S::splat(slack),
         }
