@@ -121,32 +121,47 @@ impl Crop {
 }
 
 /// Cuts a `width`×`height` frame into `n` near-equal rectangles aligned to the render's
-/// [`TILE`] grid, row-major: bands of tile rows, each cut into tile columns, with the
-/// band count chosen so the rectangles are close to square. `None` when the frame has
-/// fewer tiles than `n` (or `n` is 0).
+/// [`TILE`] grid, row-major: bands of tile rows, each cut into tile columns. Of every
+/// band count, and task counts per band even or in proportion to the band's rows, it
+/// keeps the layout whose largest task has the fewest tiles (the array job's longest
+/// task), then the smallest spread. `None` when the frame has fewer tiles than `n`.
 pub fn split(width: u32, height: u32, n: u32) -> Option<Vec<Tile>> {
     let (tw, th) = (width.div_ceil(TILE), height.div_ceil(TILE));
     if n == 0 || n as u64 > tw as u64 * th as u64 {
         return None;
     }
-    // Bands: at least ceil(n / tw) so no band has more tasks than columns, at most th.
-    let ideal = ((n as f64 * th as f64 / tw as f64).sqrt().round() as u32).max(1);
-    let bands = ideal.clamp(n.div_ceil(tw), n.min(th));
+    let mut best: Option<((u32, u32), Vec<[u32; 4]>)> = None;
+    for bands in 1..=n.min(th) {
+        for proportional in [false, true] {
+            let Some(rects) = bands_layout(tw, th, n, bands, proportional) else { continue };
+            let tiles = rects.iter().map(|r| (r[1] - r[0]) * (r[3] - r[2]));
+            let (lo, hi) = tiles.fold((u32::MAX, 0), |(lo, hi), t| (lo.min(t), hi.max(t)));
+            let score = (hi, hi - lo);
+            if best.as_ref().is_none_or(|(b, _)| score < *b) {
+                best = Some((score, rects));
+            }
+        }
+    }
+    let px = |t: u32, end: u32| (t * TILE).min(end);
+    let rects = best?.1;
+    Some(rects.iter().map(|r| Tile { x0: px(r[0], width), x1: px(r[1], width), y0: px(r[2], height), y1: px(r[3], height) }).collect())
+}
+
+/// `n` rectangles `[c0, c1, r0, r1]` in tiles: `bands` even bands of the `th` tile rows,
+/// band b holding an even share of the tasks, or (`proportional`) a share in proportion
+/// to its rows; each band's tasks cut its `tw` columns evenly. `None` when a band would
+/// get no task, or more tasks than columns.
+fn bands_layout(tw: u32, th: u32, n: u32, bands: u32, proportional: bool) -> Option<Vec<[u32; 4]>> {
     let cut = |total: u32, parts: u32, i: u32| (total as u64 * i as u64 / parts as u64) as u32;
+    let task_cut = |b: u32| if proportional { cut(n, th, cut(th, bands, b)) } else { cut(n, bands, b) };
     let mut out = Vec::with_capacity(n as usize);
     for b in 0..bands {
         let (r0, r1) = (cut(th, bands, b), cut(th, bands, b + 1));
-        // Even integer cuts: band heights differ by one row at most, task counts by one.
-        let tasks = cut(n, bands, b + 1) - cut(n, bands, b);
-        for j in 0..tasks {
-            let (c0, c1) = (cut(tw, tasks, j), cut(tw, tasks, j + 1));
-            out.push(Tile {
-                x0: c0 * TILE,
-                x1: (c1 * TILE).min(width),
-                y0: r0 * TILE,
-                y1: (r1 * TILE).min(height),
-            });
+        let tasks = task_cut(b + 1) - task_cut(b);
+        if tasks == 0 || tasks > tw {
+            return None;
         }
+        out.extend((0..tasks).map(|j| [cut(tw, tasks, j), cut(tw, tasks, j + 1), r0, r1]));
     }
     Some(out)
 }
