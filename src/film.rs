@@ -130,7 +130,7 @@ pub fn split(width: u32, height: u32, n: u32) -> Option<Vec<Tile>> {
     if n == 0 || n as u64 > tw as u64 * th as u64 {
         return None;
     }
-    let mut best: Option<((u32, u32), Vec<[u32; 4]>)> = None;
+    let mut best: Option<((u32, u32), Layout)> = None;
     for bands in 1..=n.min(th) {
         for proportional in [false, true] {
             let Some(rects) = bands_layout(tw, th, n, bands, proportional) else { continue };
@@ -144,14 +144,22 @@ pub fn split(width: u32, height: u32, n: u32) -> Option<Vec<Tile>> {
     }
     let px = |t: u32, end: u32| (t * TILE).min(end);
     let rects = best?.1;
-    Some(rects.iter().map(|r| Tile { x0: px(r[0], width), x1: px(r[1], width), y0: px(r[2], height), y1: px(r[3], height) }).collect())
+    Some(
+        rects
+            .iter()
+            .map(|r| Tile { x0: px(r[0], width), x1: px(r[1], width), y0: px(r[2], height), y1: px(r[3], height) })
+            .collect(),
+    )
 }
+
+/// Task rectangles `[c0, c1, r0, r1]` in tiles of the render's grid.
+type Layout = Vec<[u32; 4]>;
 
 /// `n` rectangles `[c0, c1, r0, r1]` in tiles: `bands` even bands of the `th` tile rows,
 /// band b holding an even share of the tasks, or (`proportional`) a share in proportion
 /// to its rows; each band's tasks cut its `tw` columns evenly. `None` when a band would
 /// get no task, or more tasks than columns.
-fn bands_layout(tw: u32, th: u32, n: u32, bands: u32, proportional: bool) -> Option<Vec<[u32; 4]>> {
+fn bands_layout(tw: u32, th: u32, n: u32, bands: u32, proportional: bool) -> Option<Layout> {
     let cut = |total: u32, parts: u32, i: u32| (total as u64 * i as u64 / parts as u64) as u32;
     let task_cut = |b: u32| if proportional { cut(n, th, cut(th, bands, b)) } else { cut(n, bands, b) };
     let mut out = Vec::with_capacity(n as usize);

@@ -36,19 +36,19 @@ fn bits(v: &[glam::Vec3]) -> Vec<u32> {
 fn crops() -> Vec<Tile> {
     let t = |x0, x1, y0, y1| Tile { x0, x1, y0, y1 };
     vec![
-        t(0, 5, 0, 3),           // top-left corner
-        t(W - 7, W, 0, 9),       // top-right corner
-        t(0, 13, H - 2, H),      // bottom-left corner
-        t(W - 1, W, H - 1, H),   // bottom-right pixel
-        t(0, 3, 10, 30),         // left border
-        t(W - 4, W, 17, 33),     // right border
-        t(20, 40, 0, 1),         // top border, one row
-        t(15, 47, H - 5, H),     // bottom border
+        t(0, 5, 0, 3),                             // top-left corner
+        t(W - 7, W, 0, 9),                         // top-right corner
+        t(0, 13, H - 2, H),                        // bottom-left corner
+        t(W - 1, W, H - 1, H),                     // bottom-right pixel
+        t(0, 3, 10, 30),                           // left border
+        t(W - 4, W, 17, 33),                       // right border
+        t(20, 40, 0, 1),                           // top border, one row
+        t(15, 47, H - 5, H),                       // bottom border
         t(TILE - 1, TILE + 1, TILE - 1, TILE + 1), // across a tile corner
         t(TILE, TILE + 1, TILE, TILE + 1),         // one pixel at a tile's top-left
-        t(17, 18, 23, 24),       // one pixel inside a tile
-        t(5, 50, 7, 36),         // unaligned, spanning tiles
-        t(0, W, 0, H),           // everything
+        t(17, 18, 23, 24),                         // one pixel inside a tile
+        t(5, 50, 7, 36),                           // unaligned, spanning tiles
+        t(0, W, 0, H),                             // everything
     ]
 }
 

@@ -71,7 +71,9 @@ fn tiles_merge_into_the_single_render_byte_for_byte() {
     args.extend(tiles.iter().rev().map(String::as_str));
     assert!(d.run(&args).status.success());
     assert!(read(&d.p("out.exr")) == read(&d.p("full.exr")), "merged EXR differs from the single render");
-    let o = d.run(&[&["merge", "--quiet", "-o", "out.png"], &tiles.iter().map(String::as_str).collect::<Vec<_>>()[..]].concat());
+    let o = d.run(
+        &[&["merge", "--quiet", "-o", "out.png"], &tiles.iter().map(String::as_str).collect::<Vec<_>>()[..]].concat(),
+    );
     assert!(o.status.success());
     assert!(read(&d.p("out.png")) == read(&d.p("full.png")), "merged PNG differs from the single render");
 
@@ -132,7 +134,10 @@ fn overlaps_and_foreign_tiles_are_refused_naming_the_tiles() {
     d.refused(&["t0.exr", "t0.exr", "-o", "out.exr"], &["overlap"]);
 
     d.render("seed.exr", &["--tile", "1/2", "--seed", "7"]);
-    d.refused(&["t0.exr", "seed.exr", "-o", "out.exr"], &["`seed.exr` is not from the same render as `t0.exr`", "seed 7 vs 1"]);
+    d.refused(
+        &["t0.exr", "seed.exr", "-o", "out.exr"],
+        &["`seed.exr` is not from the same render as `t0.exr`", "seed 7 vs 1"],
+    );
     d.render("scene.exr", &["--tile", "1/2", "--set", "camera.fov_y=31"]);
     d.refused(&["t0.exr", "scene.exr", "-o", "out.exr"], &["`scene.exr`", "scene hash"]);
     d.render("set.exr", &["--tile", "1/2", "--set", "render.shadows.samples=9"]);

@@ -52,7 +52,10 @@ pub fn run(args: MergeArgs) -> Result<i32> {
         return Ok(0);
     }
     if cov.missing_pixels > 0 && !args.allow_missing {
-        return Err(Error::input(format!("merge: {}; nothing written (--allow-missing writes them black)", cov.describe())));
+        return Err(Error::input(format!(
+            "merge: {}; nothing written (--allow-missing writes them black)",
+            cov.describe()
+        )));
     }
     let out = args.output.as_ref().ok_or_else(|| Error::input("merge: no output (-o OUT)"))?;
     let image = assemble(&tiles);

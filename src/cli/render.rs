@@ -9,10 +9,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+use wavetrace::film::{Crop, Tile};
 use wavetrace::scene::load;
 use wavetrace::stats::{chrome_trace, Report, SceneReport};
 use wavetrace::tools::heatmap::{self, HeatmapKind};
-use wavetrace::film::{Crop, Tile};
 use wavetrace::tools::merge::{RenderId, TileHeader};
 use wavetrace::tools::output::{
     check_folder, check_image_path, check_png_path, write_crop, write_image, write_png, write_text,
@@ -73,9 +73,11 @@ pub struct RenderArgs {
 
 /// Four comma-separated numbers `x0,x1,y0,y1`.
 fn four<T: std::str::FromStr>(s: &str) -> std::result::Result<[T; 4], String> {
-    let v: Vec<T> = s.split(',').map(|p| p.trim().parse::<T>()).collect::<std::result::Result<_, _>>().map_err(|_| {
-        format!("expected four numbers x0,x1,y0,y1, got `{s}`")
-    })?;
+    let v: Vec<T> = s
+        .split(',')
+        .map(|p| p.trim().parse::<T>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("expected four numbers x0,x1,y0,y1, got `{s}`"))?;
     v.try_into().map_err(|_| format!("expected four numbers x0,x1,y0,y1, got `{s}`"))
 }
 

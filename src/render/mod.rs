@@ -351,6 +351,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let (stats, per_thread, spans) = merge_passes([focus_stats, grid_stats, main_stats]);
     let partial = stats.tiles < all_tiles as u64;
     let image = Image { width: w, height: h, pixels };
-    let (image, heat) = if window.pixels() == image.pixels.len() { (image, heat) } else { (image.crop(&window), heat.crop(w, &window)) };
+    let (image, heat) = if window.pixels() == image.pixels.len() {
+        (image, heat)
+    } else {
+        (image.crop(&window), heat.crop(w, &window))
+    };
     Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial })
 }

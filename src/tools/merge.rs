@@ -110,10 +110,16 @@ impl TileHeader {
 
     /// Parses the `wavetrace.*` attributes of a tile whose windows gave `width`,
     /// `height` and `crop`.
-    fn parse(attrs: &HashMap<String, String>, (width, height): (u32, u32), crop: Tile) -> std::result::Result<Self, String> {
+    fn parse(
+        attrs: &HashMap<String, String>,
+        (width, height): (u32, u32),
+        crop: Tile,
+    ) -> std::result::Result<Self, String> {
         let get = |k: &str| {
             attrs.get(&format!("{PREFIX}{k}")).ok_or_else(|| {
-                format!("no `{PREFIX}{k}` header attribute (not a tile of `wavetrace render --crop/--crop-window/--tile`)")
+                format!(
+                    "no `{PREFIX}{k}` header attribute (not a tile of `wavetrace render --crop/--crop-window/--tile`)"
+                )
             })
         };
         let num = |k: &str| get(k)?.parse::<u64>().map_err(|_| format!("bad `{PREFIX}{k}` header attribute"));

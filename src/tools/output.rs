@@ -122,7 +122,13 @@ fn save_exr_crop(
 }
 
 #[cfg(not(feature = "exr"))]
-fn save_exr_crop(_: &Path, _: &Image, _: (u32, u32), _: &Tile, _: &[(String, String)]) -> std::result::Result<(), String> {
+fn save_exr_crop(
+    _: &Path,
+    _: &Image,
+    _: (u32, u32),
+    _: &Tile,
+    _: &[(String, String)],
+) -> std::result::Result<(), String> {
     Err(NEEDS_EXR.into())
 }
 
