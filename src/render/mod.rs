@@ -67,7 +67,7 @@ pub struct RenderOptions {
     pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
     /// Render only these pixels (half-open, in the full image's raster); the output
     /// image is the crop. Each pixel is bit-identical to the full render's: the crop
-    /// runs the full render's tiles that touch it, unchanged (see [`pass_tiles`]).
+    /// runs the full render's tiles that touch it, unchanged (`pass_tiles`).
     pub crop: Option<Tile>,
 }
 
