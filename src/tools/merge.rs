@@ -13,6 +13,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::film::{copy_tile, split, Image, Tile};
+use crate::geometry::shapes::{Primitive, Shape};
 use crate::scene::Scene;
 use crate::{Error, Result};
 
@@ -25,19 +26,50 @@ const PREFIX: &str = "wavetrace.";
 struct Fnv(u64);
 
 impl Fnv {
+    /// A fresh hash.
+    fn new() -> Fnv {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+
     /// The hash of `value`'s `Debug` text, as 16 hex digits.
     fn of(value: &impl std::fmt::Debug) -> String {
-        let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+        let mut h = Fnv::new();
         let _ = write!(h, "{value:?}");
-        format!("{:016x}", h.0)
+        h.hex()
+    }
+
+    /// Adds bytes.
+    fn bytes(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 = (self.0 ^ *b as u64).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+
+    /// Adds a primitive's exact bits: formatting a mesh's floats as text would cost
+    /// more than loading it.
+    fn primitive(&mut self, p: &Primitive) {
+        let (tag, vecs): (u8, &[Vec3]) = match &p.shape {
+            Shape::Sphere { center, radius } => (0, &[*center, Vec3::splat(*radius)]),
+            Shape::Triangle { v0, v1, v2 } => (1, &[*v0, *v1, *v2]),
+            Shape::Quad { corner, u, v } => (2, &[*corner, *u, *v]),
+        };
+        self.bytes(&[tag]);
+        for f in vecs.iter().flat_map(|v| v.to_array()) {
+            self.bytes(&f.to_bits().to_le_bytes());
+        }
+        self.bytes(&p.material.to_le_bytes());
+        self.bytes(&p.light.to_le_bytes());
+    }
+
+    /// 16 hex digits.
+    fn hex(&self) -> String {
+        format!("{:016x}", self.0)
     }
 }
 
 impl std::fmt::Write for Fnv {
     fn write_str(&mut self, s: &str) -> std::fmt::Result {
-        for b in s.bytes() {
-            self.0 = (self.0 ^ b as u64).wrapping_mul(0x0100_0000_01b3);
-        }
+        self.bytes(s.as_bytes());
         Ok(())
     }
 }
@@ -59,9 +91,11 @@ pub struct RenderId {
 impl RenderId {
     /// The identity of a render of `scene` by this build.
     pub fn of(scene: &Scene) -> RenderId {
-        let content = (&scene.camera, scene.background, &scene.materials, &scene.lights, &scene.accel.prims);
+        let mut scene_hash = Fnv::new();
+        let _ = write!(scene_hash, "{:?}", (&scene.camera, scene.background, &scene.materials, &scene.lights));
+        scene.accel.prims.iter().for_each(|p| scene_hash.primitive(p));
         RenderId {
-            scene_hash: Fnv::of(&content),
+            scene_hash: scene_hash.hex(),
             settings_hash: Fnv::of(&scene.settings),
             seed: scene.settings.seed,
             version: env!("CARGO_PKG_VERSION").to_string(),
