@@ -4,8 +4,10 @@
 # render on 1 thread, interleaved in one run (N order, then again) so that load on a
 # shared machine hits both. Prints per N: the sum of the tasks' render seconds (their
 # tile headers, via merge --stats-json), the sum of the task processes' wall seconds
-# (scene load and BVH build included), and the single render's, and their ratios; and
-# checks that the merged frame is byte-identical to the single render.
+# (scene load and BVH build included), and the single render's, and their ratios; the
+# tasks' rays against the single render's (a task traces whole corner-grid tiles at its
+# edges: see docs/scale-out.md); and checks that the merged frame is byte-identical to
+# the single render.
 #   scripts/split-overhead.sh [SCENE] [SIZE] [N...]   (default fig08, 500, 2 8 32)
 # WAVETRACE=path/to/binary skips the build; REPS (default 2) rounds.
 set -euo pipefail
@@ -20,12 +22,12 @@ out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 args=(--set "render.width=$size" --set "render.height=$size" --threads 1 --quiet)
 now() { date +%s%N; }
-single() { # prints "render_seconds wall_seconds"
+single() { # prints "render_seconds wall_seconds rays"
   local t=$(now)
   "$WAVETRACE" render "$scene" "${args[@]}" -o "$out/single.exr" --stats-json "$out/single.json"
-  echo "$(jq .seconds "$out/single.json") $(( $(now) - t ))e-9"
+  echo "$(jq .seconds "$out/single.json") $(( $(now) - t ))e-9 $(jq .total_rays "$out/single.json")"
 }
-split() { # N: prints "sum_render_seconds sum_wall_seconds"
+split() { # N: prints "sum_render_seconds sum_wall_seconds sum_rays"
   local n=$1 k t wall=0
   rm -f "$out"/t-*.exr
   for ((k = 0; k < n; k++)); do
@@ -35,14 +37,14 @@ split() { # N: prints "sum_render_seconds sum_wall_seconds"
   done
   "$WAVETRACE" merge "$out"/t-*.exr -q -o "$out/merged.exr" --stats-json "$out/merged.json"
   cmp -s "$out/merged.exr" "$out/single.exr" || { echo "N=$n: merged frame differs from the single render" >&2; exit 1; }
-  echo "$(jq .seconds "$out/merged.json") ${wall}e-9"
+  echo "$(jq .seconds "$out/merged.json") ${wall}e-9 $(jq .rays "$out/merged.json")"
 }
-printf '%-6s %-4s %12s %12s %12s %12s %8s %8s\n' round N task_render single_render task_wall single_wall render_x wall_x
+printf '%-6s %-4s %12s %12s %12s %12s %8s %8s %8s\n' round N task_render single_render task_wall single_wall render_x wall_x rays_x
 for ((r = 1; r <= ${REPS:-2}; r++)); do
   for n in "${ns[@]}"; do
-    read -r sr sw < <(single)
-    read -r tr tw < <(split "$n")
-    awk -v r="$r" -v n="$n" -v tr="$tr" -v sr="$sr" -v tw="$tw" -v sw="$sw" \
-      'BEGIN { printf "%-6s %-4s %12.2f %12.2f %12.2f %12.2f %8.3f %8.3f\n", r, n, tr, sr, tw, sw, tr / sr, tw / sw }'
+    read -r sr sw sx < <(single)
+    read -r tr tw tx < <(split "$n")
+    awk -v r="$r" -v n="$n" -v tr="$tr" -v sr="$sr" -v tw="$tw" -v sw="$sw" -v tx="$tx" -v sx="$sx" \
+      'BEGIN { printf "%-6s %-4s %12.2f %12.2f %12.2f %12.2f %8.3f %8.3f %8.3f\n", r, n, tr, sr, tw, sw, tr / sr, tw / sw, tx / sx }'
   done
 done
