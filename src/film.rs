@@ -123,20 +123,26 @@ impl Crop {
 /// Cuts a `width`×`height` frame into `n` near-equal rectangles aligned to the render's
 /// [`TILE`] grid, row-major: bands of tile rows, each cut into tile columns. Of every
 /// band count, and task counts per band even or in proportion to the band's rows, it
-/// keeps the layout whose largest task has the fewest tiles (the array job's longest
-/// task), then the smallest spread. `None` when the frame has fewer tiles than `n`.
+/// keeps the layout whose costliest task is cheapest (the array job's longest task),
+/// then the one with the fewest pixel tiles in its largest task, then the smallest
+/// spread. A task of c×r tiles costs c·r pixel tiles plus the (c+1)·(r+1) corner-grid
+/// tiles that adaptive AA traces for it (whole grid tiles, so that the corners are
+/// exact): thin strips would trace twice the corner grid. `None` when the frame has
+/// fewer tiles than `n`.
 pub fn split(width: u32, height: u32, n: u32) -> Option<Vec<Tile>> {
     let (tw, th) = (width.div_ceil(TILE), height.div_ceil(TILE));
     if n == 0 || n as u64 > tw as u64 * th as u64 {
         return None;
     }
-    let mut best: Option<((u32, u32), Layout)> = None;
+    let mut best: Option<((u32, u32, u32), Layout)> = None;
     for bands in 1..=n.min(th) {
         for proportional in [false, true] {
             let Some(rects) = bands_layout(tw, th, n, bands, proportional) else { continue };
-            let tiles = rects.iter().map(|r| (r[1] - r[0]) * (r[3] - r[2]));
+            let size = |r: &[u32; 4]| (r[1] - r[0], r[3] - r[2]);
+            let cost = rects.iter().map(|r| size(r)).map(|(c, r)| c * r + (c + 1) * (r + 1)).max().unwrap_or(0);
+            let tiles = rects.iter().map(|r| size(r).0 * size(r).1);
             let (lo, hi) = tiles.fold((u32::MAX, 0), |(lo, hi), t| (lo.min(t), hi.max(t)));
-            let score = (hi, hi - lo);
+            let score = (cost, hi, hi - lo);
             if best.as_ref().is_none_or(|(b, _)| score < *b) {
                 best = Some((score, rects));
             }
