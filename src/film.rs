@@ -134,12 +134,13 @@ pub fn split(width: u32, height: u32, n: u32) -> Option<Vec<Tile>> {
     if n == 0 || n as u64 > tw as u64 * th as u64 {
         return None;
     }
-    let mut best: Option<((u32, u32, u32), Layout)> = None;
+    // (costliest task, most pixel tiles, spread) of the best layout so far.
+    let mut best: Option<(Score, Layout)> = None;
     for bands in 1..=n.min(th) {
         for proportional in [false, true] {
             let Some(rects) = bands_layout(tw, th, n, bands, proportional) else { continue };
             let size = |r: &[u32; 4]| (r[1] - r[0], r[3] - r[2]);
-            let cost = rects.iter().map(|r| size(r)).map(|(c, r)| c * r + (c + 1) * (r + 1)).max().unwrap_or(0);
+            let cost = rects.iter().map(size).map(|(c, r)| c * r + (c + 1) * (r + 1)).max().unwrap_or(0);
             let tiles = rects.iter().map(|r| size(r).0 * size(r).1);
             let (lo, hi) = tiles.fold((u32::MAX, 0), |(lo, hi), t| (lo.min(t), hi.max(t)));
             let score = (cost, hi, hi - lo);
@@ -160,6 +161,9 @@ pub fn split(width: u32, height: u32, n: u32) -> Option<Vec<Tile>> {
 
 /// Task rectangles `[c0, c1, r0, r1]` in tiles of the render's grid.
 type Layout = Vec<[u32; 4]>;
+
+/// How [`split`] ranks layouts, lowest first.
+type Score = (u32, u32, u32);
 
 /// `n` rectangles `[c0, c1, r0, r1]` in tiles: `bands` even bands of the `th` tile rows,
 /// band b holding an even share of the tasks, or (`proportional`) a share in proportion

@@ -205,7 +205,6 @@ pub fn read_tile(path: &Path) -> Result<TileFile> {
 }
 
 /// (pixels, display size, data window, text attributes) of an EXR.
-#[cfg(feature = "exr")]
 type ExrTile = (Image, (u32, u32), Tile, HashMap<String, String>);
 
 #[cfg(feature = "exr")]
@@ -248,7 +247,7 @@ fn read_exr_tile(path: &Path) -> std::result::Result<ExrTile, String> {
 }
 
 #[cfg(not(feature = "exr"))]
-fn read_exr_tile(_: &Path) -> std::result::Result<(Image, (u32, u32), Tile, HashMap<String, String>), String> {
+fn read_exr_tile(_: &Path) -> std::result::Result<ExrTile, String> {
     Err(crate::tools::output::NEEDS_EXR.into())
 }
 
