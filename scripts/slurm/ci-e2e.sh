@@ -9,6 +9,9 @@
 #
 # Where it cannot run (not root, no apt-get) it says so loudly and exits 0, unless
 # WAVETRACE_REQUIRE_SLURM=1, which makes that a failure. Any failed check exits 1.
+# WAVETRACE=path/to/binary skips the build (.ci/run passes the one `cargo test
+# --release` built: a plain `cargo build --release` after it rebuilds, because the
+# dev-dependencies unify features differently).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 here=scripts/slurm
@@ -24,8 +27,12 @@ skip() {
 [ "$(id -u)" = 0 ] || skip "needs root (it installs and starts slurmctld, slurmd, munged)"
 command -v apt-get >/dev/null || skip "needs apt-get (Debian packages slurmctld slurmd slurm-client munge)"
 
-cargo build --release --quiet
-bin=$(realpath target/release/wavetrace)
+if [ -z "${WAVETRACE:-}" ]; then
+  cargo build --release --quiet
+  WAVETRACE=target/release/wavetrace
+fi
+bin=$(realpath "$WAVETRACE")
+t0=$(date +%s%N)
 work=$(mktemp -d /tmp/wavetrace-slurm.XXXXXX)
 STATE=${SLURM_LOCAL_STATE:-/var/spool/slurm-local}
 
