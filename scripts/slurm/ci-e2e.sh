@@ -26,6 +26,11 @@ skip() {
 }
 [ "$(id -u)" = 0 ] || skip "needs root (it installs and starts slurmctld, slurmd, munged)"
 command -v apt-get >/dev/null || skip "needs apt-get (Debian packages slurmctld slurmd slurm-client munge)"
+# One cluster per machine (ports 6817/6818): concurrent runs (several worktrees' CI on
+# one machine) take turns, or the first one's stop would pull the cluster from under
+# the second.
+exec 9>/var/lock/wavetrace-slurm-e2e.lock
+flock 9
 
 if [ -z "${WAVETRACE:-}" ]; then
   cargo build --release --quiet
