@@ -31,7 +31,7 @@ pub struct Heat {
 /// Tile edge in pixels: small enough to balance load, large enough for coherent waves.
 pub const TILE: u32 = 16;
 /// A rectangle of pixels `[x0, x1) × [y0, y1)` rendered by one worker.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct Tile {
     /// Left column.
     pub x0: u32,
@@ -48,6 +48,140 @@ impl Tile {
     pub fn pixels(&self) -> usize {
         ((self.x1 - self.x0) * (self.y1 - self.y0)) as usize
     }
+
+    /// True when the two rectangles share a pixel.
+    pub fn overlaps(&self, other: &Tile) -> bool {
+        self.x0 < other.x1 && other.x0 < self.x1 && self.y0 < other.y1 && other.y0 < self.y1
+    }
+
+    /// The rectangle grown by one pixel right and down: the pixel corners this
+    /// rectangle's pixels use, in the (W+1)×(H+1) corner grid.
+    pub fn corners(&self) -> Tile {
+        Tile { x1: self.x1 + 1, y1: self.y1 + 1, ..*self }
+    }
+}
+
+impl std::fmt::Display for Tile {
+    /// `x0,x1,y0,y1`: the `--crop` syntax (pbrt's pixel bounds).
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(f, "{},{},{},{}", self.x0, self.x1, self.y0, self.y1)
+    }
+}
+
+/// Part of the frame a render is asked for (`--crop`, `--crop-window`, `--tile`),
+/// before the image size is known.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Crop {
+    /// Pixel bounds `x0,x1,y0,y1`, half-open, in the full image's raster.
+    Pixels(Tile),
+    /// Fractions of the frame `x0,x1,y0,y1` in [0, 1] (pbrt's crop window): the pixels
+    /// from ceil(W·x0) to ceil(W·x1), likewise in y.
+    Window([f32; 4]),
+    /// Task `k` of `n`: the k-th of [`split`]'s rectangles.
+    Task {
+        /// Task index, from 0.
+        k: u32,
+        /// Number of tasks.
+        n: u32,
+    },
+}
+
+impl Crop {
+    /// The pixel rectangle of this crop in a `width`×`height` frame; a message when it
+    /// is empty, reversed or outside the frame.
+    pub fn resolve(&self, width: u32, height: u32) -> std::result::Result<Tile, String> {
+        let t = match *self {
+            Crop::Pixels(t) => t,
+            Crop::Window(f) => {
+                if f.iter().any(|v| !(0.0..=1.0).contains(v)) {
+                    return Err(format!("--crop-window {f:?}: every value must be in [0, 1]"));
+                }
+                let px = |v: f32, size: u32| (size as f32 * v).ceil() as u32;
+                Tile { x0: px(f[0], width), x1: px(f[1], width), y0: px(f[2], height), y1: px(f[3], height) }
+            }
+            Crop::Task { k, n } => {
+                if n == 0 || k >= n {
+                    return Err(format!("--tile {k}/{n}: need N ≥ 1 and 0 ≤ K < N"));
+                }
+                let parts = split(width, height, n).ok_or_else(|| {
+                    let have = width.div_ceil(TILE) * height.div_ceil(TILE);
+                    format!("--tile {k}/{n}: a {width}×{height} image has {have} tiles of {TILE}×{TILE}, fewer than {n} tasks")
+                })?;
+                return Ok(parts[k as usize]);
+            }
+        };
+        if t.x0 >= t.x1 || t.y0 >= t.y1 {
+            return Err(format!("crop {t} (x0,x1,y0,y1) is empty or reversed"));
+        }
+        if t.x1 > width || t.y1 > height {
+            return Err(format!("crop {t} (x0,x1,y0,y1) is outside the {width}×{height} image"));
+        }
+        Ok(t)
+    }
+}
+
+/// Cuts a `width`×`height` frame into `n` near-equal rectangles aligned to the render's
+/// [`TILE`] grid, row-major: bands of tile rows, each cut into tile columns. Of every
+/// band count, and task counts per band even or in proportion to the band's rows, it
+/// keeps the layout whose costliest task is cheapest (the array job's longest task),
+/// then the one with the fewest pixel tiles in its largest task, then the smallest
+/// spread. A task of c×r tiles costs c·r pixel tiles plus the (c+1)·(r+1) corner-grid
+/// tiles that adaptive AA traces for it (whole grid tiles, so that the corners are
+/// exact): thin strips would trace twice the corner grid. `None` when the frame has
+/// fewer tiles than `n`.
+pub fn split(width: u32, height: u32, n: u32) -> Option<Vec<Tile>> {
+    let (tw, th) = (width.div_ceil(TILE), height.div_ceil(TILE));
+    if n == 0 || n as u64 > tw as u64 * th as u64 {
+        return None;
+    }
+    // (costliest task, most pixel tiles, spread) of the best layout so far.
+    let mut best: Option<(Score, Layout)> = None;
+    for bands in 1..=n.min(th) {
+        for proportional in [false, true] {
+            let Some(rects) = bands_layout(tw, th, n, bands, proportional) else { continue };
+            let size = |r: &[u32; 4]| (r[1] - r[0], r[3] - r[2]);
+            let cost = rects.iter().map(size).map(|(c, r)| c * r + (c + 1) * (r + 1)).max().unwrap_or(0);
+            let tiles = rects.iter().map(|r| size(r).0 * size(r).1);
+            let (lo, hi) = tiles.fold((u32::MAX, 0), |(lo, hi), t| (lo.min(t), hi.max(t)));
+            let score = (cost, hi, hi - lo);
+            if best.as_ref().is_none_or(|(b, _)| score < *b) {
+                best = Some((score, rects));
+            }
+        }
+    }
+    let px = |t: u32, end: u32| (t * TILE).min(end);
+    let rects = best?.1;
+    Some(
+        rects
+            .iter()
+            .map(|r| Tile { x0: px(r[0], width), x1: px(r[1], width), y0: px(r[2], height), y1: px(r[3], height) })
+            .collect(),
+    )
+}
+
+/// Task rectangles `[c0, c1, r0, r1]` in tiles of the render's grid.
+type Layout = Vec<[u32; 4]>;
+
+/// How [`split`] ranks layouts, lowest first.
+type Score = (u32, u32, u32);
+
+/// `n` rectangles `[c0, c1, r0, r1]` in tiles: `bands` even bands of the `th` tile rows,
+/// band b holding an even share of the tasks, or (`proportional`) a share in proportion
+/// to its rows; each band's tasks cut its `tw` columns evenly. `None` when a band would
+/// get no task, or more tasks than columns.
+fn bands_layout(tw: u32, th: u32, n: u32, bands: u32, proportional: bool) -> Option<Layout> {
+    let cut = |total: u32, parts: u32, i: u32| (total as u64 * i as u64 / parts as u64) as u32;
+    let task_cut = |b: u32| if proportional { cut(n, th, cut(th, bands, b)) } else { cut(n, bands, b) };
+    let mut out = Vec::with_capacity(n as usize);
+    for b in 0..bands {
+        let (r0, r1) = (cut(th, bands, b), cut(th, bands, b + 1));
+        let tasks = task_cut(b + 1) - task_cut(b);
+        if tasks == 0 || tasks > tw {
+            return None;
+        }
+        out.extend((0..tasks).map(|j| [cut(tw, tasks, j), cut(tw, tasks, j + 1), r0, r1]));
+    }
+    Some(out)
 }
 
 /// The tiles of a `width`×`height` raster, row-major. The tiling never depends on the
@@ -69,6 +203,22 @@ pub fn copy_tile<T: Copy>(dst: &mut [T], width: u32, tile: &Tile, src: &[T]) {
     for (row, y) in (tile.y0..tile.y1).enumerate() {
         let at = (y * width + tile.x0) as usize;
         dst[at..at + tw].copy_from_slice(&src[row * tw..(row + 1) * tw]);
+    }
+}
+
+/// The rows of `src` (a raster of width `width`) inside `t`, row-major.
+fn crop_rows<T: Copy>(src: &[T], width: u32, t: &Tile) -> Vec<T> {
+    let mut out = Vec::with_capacity(t.pixels());
+    for y in t.y0..t.y1 {
+        out.extend_from_slice(&src[(y * width + t.x0) as usize..(y * width + t.x1) as usize]);
+    }
+    out
+}
+
+impl Image {
+    /// The pixels inside `t` (which must lie in the image) as an image of their own.
+    pub fn crop(&self, t: &Tile) -> Image {
+        Image { width: t.x1 - t.x0, height: t.y1 - t.y0, pixels: crop_rows(&self.pixels, self.width, t) }
     }
 }
 
@@ -158,6 +308,16 @@ impl Heat {
     /// A cold heat map of `n` pixels.
     pub fn zeroed(n: usize) -> Heat {
         Heat { rays: vec![0.0; n], level: vec![0; n], points: vec![0.0; n], penumbra: vec![0.0; n] }
+    }
+
+    /// The heat inside `t` of this raster of width `width`.
+    pub fn crop(&self, width: u32, t: &Tile) -> Heat {
+        Heat {
+            rays: crop_rows(&self.rays, width, t),
+            level: crop_rows(&self.level, width, t),
+            points: crop_rows(&self.points, width, t),
+            penumbra: crop_rows(&self.penumbra, width, t),
+        }
     }
 
     /// Copies a finished tile's heat (tile-local) into this raster of width `width`.

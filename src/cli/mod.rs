@@ -6,7 +6,7 @@
 //! (exit 2). Numbers that must be at least 1 share one clap range ([`at_least_one`]).
 //!
 //! One module per subcommand: [`render`] (also what runs with no subcommand),
-//! [`compare`], [`sweep`], [`bench`].
+//! [`compare`], [`sweep`], [`bench`], [`merge`].
 
 use clap::builder::{RangedU64ValueParser, TypedValueParser};
 use clap::error::ErrorKind;
@@ -19,6 +19,7 @@ use wavetrace::Result;
 
 pub mod bench;
 pub mod compare;
+pub mod merge;
 pub mod render;
 pub mod sweep;
 
@@ -45,6 +46,9 @@ enum Command {
     /// Trace fixed ray sets from a scene (primary, shadow, secondary) with the scalar and
     /// the packet kernel; print Mrays/s per set and kernel (median of --reps runs).
     Bench(bench::BenchArgs),
+    /// Merge the tiles of one render (EXRs from render --crop/--tile) into the full
+    /// image, after checking they come from one render and cover it exactly once.
+    Merge(merge::MergeArgs),
 }
 
 /// Runs the parsed command; returns the exit status of a successful run (0, or 130 for a
@@ -55,6 +59,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Some(Command::Compare(a)) => compare::run(a).map(|_| 0),
         Some(Command::Sweep(a)) => sweep::run(a).map(|_| 0),
         Some(Command::Bench(a)) => bench::run(a).map(|_| 0),
+        Some(Command::Merge(a)) => merge::run(a),
         None => render::run(cli.render),
     }
 }

@@ -9,10 +9,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+use wavetrace::film::{Crop, Tile};
 use wavetrace::scene::load;
 use wavetrace::stats::{chrome_trace, Report, SceneReport};
 use wavetrace::tools::heatmap::{self, HeatmapKind};
-use wavetrace::tools::output::{check_folder, check_image_path, check_png_path, write_image, write_png, write_text};
+use wavetrace::tools::merge::{RenderId, TileHeader};
+use wavetrace::tools::output::{
+    check_folder, check_image_path, check_png_path, write_crop, write_image, write_png, write_text,
+};
 use wavetrace::{render, Error, RenderOptions, Result};
 
 use super::{at_least_one, say, scene_source};
@@ -53,6 +57,61 @@ pub struct RenderArgs {
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
+    /// Render only the pixels x0,x1,y0,y1 (half-open, full-image raster; pbrt's
+    /// --pixelbounds). An .exr output keeps the crop as its data window, with a header
+    /// that `wavetrace merge` checks.
+    #[arg(long, value_name = "X0,X1,Y0,Y1", value_parser = crop_pixels, conflicts_with_all = ["crop_window", "tile"])]
+    crop: Option<Crop>,
+    /// Render only the fractions x0,x1,y0,y1 of the frame (pbrt's --cropwindow).
+    #[arg(long, value_name = "X0,X1,Y0,Y1", value_parser = crop_window, conflicts_with = "tile")]
+    crop_window: Option<Crop>,
+    /// Render task K of N (K from 0): the frame cut into N near-equal rectangles on the
+    /// tile grid, e.g. --tile $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT.
+    #[arg(long, value_name = "K/N", value_parser = crop_task)]
+    tile: Option<Crop>,
+}
+
+/// Four comma-separated numbers `x0,x1,y0,y1`.
+fn four<T: std::str::FromStr>(s: &str) -> std::result::Result<[T; 4], String> {
+    let v: Vec<T> = s
+        .split(',')
+        .map(|p| p.trim().parse::<T>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("expected four numbers x0,x1,y0,y1, got `{s}`"))?;
+    v.try_into().map_err(|_| format!("expected four numbers x0,x1,y0,y1, got `{s}`"))
+}
+
+/// `--crop x0,x1,y0,y1` (pixels; checked against the image once the scene is loaded).
+fn crop_pixels(s: &str) -> std::result::Result<Crop, String> {
+    let [x0, x1, y0, y1] = four::<u32>(s)?;
+    Ok(Crop::Pixels(Tile { x0, x1, y0, y1 }))
+}
+
+/// `--crop-window x0,x1,y0,y1` (fractions).
+fn crop_window(s: &str) -> std::result::Result<Crop, String> {
+    Ok(Crop::Window(four::<f32>(s)?))
+}
+
+/// `--tile K/N`.
+fn crop_task(s: &str) -> std::result::Result<Crop, String> {
+    let bad = || format!("expected K/N (task K of N, K from 0), got `{s}`");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    Ok(Crop::Task { k: k.trim().parse().map_err(|_| bad())?, n: n.trim().parse().map_err(|_| bad())? })
+}
+
+/// Worker threads: `--threads`, else `SLURM_CPUS_PER_TASK` when set (SLURM without
+/// cgroups does not confine a task to its CPUs), else every core (`None`).
+fn threads(flag: Option<usize>) -> Result<Option<usize>> {
+    if flag.is_some() {
+        return Ok(flag);
+    }
+    match std::env::var("SLURM_CPUS_PER_TASK") {
+        Err(_) => Ok(None),
+        Ok(v) => match v.trim().parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(Some(n)),
+            _ => Err(Error::input(format!("SLURM_CPUS_PER_TASK=`{v}` is not a thread count of at least 1"))),
+        },
+    }
 }
 
 /// One `--heatmap KIND=PATH`.
@@ -118,6 +177,9 @@ pub fn run(args: RenderArgs) -> Result<i32> {
     }
     let scene = load(&source, &sets)?;
     let load_seconds = load_start.elapsed().as_secs_f64();
+    let (w, h) = (scene.settings.width, scene.settings.height);
+    let crop_spec = args.crop.or(args.crop_window).or(args.tile);
+    let crop = crop_spec.map(|c| c.resolve(w, h)).transpose().map_err(Error::input)?;
 
     let progress = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
         let pb = indicatif::ProgressBar::new(0);
@@ -130,7 +192,8 @@ pub fn run(args: RenderArgs) -> Result<i32> {
         pb
     });
     let opts = RenderOptions {
-        threads: args.threads,
+        threads: threads(args.threads)?,
+        crop,
         progress: progress.clone(),
         no_counters: args.no_counters,
         trace: args.trace.is_some(),
@@ -140,7 +203,18 @@ pub fn run(args: RenderArgs) -> Result<i32> {
     if let Some(pb) = progress {
         pb.finish_and_clear();
     }
-    write_image(&args.output, &out.image)?;
+    match crop {
+        None => write_image(&args.output, &out.image)?,
+        Some(c) => {
+            let task = match crop_spec {
+                Some(Crop::Task { k, n }) => Some((k, n)),
+                _ => None,
+            };
+            let (rays, seconds) = (out.stats.total_rays(), out.seconds);
+            let header = TileHeader { id: RenderId::of(&scene), width: w, height: h, crop: c, task, rays, seconds };
+            write_crop(&args.output, &out.image, (w, h), &c, &header.attributes())?
+        }
+    }
     for h in &args.heatmaps {
         let pic = heatmap::draw(h.kind, &out.image, &out.heat);
         write_png(&h.path, pic.width, pic.height, &pic.rgb)?;

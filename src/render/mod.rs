@@ -19,7 +19,7 @@ use adaptive::{AaState, CornerBlur};
 use meter::{Kind, Meter};
 use pipeline::Pipeline;
 
-use crate::film::{copy_tile, tiles, Heat, Image, SlotHeat, Tile, TileFilm};
+use crate::film::{copy_tile, tiles, Heat, Image, SlotHeat, Tile, TileFilm, TILE};
 use crate::geometry::tracer::{Kernel, Tracer};
 use crate::scene::{AaMode, Light, Scene, ShadowMode};
 use crate::stages::camera;
@@ -65,14 +65,18 @@ pub struct RenderOptions {
     /// Set from elsewhere (a Ctrl-C handler) to stop: tiles already finished are kept,
     /// the one in progress is dropped, and the output is marked partial.
     pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// Render only these pixels (half-open, in the full image's raster); the output
+    /// image is the crop. Each pixel is bit-identical to the full render's: the crop
+    /// runs the full render's tiles that touch it, unchanged (`pass_tiles`).
+    pub crop: Option<Tile>,
 }
 
 /// What a render produces.
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
-    /// The image.
+    /// The image (the crop, with [`RenderOptions::crop`]).
     pub image: Image,
-    /// Where the rays went.
+    /// Where the rays went (over the crop).
     pub heat: Heat,
     /// Counters merged over threads.
     pub stats: Stats,
@@ -283,6 +287,35 @@ fn merge_passes(passes: [PerThread; 3]) -> (Stats, Vec<Stats>, Vec<Vec<Span>>) {
     (stats, per_thread, spans)
 }
 
+/// The tiles of each pass of a render of the pixels in `window`: (focus, grid, pixel).
+/// These are the full render's tiles that the window's pixels need: the pixel tiles
+/// that touch it, and the corner-grid tiles that hold those tiles' pixel corners, each
+/// traced whole. The tiling and each tile's work are the full render's, so the window's
+/// pixels, and the corners they share, have the full render's bits.
+fn pass_tiles(s: &crate::scene::Settings, window: &Tile) -> (Vec<Tile>, Vec<Tile>, Vec<Tile>) {
+    let (w, h) = (s.width, s.height);
+    let pixel: Vec<Tile> = tiles(w, h).into_iter().filter(|t| t.overlaps(window)).collect();
+    let block = Tile {
+        x0: window.x0 / TILE * TILE,
+        y0: window.y0 / TILE * TILE,
+        x1: (window.x1.div_ceil(TILE) * TILE).min(w),
+        y1: (window.y1.div_ceil(TILE) * TILE).min(h),
+    }
+    .corners();
+    let corner_tiles = || tiles(w + 1, h + 1).into_iter().filter(|t| t.overlaps(&block)).collect::<Vec<_>>();
+    let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
+    let grid = if shared_grid { corner_tiles() } else { Vec::new() };
+    let focus = if s.dof_radius.is_some() { corner_tiles() } else { Vec::new() };
+    (focus, grid, pixel)
+}
+
+/// The crop of a render: `opts.crop` checked against the image, or the whole image.
+fn window(s: &crate::scene::Settings, opts: &RenderOptions) -> Result<Tile> {
+    let full = Tile { x0: 0, y0: 0, x1: s.width, y1: s.height };
+    let Some(c) = opts.crop else { return Ok(full) };
+    crate::film::Crop::Pixels(c).resolve(s.width, s.height).map_err(Error::input)
+}
+
 /// Renders `scene`: the depth probes (DOF-aware AA), the shared corner grid (adaptive
 /// AA), then the pixel tiles, each pass's tiles spread over the worker threads.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
@@ -296,10 +329,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
         .build()
         .map_err(|e| Error::Internal(format!("cannot start {threads} threads: {e}")))?;
     let (w, h) = (s.width, s.height);
+    let window = window(s, opts)?;
     let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
-    let pixel_tiles = tiles(w, h);
-    let grid_tiles = if shared_grid { tiles(w + 1, h + 1) } else { Vec::new() };
-    let focus_tiles = if s.dof_radius.is_some() { tiles(w + 1, h + 1) } else { Vec::new() };
+    let (focus_tiles, grid_tiles, pixel_tiles) = pass_tiles(s, &window);
     let all_tiles = pixel_tiles.len() + grid_tiles.len() + focus_tiles.len();
     if let Some(pb) = &opts.progress {
         pb.set_length(all_tiles as u64);
@@ -318,5 +350,11 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
 
     let (stats, per_thread, spans) = merge_passes([focus_stats, grid_stats, main_stats]);
     let partial = stats.tiles < all_tiles as u64;
-    Ok(RenderOutput { image: Image { width: w, height: h, pixels }, heat, stats, per_thread, seconds, spans, partial })
+    let image = Image { width: w, height: h, pixels };
+    let (image, heat) = if window.pixels() == image.pixels.len() {
+        (image, heat)
+    } else {
+        (image.crop(&window), heat.crop(w, &window))
+    };
+    Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial })
 }

@@ -9,13 +9,15 @@
 //! - `flip`: NVIDIA's LDR-FLIP perceptual difference (feature `flip`);
 //! - [`sweep`]: error against rays and seconds over a cross product of settings;
 //! - `plot`: the sweep's scatter plots (feature `plot`);
-//! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets.
+//! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets;
+//! - [`merge`]: tile headers, and the exact merge of a render's tiles.
 
 pub mod bench;
 pub mod compare;
 #[cfg(feature = "flip")]
 pub mod flip;
 pub mod heatmap;
+pub mod merge;
 pub mod output;
 #[cfg(feature = "plot")]
 pub mod plot;

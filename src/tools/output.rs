@@ -8,7 +8,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::color::to_display8;
-use crate::film::Image;
+use crate::film::{Image, Tile};
 use crate::{Error, Result};
 
 /// Image file formats, picked by the output's extension.
@@ -78,6 +78,58 @@ fn save_exr(path: &Path, image: &Image) -> std::result::Result<(), String> {
         (p.x, p.y, p.z)
     };
     exr::prelude::write_rgb_file(path, w, image.height as usize, px).map_err(|e| e.to_string())
+}
+
+/// Writes a crop of a `width`×`height` frame: an EXR stores `image` (the pixels of
+/// `crop`) as its data window inside the full display window, with `attributes` as
+/// text header attributes; a PNG (a preview) is just the crop. Atomic.
+pub fn write_crop(
+    path: &Path,
+    image: &Image,
+    (width, height): (u32, u32),
+    crop: &Tile,
+    attributes: &[(String, String)],
+) -> Result<()> {
+    let format = check_image_path(path)?;
+    atomic_write(path, |tmp| match format {
+        Format::Png => save_png(tmp, image.width, image.height, &to_srgb8(image)),
+        Format::Exr => save_exr_crop(tmp, image, (width, height), crop, attributes),
+    })
+}
+
+#[cfg(feature = "exr")]
+fn save_exr_crop(
+    path: &Path,
+    image: &Image,
+    (width, height): (u32, u32),
+    crop: &Tile,
+    attributes: &[(String, String)],
+) -> std::result::Result<(), String> {
+    use exr::prelude::*;
+    let w = image.width as usize;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = image.pixels[y * w + x];
+        (p.x, p.y, p.z)
+    });
+    let mut exr = Image::from_channels((w, image.height as usize), channels);
+    exr.attributes.display_window = IntegerBounds::new((0, 0), (width as usize, height as usize));
+    exr.layer_data.attributes.layer_position = Vec2(crop.x0 as i32, crop.y0 as i32);
+    for (k, v) in attributes {
+        let text = |t: &str| Text::new_or_none(t).ok_or_else(|| format!("header attribute `{k}` is not plain text"));
+        exr.attributes.other.insert(text(k)?, AttributeValue::Text(text(v)?));
+    }
+    exr.write().to_file(path).map_err(|e| e.to_string())
+}
+
+#[cfg(not(feature = "exr"))]
+fn save_exr_crop(
+    _: &Path,
+    _: &Image,
+    _: (u32, u32),
+    _: &Tile,
+    _: &[(String, String)],
+) -> std::result::Result<(), String> {
+    Err(NEEDS_EXR.into())
 }
 
 /// Without the `exr` feature: the error that says so ([`check_image_path`] refuses
