@@ -5,7 +5,7 @@ use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use crate::geometry::offset::offset_ray_origin;
-use crate::geometry::NO_LIGHT;
+use crate::geometry::{Shape, NO_LIGHT};
 use crate::queue::{HitQueue, RayQueue};
 use crate::scene::{Material, Scene};
 
@@ -48,6 +48,32 @@ pub struct Surface {
     pub sample: u32,
 }
 
+/// The shading normal at point `x` of primitive `prim`, on the side of the unit geometric
+/// normal `n` (the side the ray arrived on): the triangle's vertex normals interpolated by
+/// `x`'s barycentric coordinates and normalised (Mitsuba's smooth shading) for a smooth
+/// mesh, else `n` itself. Ray origins keep the geometric normal.
+#[inline]
+pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
+    let Some(&vn) = scene.normals.get(prim) else { return n };
+    let Shape::Triangle { v0, v1, v2 } = scene.accel.prims[prim].shape else { return n };
+    if vn[0] == Vec3::ZERO {
+        return n;
+    }
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let c = e1.cross(e2);
+    let w = c / c.length_squared();
+    let q = x - v0;
+    let (b1, b2) = (w.dot(q.cross(e2)), w.dot(e1.cross(q)));
+    let ns = ((1.0 - b1 - b2) * vn[0] + b1 * vn[1] + b2 * vn[2]).normalize_or_zero();
+    if ns == Vec3::ZERO {
+        n
+    } else if ns.dot(n) < 0.0 {
+        -ns
+    } else {
+        ns
+    }
+}
+
 /// The diffuse surface that ray `i` hit, or `None` if it hit something else.
 #[inline]
 pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
@@ -65,7 +91,7 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
     let n = if ng.dot(d) < 0.0 { ng } else { -ng };
     Some(Surface {
         o: offset_ray_origin(x, err, n),
-        n,
+        n: shading_normal(scene, hits.prim[i] as usize, x, n),
         wo: -d,
         color,
         specular,

@@ -7,6 +7,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::format::*;
+use super::mitsuba::xml::Loc;
+use super::transform::Transform;
 use super::{
     AaMode, Camera, Light, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode,
 };
@@ -43,25 +45,39 @@ pub struct SceneSource {
     pub text: String,
     /// Folder that relative mesh paths start from.
     pub dir: PathBuf,
+    /// A Mitsuba XML scene to import (by the file's `.xml` extension) instead of `text`.
+    pub xml: Option<PathBuf>,
+    /// `-D name=value` parameters of a Mitsuba XML scene.
+    pub defines: Vec<(String, String)>,
 }
 
 impl SceneSource {
     /// Reads a scene file.
     pub fn from_file(path: &Path) -> Result<SceneSource> {
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
+            let name = path.display().to_string();
+            return Ok(SceneSource { name, text: String::new(), dir, xml: Some(path.into()), defines: Vec::new() });
+        }
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::input(format!("scene `{}`: cannot read: {e}", path.display())))?;
-        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        Ok(SceneSource { name: path.display().to_string(), text, dir })
+        Ok(SceneSource { name: path.display().to_string(), text, dir, xml: None, defines: Vec::new() })
     }
 
     /// The embedded default scene.
     pub fn default_scene() -> SceneSource {
-        SceneSource { name: "<default scene>".into(), text: super::DEFAULT_SCENE.into(), dir: PathBuf::from(".") }
+        SceneSource {
+            name: "<default scene>".into(),
+            text: super::DEFAULT_SCENE.into(),
+            dir: PathBuf::from("."),
+            xml: None,
+            defines: Vec::new(),
+        }
     }
 
     /// A scene given as text, with meshes relative to `dir`.
     pub fn from_text(name: &str, text: &str, dir: &Path) -> SceneSource {
-        SceneSource { name: name.into(), text: text.into(), dir: dir.into() }
+        SceneSource { name: name.into(), text: text.into(), dir: dir.into(), xml: None, defines: Vec::new() }
     }
 }
 
@@ -70,6 +86,8 @@ struct Ctx<'a> {
     src: &'a SceneSource,
     doc: Option<toml_edit::ImDocument<&'a str>>,
     sets: &'a [String],
+    /// For an imported scene: field prefix → the element it came from.
+    places: &'a [(String, Loc)],
 }
 
 impl Ctx<'_> {
@@ -79,6 +97,15 @@ impl Ctx<'_> {
             key == path || path.starts_with(&format!("{key}.")) || key.starts_with(&format!("{path}."))
         }) {
             return Error::input(format!("{} (--set {set}): field `{path}`: {msg}", self.src.name));
+        }
+        // An imported scene: the element the field came from (the longest prefix).
+        let place = self
+            .places
+            .iter()
+            .filter(|(p, _)| path == p || path.starts_with(&format!("{p}.")))
+            .max_by_key(|(p, _)| p.len());
+        if let Some((_, loc)) = place {
+            return Error::at(&loc.file, Some((loc.line as usize, loc.col as usize)), path, msg);
         }
         Error::at(&self.src.name, self.locate(path), path, msg)
     }
@@ -161,8 +188,11 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 /// Parses, overrides, validates and builds a scene. `sets` are `KEY=VALUE` overrides
 /// with dotted keys (array elements by index: `objects.0.radius=2`).
 pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
+    if let Some(path) = &src.xml {
+        return load_xml(src, path, sets);
+    }
     let doc = toml_edit::ImDocument::parse(src.text.as_str()).ok();
-    let ctx = Ctx { src, doc, sets };
+    let ctx = Ctx { src, doc, sets, places: &[] };
     // A serde error in the file: located, with the field it is about when it points at a
     // value (a bad `mode` or `probe`, a wrong type).
     let toml_err = |e: toml::de::Error| {
@@ -189,6 +219,28 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
             .map_err(|e| Error::input(format!("{} (--set {set}): field `{key}`: {}", src.name, e.message().trim())))?;
     }
     build(&file, &ctx)
+}
+
+/// Imports a Mitsuba XML scene, applies `--set` overrides to the scene it maps to (same
+/// dotted paths as the TOML format), and builds it.
+fn load_xml(src: &SceneSource, path: &Path, sets: &[String]) -> Result<Scene> {
+    let imported = super::mitsuba::import(path, &src.defines)?;
+    let ctx = Ctx { src, doc: None, sets, places: &imported.places };
+    let mut file = imported.file;
+    if !sets.is_empty() {
+        let mut value = toml::Value::try_from(&file).map_err(|e| Error::Internal(format!("imported scene: {e}")))?;
+        for set in sets {
+            apply_set(&mut value, set)?;
+            check_finite(&value, "", &ctx)?;
+            let key = set.split_once('=').map_or(set.as_str(), |(k, _)| k).trim();
+            file = SceneFile::deserialize(value.clone()).map_err(|e| {
+                Error::input(format!("{} (--set {set}): field `{key}`: {}", src.name, e.message().trim()))
+            })?;
+        }
+    }
+    let mut scene = build(&file, &ctx)?;
+    scene.info.notes = imported.notes;
+    Ok(scene)
 }
 
 fn apply_set(root: &mut toml::Value, set: &str) -> Result<()> {
@@ -442,22 +494,43 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
 }
 
 fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> {
-    let position = vec3(c.position);
-    if !in_range(position) {
-        return Err(ctx.fail("camera.position", format!("beyond ±{MAX_COORD:e} scene units")));
-    }
-    if !in_range(vec3(c.look_at)) {
-        return Err(ctx.fail("camera.look_at", format!("beyond ±{MAX_COORD:e} scene units")));
-    }
-    let to = vec3(c.look_at) - position;
-    if to.length_squared() == 0.0 {
-        return Err(ctx.fail("camera.look_at", "equals camera.position: no view direction"));
-    }
-    let forward = to.normalize();
-    let up_hint = vec3(c.up);
+    let (position, forward, up_hint, default_focus) = match (&c.transform, c.position, c.look_at) {
+        (Some(ops), None, None) => {
+            let t = transform(ctx, "camera.transform", ops)?;
+            let (p, fwd, up, _) = t.frame();
+            if !in_range(p) {
+                return Err(ctx.fail("camera.transform", format!("puts the camera beyond ±{MAX_COORD:e} scene units")));
+            }
+            let f = fwd.normalize_or_zero();
+            if f == Vec3::ZERO || !f.is_finite() {
+                return Err(ctx.fail("camera.transform", "maps +z to no direction"));
+            }
+            (p, f, up, 1.0)
+        }
+        (Some(_), _, _) => {
+            return Err(ctx.fail("camera.transform", "replaces position and look_at: give one or the other"))
+        }
+        (None, Some(p), Some(l)) => {
+            let position = vec3(p);
+            if !in_range(position) {
+                return Err(ctx.fail("camera.position", format!("beyond ±{MAX_COORD:e} scene units")));
+            }
+            if !in_range(vec3(l)) {
+                return Err(ctx.fail("camera.look_at", format!("beyond ±{MAX_COORD:e} scene units")));
+            }
+            let to = vec3(l) - position;
+            if to.length_squared() == 0.0 {
+                return Err(ctx.fail("camera.look_at", "equals camera.position: no view direction"));
+            }
+            (position, to.normalize(), vec3(c.up), to.length())
+        }
+        (None, None, _) => return Err(ctx.fail("camera", "missing field `position` (or a `transform`)")),
+        (None, Some(_), None) => return Err(ctx.fail("camera", "missing field `look_at`")),
+    };
     let right = forward.cross(up_hint);
     if up_hint.length_squared() == 0.0 || right.length() < 1e-6 * up_hint.length() {
-        return Err(ctx.fail("camera.up", "is zero or parallel to the view direction (look_at - position)"));
+        let field = if c.transform.is_some() { "camera.transform" } else { "camera.up" };
+        return Err(ctx.fail(field, "up is zero or parallel to the view direction"));
     }
     let right = right.normalize();
     let up = right.cross(forward);
@@ -467,7 +540,7 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
     if c.aperture < 0.0 {
         return Err(ctx.fail("camera.aperture", "must be >= 0"));
     }
-    let focus_distance = c.focus_distance.unwrap_or(to.length());
+    let focus_distance = c.focus_distance.unwrap_or(default_focus);
     if focus_distance <= 0.0 {
         return Err(ctx.fail("camera.focus_distance", "must be > 0"));
     }
@@ -481,6 +554,38 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
         aperture: c.aperture,
         focus_distance,
     })
+}
+
+/// A `transform` list composed; errors name the step.
+fn transform(ctx: &Ctx, path: &str, ops: &[TransformOp]) -> Result<Transform> {
+    Transform::from_ops(ops).map_err(|(i, e)| ctx.fail(&format!("{path}.{i}"), e))
+}
+
+/// The optional `transform` of an object or light.
+fn transform_opt(ctx: &Ctx, path: &str, ops: &Option<Vec<TransformOp>>) -> Result<Transform> {
+    match ops {
+        Some(ops) => transform(ctx, &format!("{path}.transform"), ops),
+        None => Ok(Transform::IDENTITY),
+    }
+}
+
+/// Corner and edges of a parallelogram after its transform, checked.
+fn quad_geometry(
+    ctx: &Ctx,
+    path: &str,
+    corner: [f32; 3],
+    u: [f32; 3],
+    v: [f32; 3],
+    xf: &Option<Vec<TransformOp>>,
+) -> Result<(Vec3, Vec3, Vec3)> {
+    let (u, v) = edges(ctx, path, u, v)?;
+    let c = coord(ctx, &format!("{path}.corner"), vec3(corner))?;
+    let Some(ops) = xf else { return Ok((c, u, v)) };
+    let t = transform(ctx, &format!("{path}.transform"), ops)?;
+    let (c, u, v) = (t.point(c), t.vector(u), t.vector(v));
+    let tp = format!("{path}.transform");
+    let (u, v) = edges(ctx, &tp, u.to_array(), v.to_array())?;
+    Ok((coord(ctx, &tp, c)?, u, v))
 }
 
 fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
@@ -519,6 +624,7 @@ fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
 
 fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     let settings = settings(&f.render, &f.camera, ctx)?;
+    let mut info = SceneInfo::default();
     let camera = camera(&f.camera, settings.width, settings.height, ctx)?;
     let background = color(ctx, "background.color", f.background.color)?;
     let mut names: BTreeMap<&str, u32> = BTreeMap::new();
@@ -529,65 +635,101 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     }
     let mut prims = Vec::new();
     let mut lights = Vec::new();
+    // Per primitive (in `prims` order): its three vertex normals, for smooth meshes.
+    let mut normals: Vec<Option<[Vec3; 3]>> = Vec::new();
     for (i, l) in f.lights.iter().enumerate() {
         let path = format!("lights.{i}");
-        lights.push(match *l {
-            LightDesc::Quad { corner, edge_u, edge_v, radiance } => {
-                let (u, v) = edges(ctx, &path, edge_u, edge_v)?;
-                coord(ctx, &format!("{path}.corner"), vec3(corner))?;
+        let li = lights.len() as u32;
+        match l {
+            LightDesc::Quad { corner, edge_u, edge_v, radiance, transform } => {
+                let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
                 let n = u.cross(v);
-                let shape = Shape::Quad { corner: vec3(corner), u, v };
-                prims.push(Primitive { shape, material: 0, light: i as u32 });
-                Light::Quad {
-                    corner: vec3(corner),
+                prims.push(Primitive { shape: Shape::Quad { corner, u, v }, material: 0, light: li });
+                lights.push(Light::Quad {
+                    corner,
                     u,
                     v,
                     normal: n.normalize(),
                     area: n.length(),
-                    radiance: color(ctx, &format!("{path}.radiance"), radiance)?,
-                }
+                    radiance: color(ctx, &format!("{path}.radiance"), *radiance)?,
+                });
             }
-            LightDesc::Point { position, intensity } => Light::Point {
-                position: coord(ctx, &format!("{path}.position"), vec3(position))?,
-                intensity: color(ctx, &format!("{path}.intensity"), intensity)?,
-            },
-        });
+            LightDesc::Triangle { v0, v1, v2, radiance, transform } => {
+                let t = transform_opt(ctx, &path, transform)?;
+                let mut vs = [Vec3::ZERO; 3];
+                for (k, p) in [v0, v1, v2].into_iter().enumerate() {
+                    let field = format!("{path}.v{k}");
+                    vs[k] = coord(ctx, &field, t.point(coord(ctx, &field, vec3(*p))?))?;
+                }
+                let radiance = color(ctx, &format!("{path}.radiance"), *radiance)?;
+                let light = triangle_light(vs, radiance)
+                    .ok_or_else(|| ctx.fail(&format!("{path}.v2"), "the triangle has zero area"))?;
+                prims.push(Primitive {
+                    shape: Shape::Triangle { v0: vs[0], v1: vs[1], v2: vs[2] },
+                    material: 0,
+                    light: li,
+                });
+                lights.push(light);
+            }
+            LightDesc::Point { position, intensity } => lights.push(Light::Point {
+                position: coord(ctx, &format!("{path}.position"), vec3(*position))?,
+                intensity: color(ctx, &format!("{path}.intensity"), *intensity)?,
+            }),
+        }
+        normals.resize(prims.len(), None);
     }
-    let mut info = SceneInfo::default();
     for (i, o) in f.objects.iter().enumerate() {
         let path = format!("objects.{i}");
         let lookup = |name: &str| {
             names.get(name).copied().ok_or_else(|| {
                 let known: Vec<&str> = names.keys().copied().collect();
-                ctx.fail(
-                    &format!("{path}.material"),
-                    format!("unknown material \"{name}\" (defined: {})", known.join(", ")),
-                )
+                let msg = if name.is_empty() {
+                    format!("missing: name one of the materials ({})", known.join(", "))
+                } else {
+                    format!("unknown material \"{name}\" (defined: {})", known.join(", "))
+                };
+                ctx.fail(&format!("{path}.material"), msg)
             })
         };
         match o {
-            ObjectDesc::Sphere { center, radius, material } => {
+            ObjectDesc::Sphere { center, radius, material, transform } => {
                 // Numbers are checked finite before this point, so `<=` catches every bad radius.
                 if *radius <= 0.0 {
                     return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
                 }
                 coord(ctx, &format!("{path}.radius"), Vec3::splat(*radius))?;
                 coord(ctx, &format!("{path}.center"), vec3(*center))?;
+                let (mut c, mut r) = (vec3(*center), *radius);
+                if let Some(ops) = transform {
+                    let tp = format!("{path}.transform");
+                    let t = self::transform(ctx, &tp, ops)?;
+                    let s = t.uniform_scale().ok_or_else(|| {
+                        ctx.fail(&tp, "a sphere takes only a uniform scale (with rotations and translations)")
+                    })?;
+                    c = coord(ctx, &tp, t.point(c))?;
+                    r = coord(ctx, &tp, Vec3::splat(r * s))?.x;
+                }
                 let material = lookup(material)?;
-                prims.push(Primitive {
-                    shape: Shape::Sphere { center: vec3(*center), radius: *radius },
-                    material,
-                    light: NO_LIGHT,
-                });
+                prims.push(Primitive { shape: Shape::Sphere { center: c, radius: r }, material, light: NO_LIGHT });
             }
-            ObjectDesc::Quad { corner, edge_u, edge_v, material } => {
-                let (u, v) = edges(ctx, &path, *edge_u, *edge_v)?;
-                coord(ctx, &format!("{path}.corner"), vec3(*corner))?;
+            ObjectDesc::Quad { corner, edge_u, edge_v, material, transform } => {
+                let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
                 let material = lookup(material)?;
-                prims.push(Primitive { shape: Shape::Quad { corner: vec3(*corner), u, v }, material, light: NO_LIGHT });
+                prims.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT });
             }
-            ObjectDesc::Mesh { file, material, scale, rotate_y, translate } => {
-                let material = lookup(material)?;
+            ObjectDesc::Mesh {
+                file,
+                material,
+                scale,
+                rotate_y,
+                translate,
+                transform,
+                smooth,
+                emission,
+                flip_normals,
+            } => {
+                let emission = emission.map(|e| color(ctx, &format!("{path}.emission"), e)).transpose()?;
+                let material = if emission.is_some() { 0 } else { lookup(material)? };
                 if *scale <= 0.0 {
                     return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
                 }
@@ -597,36 +739,103 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
                 if outside_folder(&ctx.src.dir, &mesh_path) {
                     info.outside_paths.push(mesh_path.display().to_string());
                 }
-                let tris = super::mesh::load_obj(&mesh_path).map_err(fail)?;
+                let mesh = super::mesh::load_mesh(&mesh_path).map_err(fail)?;
                 let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
                 let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
-                let xf = |p: Vec3| rot * (p * *scale) + t;
-                for tri in tris {
-                    let (v0, v1, v2) = (xf(tri[0]), xf(tri[1]), xf(tri[2]));
-                    if [v0, v1, v2].iter().any(|v| !in_range(*v)) {
-                        return Err(ctx.fail(
-                            &format!("{path}.scale"),
-                            format!("a vertex lands at {v0}/{v1}/{v2} after scale, rotate_y and translate: beyond ±{MAX_COORD:e}"),
-                        ));
+                let after = transform_opt(ctx, &path, transform)?;
+                let xf = |p: Vec3| {
+                    let p = rot * (p * *scale) + t;
+                    if transform.is_some() {
+                        after.point(p)
+                    } else {
+                        p
                     }
+                };
+                let positions: Vec<Vec3> = mesh.positions.iter().map(|&p| xf(p)).collect();
+                if let Some(v) = positions.iter().find(|v| !in_range(**v)) {
+                    let field = if transform.is_some() { "transform" } else { "scale" };
+                    return Err(ctx.fail(
+                        &format!("{path}.{field}"),
+                        format!("a vertex lands at {v} after the mesh's transform: beyond ±{MAX_COORD:e}"),
+                    ));
+                }
+                let mut tris = mesh.triangles.clone();
+                if *flip_normals {
+                    tris.iter_mut().for_each(|t| t.swap(1, 2));
+                }
+                let vertex_normals = smooth.then(|| {
+                    if mesh.normals.is_empty() {
+                        super::mesh::vertex_normals(&positions, &tris)
+                    } else {
+                        // The file's normals follow the mesh: rotated with it, and through
+                        // the inverse transpose of a non-uniform scale.
+                        let lin = Transform { m: glam::DMat4::from_quat(rot.as_dquat()) }.m;
+                        let whole = Transform { m: after.m * lin };
+                        let sign = if *flip_normals { -1.0 } else { 1.0 };
+                        mesh.normals.iter().map(|&n| sign * whole.normal(n)).collect()
+                    }
+                });
+                for tri in &tris {
+                    let [v0, v1, v2] = tri.map(|k| positions[k as usize]);
                     if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
                         info.degenerate_triangles += 1;
                         continue;
                     }
                     info.triangles += 1;
-                    prims.push(Primitive { shape: Shape::Triangle { v0, v1, v2 }, material, light: NO_LIGHT });
+                    let light = match emission {
+                        Some(radiance) => {
+                            // Non-zero area was checked just above.
+                            lights.push(triangle_light([v0, v1, v2], radiance).unwrap_or_else(|| unreachable!()));
+                            lights.len() as u32 - 1
+                        }
+                        None => NO_LIGHT,
+                    };
+                    prims.push(Primitive { shape: Shape::Triangle { v0, v1, v2 }, material, light });
+                    normals.push(vertex_normals.as_ref().map(|n| tri.map(|k| n[k as usize])));
                 }
             }
         }
+        normals.resize(prims.len(), None);
     }
     // Only specular materials that some object uses give the scatter stage work.
     let has_specular = prims
         .iter()
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = prims.len();
-    let accel = Accel::build(prims);
+    let (accel, normals) = build_accel(prims, normals);
     info.bvh_seconds = accel.build_seconds;
-    Ok(Scene { settings, camera, background, materials, lights, accel, has_specular, info })
+    Ok(Scene { settings, camera, background, materials, lights, accel, normals, has_specular, info })
+}
+
+/// A one-sided triangle light, or `None` for a zero-area triangle.
+fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let n = e1.cross(e2);
+    let len = n.length();
+    (len > 0.0 && len.is_finite()).then(|| Light::Triangle { v0, e1, e2, normal: n / len, area: 0.5 * len, radiance })
+}
+
+/// Builds the BVH and puts the vertex normals in its primitive order. [`Accel::build`]
+/// reorders the primitives and keeps no map back, and the geometry module does not know
+/// about shading normals: each primitive's position rides through the build in its
+/// `material` field and is replaced by the real one afterwards. Without smooth meshes the
+/// normals table is empty and the build is the plain one.
+fn build_accel(mut prims: Vec<Primitive>, normals: Vec<Option<[Vec3; 3]>>) -> (Accel, Vec<[Vec3; 3]>) {
+    if normals.iter().all(Option::is_none) {
+        return (Accel::build(prims), Vec::new());
+    }
+    let materials: Vec<u32> = prims.iter().map(|p| p.material).collect();
+    for (i, p) in prims.iter_mut().enumerate() {
+        p.material = i as u32;
+    }
+    let mut accel = Accel::build(prims);
+    let mut table = Vec::with_capacity(accel.prims.len());
+    for p in &mut accel.prims {
+        let i = p.material as usize;
+        p.material = materials[i];
+        table.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
+    }
+    (accel, table)
 }
 
 #[cfg(test)]

@@ -13,6 +13,7 @@ use crate::geometry::offset::offset_ray_origin;
 use crate::queue::{HitQueue, IndexQueue, RayQueue};
 use crate::sampling::hash;
 use crate::scene::{Material, ReflectRatio, Scene};
+use crate::surface::shading_normal;
 
 /// Mirror direction of `d` about the unit normal `n`.
 #[inline]
@@ -89,23 +90,35 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &Index
         let (d, w) = (rays.dir(i), rays.weight(i));
         let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
         let ng = prim.shape.normal(x).normalize();
+        // Directions use the shading normal (smooth meshes), origins the geometric one.
+        let shading = |n: Vec3| shading_normal(scene, hits.prim[i] as usize, x, n);
         let (slot, depth, key, sample) = (rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
         match scene.materials[prim.material as usize] {
             Material::Mirror { color } => {
                 let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-                next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * color, depth, hash(&[key, 1]), sample);
+                let dir = reflect(d, shading(n));
+                next.push(offset_ray_origin(x, err, n), dir, slot, w * color, depth, hash(&[key, 1]), sample);
             }
             Material::Dielectric { ior, ratio, tint } => {
                 let side = interface(d, ng, ior);
                 let n = side.normal;
-                let refracted = refract(d, n, side.eta);
+                let ns = shading(n);
+                let refracted = refract(d, ns, side.eta);
                 let c = match (refracted, ratio) {
                     (None, _) => 1.0,
                     (Some(_), ReflectRatio::Fixed(c)) => c,
-                    (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(n), side.eta),
+                    (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(ns), side.eta),
                 };
                 if c > 0.0 {
-                    next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * c, depth, hash(&[key, 1]), sample);
+                    next.push(
+                        offset_ray_origin(x, err, n),
+                        reflect(d, ns),
+                        slot,
+                        w * c,
+                        depth,
+                        hash(&[key, 1]),
+                        sample,
+                    );
                 }
                 if let Some(t) = refracted {
                     if c < 1.0 {
