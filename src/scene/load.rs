@@ -8,11 +8,9 @@ use std::path::{Path, PathBuf};
 
 use super::format::*;
 use super::mitsuba::xml::Loc;
-use super::transform::Transform;
-use super::{
-    AaMode, Camera, Light, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode,
-};
-use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
+use super::objects::transform;
+use super::{AaMode, Camera, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
+use crate::geometry::NO_LIGHT;
 use crate::{Error, Result};
 
 /// Largest coordinate, edge or radius magnitude: the squared length of a cross product of
@@ -21,7 +19,7 @@ use crate::{Error, Result};
 pub const MAX_COORD: f32 = 4e9;
 
 /// True when every component is finite and within ±MAX_COORD.
-fn in_range(v: Vec3) -> bool {
+pub(super) fn in_range(v: Vec3) -> bool {
     v.is_finite() && v.abs().max_element() <= MAX_COORD
 }
 
@@ -82,8 +80,8 @@ impl SceneSource {
 }
 
 /// Error context: maps a dotted field path back to the file position or `--set` flag.
-struct Ctx<'a> {
-    src: &'a SceneSource,
+pub(super) struct Ctx<'a> {
+    pub(super) src: &'a SceneSource,
     doc: Option<toml_edit::ImDocument<&'a str>>,
     sets: &'a [String],
     /// For an imported scene: field prefix → the element it came from.
@@ -91,7 +89,7 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
-    fn fail(&self, path: &str, msg: impl std::fmt::Display) -> Error {
+    pub(super) fn fail(&self, path: &str, msg: impl std::fmt::Display) -> Error {
         if let Some(set) = self.sets.iter().find(|s| {
             let key = s.split('=').next().unwrap_or("");
             key == path || path.starts_with(&format!("{key}.")) || key.starts_with(&format!("{path}."))
@@ -296,11 +294,11 @@ fn check_finite(v: &toml::Value, path: &str, ctx: &Ctx) -> Result<()> {
     }
 }
 
-fn vec3(a: [f32; 3]) -> Vec3 {
+pub(super) fn vec3(a: [f32; 3]) -> Vec3 {
     Vec3::from_array(a)
 }
 
-fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
+pub(super) fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
     if c.iter().any(|&x| x < 0.0) {
         return Err(ctx.fail(path, "components must be >= 0"));
     }
@@ -308,7 +306,7 @@ fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
 }
 
 /// A position or extent, refused beyond ±MAX_COORD.
-fn coord(ctx: &Ctx, path: &str, v: Vec3) -> Result<Vec3> {
+pub(super) fn coord(ctx: &Ctx, path: &str, v: Vec3) -> Result<Vec3> {
     if in_range(v) {
         Ok(v)
     } else {
@@ -316,7 +314,7 @@ fn coord(ctx: &Ctx, path: &str, v: Vec3) -> Result<Vec3> {
     }
 }
 
-fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)> {
+pub(super) fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)> {
     let u = coord(ctx, &format!("{path}.edge_u"), vec3(u))?;
     let v = coord(ctx, &format!("{path}.edge_v"), vec3(v))?;
     if u.length_squared() == 0.0 {
@@ -333,7 +331,7 @@ fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)
 }
 
 /// Bytes of memory available to this process: MemAvailable, or a conservative guess.
-fn available_memory() -> u64 {
+pub(super) fn available_memory() -> u64 {
     std::fs::read_to_string("/proc/meminfo")
         .ok()
         .and_then(|s| {
@@ -343,36 +341,6 @@ fn available_memory() -> u64 {
                 .and_then(|kb| kb.parse::<u64>().ok())
         })
         .map_or(8 << 30, |kb| kb * 1024)
-}
-
-/// Memory a mesh costs per byte of OBJ text: tobj's buffers, our triangles (36 bytes
-/// per 3 indices of about 10 text bytes) and about two 48-byte BVH nodes per triangle,
-/// with margin.
-const MESH_BYTES_PER_TEXT_BYTE: u64 = 16;
-
-/// Refuses, before reading it, a mesh whose file is too large for the memory available.
-fn check_mesh_size(path: &Path) -> std::result::Result<(), String> {
-    let Ok(meta) = std::fs::metadata(path) else { return Ok(()) }; // load_obj reports it
-    let need = meta.len().saturating_mul(MESH_BYTES_PER_TEXT_BYTE);
-    let have = available_memory();
-    if need > have / 2 {
-        return Err(format!(
-            "mesh `{}` ({:.1} MiB of text) would need about {:.1} GiB of memory; {:.1} GiB is available (at most half may be used)",
-            path.display(),
-            meta.len() as f64 / (1u64 << 20) as f64,
-            need as f64 / (1u64 << 30) as f64,
-            have as f64 / (1u64 << 30) as f64
-        ));
-    }
-    Ok(())
-}
-
-/// True when `path` resolves (following `..` and symlinks) outside `dir`.
-fn outside_folder(dir: &Path, path: &Path) -> bool {
-    match (std::fs::canonicalize(dir), std::fs::canonicalize(path)) {
-        (Ok(d), Ok(p)) => !p.starts_with(d),
-        _ => false,
-    }
 }
 
 fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
@@ -494,10 +462,12 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
 }
 
 fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> {
-    let (position, forward, up_hint, default_focus) = match (&c.transform, c.position, c.look_at) {
+    // With a transform, the frame's image-right direction (-x): a mirroring transform
+    // flips the image.
+    let (position, forward, up_hint, default_focus, frame_right) = match (&c.transform, c.position, c.look_at) {
         (Some(ops), None, None) => {
             let t = transform(ctx, "camera.transform", ops)?;
-            let (p, fwd, up, _) = t.frame();
+            let (p, fwd, up, left) = t.frame();
             if !in_range(p) {
                 return Err(ctx.fail("camera.transform", format!("puts the camera beyond ±{MAX_COORD:e} scene units")));
             }
@@ -505,7 +475,7 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
             if f == Vec3::ZERO || !f.is_finite() {
                 return Err(ctx.fail("camera.transform", "maps +z to no direction"));
             }
-            (p, f, up, 1.0)
+            (p, f, up, 1.0, Some(-left))
         }
         (Some(_), _, _) => {
             return Err(ctx.fail("camera.transform", "replaces position and look_at: give one or the other"))
@@ -522,7 +492,7 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
             if to.length_squared() == 0.0 {
                 return Err(ctx.fail("camera.look_at", "equals camera.position: no view direction"));
             }
-            (position, to.normalize(), vec3(c.up), to.length())
+            (position, to.normalize(), vec3(c.up), to.length(), None)
         }
         (None, None, _) => return Err(ctx.fail("camera", "missing field `position` (or a `transform`)")),
         (None, Some(_), None) => return Err(ctx.fail("camera", "missing field `look_at`")),
@@ -534,6 +504,10 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
     }
     let right = right.normalize();
     let up = right.cross(forward);
+    let right = match frame_right {
+        Some(r) if r.dot(right) < 0.0 => -right,
+        _ => right,
+    };
     if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
         return Err(ctx.fail("camera.fov_y", format!("{} is not in (0, 180) degrees", c.fov_y)));
     }
@@ -554,38 +528,6 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
         aperture: c.aperture,
         focus_distance,
     })
-}
-
-/// A `transform` list composed; errors name the step.
-fn transform(ctx: &Ctx, path: &str, ops: &[TransformOp]) -> Result<Transform> {
-    Transform::from_ops(ops).map_err(|(i, e)| ctx.fail(&format!("{path}.{i}"), e))
-}
-
-/// The optional `transform` of an object or light.
-fn transform_opt(ctx: &Ctx, path: &str, ops: &Option<Vec<TransformOp>>) -> Result<Transform> {
-    match ops {
-        Some(ops) => transform(ctx, &format!("{path}.transform"), ops),
-        None => Ok(Transform::IDENTITY),
-    }
-}
-
-/// Corner and edges of a parallelogram after its transform, checked.
-fn quad_geometry(
-    ctx: &Ctx,
-    path: &str,
-    corner: [f32; 3],
-    u: [f32; 3],
-    v: [f32; 3],
-    xf: &Option<Vec<TransformOp>>,
-) -> Result<(Vec3, Vec3, Vec3)> {
-    let (u, v) = edges(ctx, path, u, v)?;
-    let c = coord(ctx, &format!("{path}.corner"), vec3(corner))?;
-    let Some(ops) = xf else { return Ok((c, u, v)) };
-    let t = transform(ctx, &format!("{path}.transform"), ops)?;
-    let (c, u, v) = (t.point(c), t.vector(u), t.vector(v));
-    let tp = format!("{path}.transform");
-    let (u, v) = edges(ctx, &tp, u.to_array(), v.to_array())?;
-    Ok((coord(ctx, &tp, c)?, u, v))
 }
 
 fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
@@ -633,209 +575,15 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         names.insert(name.as_str(), materials.len() as u32);
         materials.push(material(name, m, ctx)?);
     }
-    let mut prims = Vec::new();
-    let mut lights = Vec::new();
-    // Per primitive (in `prims` order): its three vertex normals, for smooth meshes.
-    let mut normals: Vec<Option<[Vec3; 3]>> = Vec::new();
-    for (i, l) in f.lights.iter().enumerate() {
-        let path = format!("lights.{i}");
-        let li = lights.len() as u32;
-        match l {
-            LightDesc::Quad { corner, edge_u, edge_v, radiance, transform } => {
-                let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
-                let n = u.cross(v);
-                prims.push(Primitive { shape: Shape::Quad { corner, u, v }, material: 0, light: li });
-                lights.push(Light::Quad {
-                    corner,
-                    u,
-                    v,
-                    normal: n.normalize(),
-                    area: n.length(),
-                    radiance: color(ctx, &format!("{path}.radiance"), *radiance)?,
-                });
-            }
-            LightDesc::Triangle { v0, v1, v2, radiance, transform } => {
-                let t = transform_opt(ctx, &path, transform)?;
-                let mut vs = [Vec3::ZERO; 3];
-                for (k, p) in [v0, v1, v2].into_iter().enumerate() {
-                    let field = format!("{path}.v{k}");
-                    vs[k] = coord(ctx, &field, t.point(coord(ctx, &field, vec3(*p))?))?;
-                }
-                let radiance = color(ctx, &format!("{path}.radiance"), *radiance)?;
-                let light = triangle_light(vs, radiance)
-                    .ok_or_else(|| ctx.fail(&format!("{path}.v2"), "the triangle has zero area"))?;
-                prims.push(Primitive {
-                    shape: Shape::Triangle { v0: vs[0], v1: vs[1], v2: vs[2] },
-                    material: 0,
-                    light: li,
-                });
-                lights.push(light);
-            }
-            LightDesc::Point { position, intensity } => lights.push(Light::Point {
-                position: coord(ctx, &format!("{path}.position"), vec3(*position))?,
-                intensity: color(ctx, &format!("{path}.intensity"), *intensity)?,
-            }),
-        }
-        normals.resize(prims.len(), None);
-    }
-    for (i, o) in f.objects.iter().enumerate() {
-        let path = format!("objects.{i}");
-        let lookup = |name: &str| {
-            names.get(name).copied().ok_or_else(|| {
-                let known: Vec<&str> = names.keys().copied().collect();
-                let msg = if name.is_empty() {
-                    format!("missing: name one of the materials ({})", known.join(", "))
-                } else {
-                    format!("unknown material \"{name}\" (defined: {})", known.join(", "))
-                };
-                ctx.fail(&format!("{path}.material"), msg)
-            })
-        };
-        match o {
-            ObjectDesc::Sphere { center, radius, material, transform } => {
-                // Numbers are checked finite before this point, so `<=` catches every bad radius.
-                if *radius <= 0.0 {
-                    return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
-                }
-                coord(ctx, &format!("{path}.radius"), Vec3::splat(*radius))?;
-                coord(ctx, &format!("{path}.center"), vec3(*center))?;
-                let (mut c, mut r) = (vec3(*center), *radius);
-                if let Some(ops) = transform {
-                    let tp = format!("{path}.transform");
-                    let t = self::transform(ctx, &tp, ops)?;
-                    let s = t.uniform_scale().ok_or_else(|| {
-                        ctx.fail(&tp, "a sphere takes only a uniform scale (with rotations and translations)")
-                    })?;
-                    c = coord(ctx, &tp, t.point(c))?;
-                    r = coord(ctx, &tp, Vec3::splat(r * s))?.x;
-                }
-                let material = lookup(material)?;
-                prims.push(Primitive { shape: Shape::Sphere { center: c, radius: r }, material, light: NO_LIGHT });
-            }
-            ObjectDesc::Quad { corner, edge_u, edge_v, material, transform } => {
-                let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
-                let material = lookup(material)?;
-                prims.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT });
-            }
-            ObjectDesc::Mesh {
-                file,
-                material,
-                scale,
-                rotate_y,
-                translate,
-                transform,
-                smooth,
-                emission,
-                flip_normals,
-            } => {
-                let emission = emission.map(|e| color(ctx, &format!("{path}.emission"), e)).transpose()?;
-                let material = if emission.is_some() { 0 } else { lookup(material)? };
-                if *scale <= 0.0 {
-                    return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
-                }
-                let mesh_path = ctx.src.dir.join(file);
-                let fail = |e: String| ctx.fail(&format!("{path}.file"), e);
-                check_mesh_size(&mesh_path).map_err(fail)?;
-                if outside_folder(&ctx.src.dir, &mesh_path) {
-                    info.outside_paths.push(mesh_path.display().to_string());
-                }
-                let mesh = super::mesh::load_mesh(&mesh_path).map_err(fail)?;
-                let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
-                let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
-                let after = transform_opt(ctx, &path, transform)?;
-                let xf = |p: Vec3| {
-                    let p = rot * (p * *scale) + t;
-                    if transform.is_some() {
-                        after.point(p)
-                    } else {
-                        p
-                    }
-                };
-                let positions: Vec<Vec3> = mesh.positions.iter().map(|&p| xf(p)).collect();
-                if let Some(v) = positions.iter().find(|v| !in_range(**v)) {
-                    let field = if transform.is_some() { "transform" } else { "scale" };
-                    return Err(ctx.fail(
-                        &format!("{path}.{field}"),
-                        format!("a vertex lands at {v} after the mesh's transform: beyond ±{MAX_COORD:e}"),
-                    ));
-                }
-                let mut tris = mesh.triangles.clone();
-                if *flip_normals {
-                    tris.iter_mut().for_each(|t| t.swap(1, 2));
-                }
-                let vertex_normals = smooth.then(|| {
-                    if mesh.normals.is_empty() {
-                        super::mesh::vertex_normals(&positions, &tris)
-                    } else {
-                        // The file's normals follow the mesh: rotated with it, and through
-                        // the inverse transpose of a non-uniform scale.
-                        let lin = Transform { m: glam::DMat4::from_quat(rot.as_dquat()) }.m;
-                        let whole = Transform { m: after.m * lin };
-                        let sign = if *flip_normals { -1.0 } else { 1.0 };
-                        mesh.normals.iter().map(|&n| sign * whole.normal(n)).collect()
-                    }
-                });
-                for tri in &tris {
-                    let [v0, v1, v2] = tri.map(|k| positions[k as usize]);
-                    if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
-                        info.degenerate_triangles += 1;
-                        continue;
-                    }
-                    info.triangles += 1;
-                    let light = match emission {
-                        Some(radiance) => {
-                            // Non-zero area was checked just above.
-                            lights.push(triangle_light([v0, v1, v2], radiance).unwrap_or_else(|| unreachable!()));
-                            lights.len() as u32 - 1
-                        }
-                        None => NO_LIGHT,
-                    };
-                    prims.push(Primitive { shape: Shape::Triangle { v0, v1, v2 }, material, light });
-                    normals.push(vertex_normals.as_ref().map(|n| tri.map(|k| n[k as usize])));
-                }
-            }
-        }
-        normals.resize(prims.len(), None);
-    }
+    let (prims, lights, normals) = super::objects::objects(f, ctx, &names, &mut info)?;
     // Only specular materials that some object uses give the scatter stage work.
     let has_specular = prims
         .iter()
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = prims.len();
-    let (accel, normals) = build_accel(prims, normals);
+    let (accel, normals) = super::objects::build_accel(prims, normals);
     info.bvh_seconds = accel.build_seconds;
     Ok(Scene { settings, camera, background, materials, lights, accel, normals, has_specular, info })
-}
-
-/// A one-sided triangle light, or `None` for a zero-area triangle.
-fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
-    let (e1, e2) = (v1 - v0, v2 - v0);
-    let n = e1.cross(e2);
-    let len = n.length();
-    (len > 0.0 && len.is_finite()).then(|| Light::Triangle { v0, e1, e2, normal: n / len, area: 0.5 * len, radiance })
-}
-
-/// Builds the BVH and puts the vertex normals in its primitive order. [`Accel::build`]
-/// reorders the primitives and keeps no map back, and the geometry module does not know
-/// about shading normals: each primitive's position rides through the build in its
-/// `material` field and is replaced by the real one afterwards. Without smooth meshes the
-/// normals table is empty and the build is the plain one.
-fn build_accel(mut prims: Vec<Primitive>, normals: Vec<Option<[Vec3; 3]>>) -> (Accel, Vec<[Vec3; 3]>) {
-    if normals.iter().all(Option::is_none) {
-        return (Accel::build(prims), Vec::new());
-    }
-    let materials: Vec<u32> = prims.iter().map(|p| p.material).collect();
-    for (i, p) in prims.iter_mut().enumerate() {
-        p.material = i as u32;
-    }
-    let mut accel = Accel::build(prims);
-    let mut table = Vec::with_capacity(accel.prims.len());
-    for p in &mut accel.prims {
-        let i = p.material as usize;
-        p.material = materials[i];
-        table.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
-    }
-    (accel, table)
 }
 
 #[cfg(test)]

@@ -1,10 +1,13 @@
-//! Scenes: the TOML format ([`format`]), loading and validation ([`load`]), OBJ
-//! meshes ([`mesh`]), and the validated, ready-to-render [`Scene`].
+//! Scenes: the TOML format ([`format`]), loading and validation ([`load`], with the
+//! lights and objects in `objects`), transforms ([`transform`]), OBJ and PLY meshes
+//! ([`mesh`], [`ply`]), Mitsuba 3 XML import ([`mitsuba`]), and the validated,
+//! ready-to-render [`Scene`].
 
 pub mod format;
 pub mod load;
 pub mod mesh;
 pub mod mitsuba;
+mod objects;
 pub mod ply;
 pub mod transform;
 

@@ -403,17 +403,24 @@ impl Converter {
             None => format!("{}:{}:{}", el.loc.file, el.loc.line, el.loc.col),
         };
         let (desc, two_sided) = self.material(el)?;
-        if !two_sided && matches!(desc, MaterialDesc::Diffuse { .. }) && !self.one_sided_noted {
-            self.one_sided_noted = true;
-            self.note(format!(
-                "{}:{}: a diffuse BSDF without <bsdf type=\"twosided\"> is black from behind in Mitsuba; wavetrace's \
-                 diffuse surfaces reflect on both sides",
-                el.loc.file, el.loc.line
-            ));
+        if !two_sided && matches!(desc, MaterialDesc::Diffuse { .. }) {
+            self.note_one_sided(el);
         }
         self.out.file.materials.insert(name.clone(), desc);
         self.place(format!("materials.{name}"), el);
         Ok(name)
+    }
+
+    /// Notes once that Mitsuba's diffuse BSDF is one-sided.
+    fn note_one_sided(&mut self, el: &El) {
+        if !self.one_sided_noted {
+            self.one_sided_noted = true;
+            self.note(format!(
+                "{}:{}: a diffuse BSDF without <bsdf type=\"twosided\"> (or a shape's default BSDF) is black from \
+                 behind in Mitsuba; wavetrace's diffuse surfaces reflect on both sides",
+                el.loc.file, el.loc.line
+            ));
+        }
     }
 
     fn material(&mut self, el: &El) -> Result<(MaterialDesc, bool)> {
@@ -497,6 +504,7 @@ impl Converter {
             el.kids.iter().filter(|k| k.tag == "bsdf" || (k.tag == "ref" && k.attr("name") != Some("shape"))).collect();
         match bsdfs[..] {
             [] => {
+                self.note_one_sided(el);
                 let name = "mitsuba-default-diffuse".to_string();
                 if !self.out.file.materials.contains_key(&name) {
                     let d = MaterialDesc::Diffuse { color: [0.5; 3], specular: [0.0; 3], shininess: 0.0 };
@@ -536,6 +544,8 @@ impl Converter {
                 let (file, fel) =
                     p.string("filename")?.ok_or_else(|| el.loc.err(format!("{}: lacks `filename`", el.what())))?;
                 let path = xml::resolve(&file, &el.dir, &self.search, &fel.loc)?;
+                // Absolute, so that it does not depend on the folder meshes start from.
+                let path = std::fs::canonicalize(&path).unwrap_or(path);
                 let mut ops = p.transform("to_world")?;
                 ops.extend_from_slice(outer);
                 compose(el, &ops)?;
