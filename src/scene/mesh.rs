@@ -36,7 +36,8 @@ pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
         let v = t.map(|i| positions[i as usize]);
         let n = (v[1] - v[0]).cross(v[2] - v[0]);
         let len2 = n.length_squared();
-        if !(len2 > 0.0) {
+        // Zero-area (or NaN) faces have no normal.
+        if len2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         let n = n / len2.sqrt();

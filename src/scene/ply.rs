@@ -217,13 +217,14 @@ pub fn parse_ply(bytes: &[u8]) -> Result<MeshData, String> {
             .map(|p| if format == Format::Ascii { 2 } else { p.list.unwrap_or(p.ty).size() })
             .sum::<usize>()
             .max(1);
-        if el.count > ((r.remaining() + 1) / min) as u64 {
+        // The last value may lack its trailing separator in ascii: hence the + 1.
+        let fits = (r.remaining() + 1) / min;
+        if el.count > fits as u64 {
             return Err(format!(
-                "element `{}` declares {} items; the {} bytes after the header hold at most {}",
+                "element `{}` declares {} items; the {} bytes after the header hold at most {fits}",
                 el.name,
                 el.count,
-                r.remaining(),
-                r.remaining() / min
+                r.remaining()
             ));
         }
         let count = el.count as usize;
@@ -259,8 +260,11 @@ pub fn parse_ply(bytes: &[u8]) -> Result<MeshData, String> {
                     None => vals[k] = r.value(p.ty).map_err(at)?,
                     Some(cty) => {
                         let n = r.value(cty).map_err(at)?;
-                        let fits =
-                            if format == Format::Ascii { (r.remaining() + 1) / 2 } else { r.remaining() / p.ty.size() };
+                        let fits = if format == Format::Ascii {
+                            r.remaining().div_ceil(2)
+                        } else {
+                            r.remaining() / p.ty.size()
+                        };
                         if n < 0.0 || n > fits as f64 {
                             return Err(at(format!("list `{}` declares {n} entries; the file holds fewer", p.name)));
                         }

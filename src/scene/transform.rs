@@ -2,7 +2,7 @@
 //! XML), composed the way Mitsuba composes them: each step applies after the ones before.
 //! Composition is in f64; points, vectors and normals come out in f32.
 
-use glam::{DMat3, DMat4, DVec3, DVec4, Vec3};
+use glam::{DMat3, DMat4, DVec3, Vec3};
 
 use super::format::TransformOp;
 
@@ -73,7 +73,7 @@ impl Transform {
             m = Transform::step(op).map_err(|e| (i, e))? * m;
         }
         let det = DMat3::from_mat4(m).determinant();
-        if !(det.is_finite() && det.abs() > 1e-30) || !m.is_finite() {
+        if !(det.is_finite() && det.abs() > 1e-30 && m.is_finite()) {
             return Err((ops.len().saturating_sub(1), "the transform is singular or not finite".into()));
         }
         Ok(Transform { m })
@@ -119,7 +119,7 @@ impl Transform {
 
     /// The image of the camera frame: (position, forward = +z, up = +y, left = +x).
     pub fn frame(&self) -> (Vec3, Vec3, Vec3, Vec3) {
-        let c = |i: usize| DVec4::from(self.m.col(i)).truncate().as_vec3();
+        let c = |i: usize| self.m.col(i).truncate().as_vec3();
         (c(3), c(2), c(1), c(0))
     }
 }

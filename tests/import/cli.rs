@@ -14,7 +14,7 @@ fn run(f: &Files, args: &[&str]) -> (i32, String) {
 
 #[test]
 fn xml_renders_with_defines_and_notes() {
-    let f = Files::new();
+    let f = Files::temp();
     let body = "<default name=\"r\" value=\"1\"/><integrator type=\"path\"/>\
                 <shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>\
                 <emitter type=\"point\"><point name=\"position\" z=\"4\"/></emitter>";
@@ -29,7 +29,7 @@ fn xml_renders_with_defines_and_notes() {
 
 #[test]
 fn bad_imports_exit_2_with_no_output() {
-    let f = Files::new();
+    let f = Files::temp();
     f.write("bad.xml", xml_scene("<shape type=\"cylinder\"/>"));
     f.write("s.toml", "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n");
     f.write("good.xml", xml_scene(""));

@@ -7,7 +7,7 @@ use crate::{load_file, Files};
 
 /// tan(fov_y / 2) of a W×H perspective sensor with the given fov parameters.
 fn tan_half_fov(w: u32, h: u32, params: &str) -> f32 {
-    let f = Files::new();
+    let f = Files::temp();
     let text = format!(
         "<scene version=\"3.0.0\"><sensor type=\"perspective\">{params}\
          <film type=\"hdrfilm\"><integer name=\"width\" value=\"{w}\"/><integer name=\"height\" value=\"{h}\"/></film>\
@@ -55,7 +55,7 @@ fn focal_length_uses_the_36_by_24_mm_film() {
 
 #[test]
 fn camera_frame_follows_mitsuba_lookat() {
-    let f = Files::new();
+    let f = Files::temp();
     let text = "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/>\
         <transform name=\"to_world\"><lookat origin=\"1, 2, 3\" target=\"1, 2, 0\" up=\"0, 1, 0\"/></transform>\
         </sensor></scene>";
@@ -77,7 +77,7 @@ fn transform_composition_matches_a_hand_computed_matrix() {
     // scale (2, 1, 1), then rotate 90° about z, then translate (1, 2, 3): the rectangle's
     // corner (-1, -1, 0) → (-2, -1, 0) → (1, -2, 0) → (2, 0, 3); its edges (2, 0, 0) →
     // (0, 4, 0) and (0, 2, 0) → (-2, 0, 0).
-    let f = Files::new();
+    let f = Files::temp();
     let body = "<shape type=\"rectangle\"><transform name=\"to_world\"><scale x=\"2\"/><rotate z=\"1\" angle=\"90\"/><translate x=\"1\" y=\"2\" z=\"3\"/></transform></shape>";
     let scene = load_file(&f.write("t.xml", crate::xml_scene(body)));
     let Shape::Quad { corner, u, v } = scene.accel.prims[0].shape else { panic!("not a quad") };

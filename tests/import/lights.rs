@@ -50,7 +50,7 @@ fn triangle_light_is_one_sided_by_winding() {
 fn rectangle_light_from_xml_matches_lambert_polygon_formula() {
     // A 0.6×0.4 rectangle light at height 1.5 facing down (+z turned to -y by 90° about x), over a
     // twosided diffuse plane of albedo 0.5; a probe camera looks at one point.
-    let f = Files::new();
+    let f = Files::temp();
     let p = Vec3::new(0.3, 0.0, -0.2);
     let xml = format!(
         "<scene version=\"3.0.0\"><sensor type=\"perspective\"><float name=\"fov\" value=\"0.001\"/>\

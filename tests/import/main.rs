@@ -26,7 +26,7 @@ pub struct Files {
 
 impl Files {
     /// An empty folder.
-    pub fn new() -> Files {
+    pub fn temp() -> Files {
         Files { dir: tempfile::tempdir().expect("tempdir") }
     }
 

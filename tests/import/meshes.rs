@@ -62,7 +62,7 @@ fn tent() -> (Vec<Vec3>, Vec<[u32; 3]>) {
 
 #[test]
 fn ply_encodings_give_the_same_triangles() {
-    let f = Files::new();
+    let f = Files::temp();
     let (v, t) = tent();
     let mut prims = Vec::new();
     for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
@@ -110,7 +110,7 @@ fn computed_vertex_normals_weight_faces_by_angle_as_mitsuba() {
 fn smooth_shading_uses_the_interpolated_normal_and_flat_the_face() {
     // A big triangle in the plane y = 0 whose file normals all lean to +x: lit by a point
     // light straight above, a smooth point sees cos = n_s · up, a flat one cos = 1.
-    let f = Files::new();
+    let f = Files::temp();
     let v = [Vec3::new(-10.0, 0.0, 10.0), Vec3::new(10.0, 0.0, 10.0), Vec3::new(0.0, 0.0, -10.0)];
     let ns = Vec3::new(0.6, 0.8, 0.0);
     f.write("tilt.ply", ply("binary_little_endian", &v, Some(&[ns; 3]), &[[0, 1, 2]]));
@@ -142,7 +142,7 @@ fn smooth_shading_uses_the_interpolated_normal_and_flat_the_face() {
 
 #[test]
 fn emissive_mesh_triangles_become_one_sided_lights() {
-    let f = Files::new();
+    let f = Files::temp();
     let (v, t) = tent();
     f.write("lamp.ply", ply("ascii", &v, None, &t));
     let text = mesh_scene("lamp.ply", "emission = [2, 3, 4]").replace("material = \"white\"\n", "");

@@ -9,7 +9,7 @@ use crate::{error_of, load_file, try_load, xml_scene, Files};
 
 #[test]
 fn unsupported_plugins_name_the_place_and_the_supported_list() {
-    let f = Files::new();
+    let f = Files::temp();
     let cases = [
         ("<bsdf type=\"roughplastic\" id=\"a\"/>", "<bsdf type=\"roughplastic\">: not supported; wavetrace imports bsdf types diffuse, twosided"),
         ("<shape type=\"disk\"/>", "<shape type=\"disk\">: not supported; wavetrace imports shape types obj, ply, rectangle"),
@@ -48,7 +48,7 @@ fn unsupported_plugins_name_the_place_and_the_supported_list() {
 
 #[test]
 fn malformed_and_hostile_xml_is_refused_with_a_position() {
-    let f = Files::new();
+    let f = Files::temp();
     let path = f.write("a.xml", "<scene version=\"3.0.0\">\n  <shape type=\"obj\">\n</scene>\n");
     let msg = error_of(&path, &[]);
     assert!(msg.starts_with(&format!("{}:3:", path.display())) && msg.contains("malformed XML"), "{msg}");
@@ -70,7 +70,7 @@ fn malformed_and_hostile_xml_is_refused_with_a_position() {
 
 #[test]
 fn includes_resolve_relative_and_cycles_are_refused() {
-    let f = Files::new();
+    let f = Files::temp();
     f.write("inc/bsdfs.xml", "<scene version=\"3.0.0\"><bsdf type=\"diffuse\" id=\"red\"><rgb name=\"reflectance\" value=\"0.5, 0, 0\"/></bsdf></scene>");
     let body = "<include filename=\"inc/bsdfs.xml\"/>\n<shape type=\"sphere\"><ref id=\"red\"/></shape>";
     let scene = load_file(&f.write("main.xml", xml_scene(body)));
@@ -90,7 +90,7 @@ fn includes_resolve_relative_and_cycles_are_refused() {
 
 #[test]
 fn defaults_are_substituted_and_dash_d_wins() {
-    let f = Files::new();
+    let f = Files::temp();
     let text = xml_scene(
         "<default name=\"r\" value=\"0.25\"/>\n<shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>",
     );
@@ -115,7 +115,7 @@ fn defaults_are_substituted_and_dash_d_wins() {
 
 #[test]
 fn bsdfs_map_to_materials() {
-    let f = Files::new();
+    let f = Files::temp();
     let body = "<shape type=\"sphere\"><bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"water\"/><float name=\"ext_ior\" value=\"1\"/><rgb name=\"specular_transmittance\" value=\"0.9, 0.8, 0.7\"/></bsdf></shape>\n\
                 <shape type=\"sphere\"><point name=\"center\" x=\"3\"/><bsdf type=\"conductor\"><float name=\"specular_reflectance\" value=\"0.5\"/></bsdf></shape>\n\
                 <shape type=\"sphere\"><point name=\"center\" x=\"-3\"/></shape>";
@@ -132,7 +132,7 @@ fn bsdfs_map_to_materials() {
 
 #[test]
 fn cube_is_six_outward_faces_and_instances_are_flattened() {
-    let f = Files::new();
+    let f = Files::temp();
     let body = "<shape type=\"cube\"><transform name=\"to_world\"><scale value=\"0.5\"/><translate x=\"1\"/></transform></shape>\n\
         <shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"><float name=\"radius\" value=\"0.1\"/></shape></shape>\n\
         <shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><translate y=\"2\"/></transform></shape>\n\
@@ -160,7 +160,7 @@ fn cube_is_six_outward_faces_and_instances_are_flattened() {
 
 #[test]
 fn emitters_rectangle_point_and_constant() {
-    let f = Files::new();
+    let f = Files::temp();
     // A mirroring to_world keeps Mitsuba's normal (+z through the inverse transpose):
     // the edges swap so the light still emits towards +z.
     let body = "<shape type=\"rectangle\"><transform name=\"to_world\"><scale x=\"-1\"/></transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"1, 2, 3\"/></emitter></shape>\n\

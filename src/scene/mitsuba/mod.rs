@@ -333,7 +333,7 @@ impl Converter {
                         .map_err(|_| k.loc.err(format!("<sensor>: focal_length `{s}` is not <number>mm")))?,
                     Some((_, k)) => return Err(k.loc.err("<sensor>: focal_length must be a string such as \"50mm\"")),
                 };
-                if !(mm > 0.0) {
+                if mm.is_nan() || mm <= 0.0 {
                     return Err(el.loc.err(format!("{}: focal_length {mm} must be > 0", el.what())));
                 }
                 fov_to_x(focal_length_to_fov(mm), "diagonal", aspect).map_err(|e| el.loc.err(e))?
@@ -367,7 +367,7 @@ impl Converter {
     }
 
     fn integrator(&mut self, el: &El) -> Result<()> {
-        let depth = el.kids.iter().find(|k| k.attr("name") == Some("max_depth")).map(|k| value(k)).transpose()?;
+        let depth = el.kids.iter().find(|k| k.attr("name") == Some("max_depth")).map(value).transpose()?;
         let ty = el.attr("type").unwrap_or("?");
         let d = match depth {
             Some(Value::Num(d)) => d,
