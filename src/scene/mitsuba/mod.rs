@@ -271,9 +271,11 @@ impl Converter {
             "thinlens" => true,
             _ => return Err(unsupported(el, "sensor", SENSORS)),
         };
-        let mut allowed = vec!["fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip"];
+        // A perspective sensor has no lens: Mitsuba ignores a focus_distance on it (its own
+        // Cornell box sets one), and so does this.
+        let mut allowed = vec!["fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip", "focus_distance"];
         if thin {
-            allowed.extend(["aperture_radius", "focus_distance"]);
+            allowed.push("aperture_radius");
         }
         let p = Params::of(el, &allowed, &["film", "sampler"])?;
         let (mut width, mut height) = (768u32, 576u32);
@@ -286,7 +288,7 @@ impl Converter {
                     }
                     let f = Params::of(
                         k,
-                        &["width", "height", "pixel_format", "component_format", "file_format", "banner"],
+                        &["width", "height", "pixel_format", "component_format", "file_format", "banner", "sample_border"],
                         &["rfilter"],
                     )?;
                     let dim = |name: &str, d: u32| -> Result<u32> {
