@@ -180,3 +180,63 @@ fn emitters_rectangle_point_and_constant() {
     assert_eq!(scene.background, Vec3::new(0.1, 0.2, 0.3));
     assert!(scene.info.notes.iter().any(|n| n.contains("lights nothing")), "{:?}", scene.info.notes);
 }
+
+#[test]
+fn a_cornell_box_written_as_mitsuba_writes_one_loads() {
+    // The constructs of Mitsuba's own tutorial Cornell box: `$integrator` as a plugin
+    // type, a perspective sensor with a (meaningless) focus_distance and clip planes, a
+    // tent filter and sample_border on the film, one-sided diffuse BSDFs by id, OBJ walls,
+    // an OBJ luminaire that carries a BSDF reference next to its emitter.
+    let f = Files::temp();
+    f.write("meshes/floor.obj", "v -1 -1 1\nv 1 -1 1\nv 1 -1 -1\nv -1 -1 -1\nf 1 2 3 4\n");
+    f.write("meshes/lamp.obj", "v 0.25 1 -0.25\nv 0.25 1 0.25\nv -0.25 1 0.25\nv -0.25 1 -0.25\nf 1 2 3 4\n");
+    let text = r#"<scene version="3.0.0">
+    <default name="integrator" value="path"/>
+    <default name="res" value="8"/>
+    <integrator type='$integrator'><integer name="max_depth" value="6"/></integrator>
+    <sensor type="perspective" id="sensor">
+        <string name="fov_axis" value="smaller"/>
+        <float name="near_clip" value="0.001"/>
+        <float name="far_clip" value="100.0"/>
+        <float name="focus_distance" value="1000"/>
+        <float name="fov" value="39.3077"/>
+        <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="$res"/><integer name="height" value="$res"/>
+            <rfilter type="tent"/>
+            <string name="pixel_format" value="rgb"/>
+            <boolean name="sample_border" value="true"/>
+        </film>
+    </sensor>
+    <bsdf type="diffuse" id="white"><rgb name="reflectance" value="0.885809, 0.698859, 0.666422"/></bsdf>
+    <bsdf type="dielectric" id="glass"/>
+    <shape type="obj" id="light">
+        <string name="filename" value="meshes/lamp.obj"/>
+        <transform name="to_world"><translate y="-0.01"/></transform>
+        <ref id="white"/>
+        <emitter type="area"><rgb name="radiance" value="18.387, 13.9873, 6.75357"/></emitter>
+    </shape>
+    <shape type="obj" id="floor"><string name="filename" value="meshes/floor.obj"/><ref id="white"/></shape>
+    <shape type="sphere" id="glasssphere">
+        <transform name="to_world"><scale value="0.25"/><translate x="0.5" y="-0.75" z="-0.2"/></transform>
+        <ref id="glass"/>
+    </shape>
+</scene>"#;
+    let scene = load_file(&f.write("cbox.xml", text));
+    // Two triangle lights facing down at y = 0.99, the glass ior bk7 / air.
+    assert_eq!(scene.lights.len(), 2);
+    assert!(scene
+        .lights
+        .iter()
+        .all(|l| matches!(l, Light::Triangle { normal, v0, .. } if *normal == Vec3::NEG_Y && v0.y == 0.99)));
+    assert!(scene
+        .materials
+        .iter()
+        .any(|m| matches!(m, Material::Dielectric { ior, .. } if (*ior - 1.5046 / 1.00028).abs() < 1e-6)));
+    assert_eq!(scene.settings.max_depth, 5);
+    let notes = scene.info.notes.join("\n");
+    for needle in ["black from behind", "box filter", "max_depth only"] {
+        assert!(notes.contains(needle), "`{needle}` not in the notes:\n{notes}");
+    }
+}

@@ -273,7 +273,8 @@ impl Converter {
         };
         // A perspective sensor has no lens: Mitsuba ignores a focus_distance on it (its own
         // Cornell box sets one), and so does this.
-        let mut allowed = vec!["fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip", "focus_distance"];
+        let mut allowed =
+            vec!["fov", "fov_axis", "focal_length", "to_world", "near_clip", "far_clip", "focus_distance"];
         if thin {
             allowed.push("aperture_radius");
         }
@@ -288,7 +289,15 @@ impl Converter {
                     }
                     let f = Params::of(
                         k,
-                        &["width", "height", "pixel_format", "component_format", "file_format", "banner", "sample_border"],
+                        &[
+                            "width",
+                            "height",
+                            "pixel_format",
+                            "component_format",
+                            "file_format",
+                            "banner",
+                            "sample_border",
+                        ],
                         &["rfilter"],
                     )?;
                     let dim = |name: &str, d: u32| -> Result<u32> {
