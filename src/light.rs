@@ -1,11 +1,14 @@
-//! Quad-light sampling shared by the stages that light a diffuse point: the stratified
-//! samples of uniform mode and of the penumbra, the exact irradiance of the adaptive
-//! test's lit points, and where shadow rays stop.
+//! Light sampling shared by the stages that light a diffuse point, for every light shape
+//! (parallelogram, triangle, point): the stratified samples of uniform mode and of the
+//! penumbra, the exact irradiance of the adaptive test's lit points, its probe rays, what
+//! a ray that hits an emitter sees, and where shadow rays stop. Stages call these and
+//! never match on a light's shape themselves.
 
 use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
 
-use crate::sampling::{cmj_grid, dim, hash_lanes, sobol_owen_lanes};
-use crate::scene::{Light, Scene};
+use crate::sampling::{cmj_grid, dim, hash, hash_lanes, sobol_owen_lanes, to_unit};
+use crate::scene::{Light, Probe, Scene};
 use crate::simd::{Real, Word, V3};
 use crate::surface::{diffuse_brdf, Surface};
 
@@ -25,7 +28,7 @@ pub fn light_seed_lanes<W: Word>(key: W, li: W) -> W {
     hash_lanes([key, li, W::splat(dim::LIGHT)])
 }
 
-/// The grid of `n` light samples early stopping orders them on ([`quad_light_samples`]'s
+/// The grid of `n` light samples early stopping orders them on ([`area_light_samples`]'s
 /// cells): for n = 2^k a 2^⌈k/2⌉ × 2^⌊k/2⌋ grid, in which a point's samples (a (0, k, 2)-net)
 /// hold one cell each; else the [`cmj_grid`] of n, whose first n cells they are given in
 /// sample order.
@@ -38,7 +41,19 @@ pub fn sample_grid(n: u32) -> (u32, u32) {
     }
 }
 
-/// Visits the stratified samples of quad light `li` seen from `surf` that can contribute
+/// The planar emitter of light `li` as (origin, u, v, normal, area, radiance, triangle):
+/// points `origin + a·u + b·v` with a, b in [0, 1] (a + b <= 1 for a triangle). `None`
+/// for a point light.
+#[inline]
+fn planar(light: &Light) -> Option<(Vec3, Vec3, Vec3, Vec3, f32, Vec3, bool)> {
+    match *light {
+        Light::Quad { corner, u, v, normal, area, radiance } => Some((corner, u, v, normal, area, radiance, false)),
+        Light::Triangle { v0, e1, e2, normal, area, radiance } => Some((v0, e1, e2, normal, area, radiance, true)),
+        Light::Point { .. } => None,
+    }
+}
+
+/// Visits the stratified samples of area light `li` seen from `surf` that can contribute
 /// (both cosines positive), calling `f(cell, direction, distance, contribution)`, where
 /// `cell` is the sample's row-major cell in the [`sample_grid`] of `shadows.samples`:
 /// distinct for the samples of one point (the order early stopping walks them in).
@@ -46,12 +61,15 @@ pub fn sample_grid(n: u32) -> (u32, u32) {
 /// estimate.
 ///
 /// Shadow sample j of the path's camera sample i is sample i·n + j of an Owen-scrambled
-/// Sobol sequence seeded by the path's point and light ([`sobol_owen`]): the light
+/// Sobol sequence seeded by the path's point and light
+/// ([`sobol_owen`](crate::sampling::sobol_owen)): the light
 /// samples of all a pixel's paths are stratified together, and each path's n samples
 /// among themselves when n is a power of two.
+/// A triangle folds the unit square onto itself along its diagonal (uniform by area; the
+/// cells stay those of the square).
 #[inline]
-pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(u32, Vec3, f32, Vec3)) {
-    let Light::Quad { corner, u, v, normal, area, radiance } = scene.lights[li] else { return };
+pub fn area_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(u32, Vec3, f32, Vec3)) {
+    let Some((corner, u, v, normal, area, radiance, triangle)) = planar(&scene.lights[li]) else { return };
     let count = scene.settings.shadow_samples;
     let seed = light_seed(surf.key, li);
     let first = surf.sample.wrapping_mul(count);
@@ -64,7 +82,7 @@ pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
         // Past 2^32 samples of a point the indices wrap: each sample stays uniform over
         // the light (unbiased), only the stratification between the wrapped ones is lost.
         let index = first.wrapping_add(j);
-        let q = quad_sample(&quad, o, n, index, seed);
+        let q = quad_sample(&quad, o, n, index, seed, triangle);
         if q.cos_x <= 0.0 || q.cos_y <= 0.0 {
             continue;
         }
@@ -77,8 +95,8 @@ pub fn quad_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
     }
 }
 
-/// A quad light's corner, edges and normal on lanes: one light on every lane, or a light
-/// per lane.
+/// A planar light's origin, edges and normal on lanes (a parallelogram's corner and edges,
+/// or a triangle's first vertex and edges): one light on every lane, or a light per lane.
 #[derive(Clone, Copy, Debug)]
 pub struct QuadLanes<R> {
     /// Corner.
@@ -117,8 +135,10 @@ pub struct QuadSample<R> {
 }
 
 /// Sample `index` of the Owen-scrambled Sobol sequence `seed` on `quad`, seen from origin
-/// `o` with normal `n`: the one formula behind every quad-light sample, for one ray
-/// ([`quad_light_samples`]) and for 16 (the shade stage's lanes), with the same bits.
+/// `o` with normal `n`: the one formula behind every area-light sample, for one ray
+/// ([`area_light_samples`]) and for 16 (the shade stage's lanes), with the same bits. A
+/// `triangle` (the half of the parallelogram below its diagonal) folds the unit square
+/// onto itself along the diagonal first; [`QuadSample::uv`] stays unfolded.
 #[inline(always)]
 pub fn quad_sample<W: Word>(
     quad: &QuadLanes<W::Real>,
@@ -126,26 +146,45 @@ pub fn quad_sample<W: Word>(
     n: V3<W::Real>,
     index: W,
     seed: W,
+    triangle: bool,
 ) -> QuadSample<W::Real> {
-    let (x, y) = sobol_owen_lanes(index, seed);
+    let uv = sobol_owen_lanes(index, seed);
+    let (mut x, mut y) = uv;
+    if triangle {
+        // x + y > 1 exactly when 1 − (x + y) < 0 (the sign of a rounded difference is exact).
+        let one = W::Real::splat(1.0);
+        let over = one - (x + y);
+        (x, y) = (W::Real::if_negative(over, one - x, x), W::Real::if_negative(over, one - y, y));
+    }
     let to = quad.corner + quad.u.scale(x) + quad.v.scale(y) - o;
     let dist2 = to.dot(to);
     let dist = dist2.sqrt();
     let wi = to.over(dist);
-    QuadSample { uv: (x, y), wi, dist, dist2, cos_x: n.dot(wi), cos_y: -quad.normal.dot(wi) }
+    QuadSample { uv, wi, dist, dist2, cos_x: n.dot(wi), cos_y: -quad.normal.dot(wi) }
 }
 
 /// Irradiance at `o` (unit normal `n`) from a parallelogram of unit radiance with
-/// corners `c, c+u, c+u+v, c+v`, by Lambert's polygon formula
+/// corners `c, c+u, c+u+v, c+v`: [`polygon_irradiance`] of its four corners.
+pub fn quad_irradiance(o: Vec3, n: Vec3, c: Vec3, u: Vec3, v: Vec3) -> f32 {
+    polygon_irradiance(o, n, &[c, c + u, c + u + v, c + v])
+}
+
+/// Irradiance at `o` (unit normal `n`) from a planar convex polygon of unit radiance with
+/// 3 or 4 vertices `verts` (in order around it), by Lambert's polygon formula
 /// E = ½ Σ θ_k (n · γ_k), with the polygon first clipped to the hemisphere above `o`.
 /// Angles come from atan2, which keeps its precision for small, distant lights.
-pub fn quad_irradiance(o: Vec3, n: Vec3, c: Vec3, u: Vec3, v: Vec3) -> f32 {
-    let quad = [c - o, c + u - o, c + u + v - o, c + v - o];
-    // Sutherland–Hodgman against the tangent plane: at most 5 vertices remain.
+pub fn polygon_irradiance(o: Vec3, n: Vec3, verts: &[Vec3]) -> f32 {
+    debug_assert!((3..=4).contains(&verts.len()));
+    let mut rel = [Vec3::ZERO; 4];
+    for (r, &p) in rel.iter_mut().zip(verts) {
+        *r = p - o;
+    }
+    let m = verts.len();
+    // Sutherland–Hodgman against the tangent plane: at most m + 1 vertices remain.
     let mut poly = [Vec3::ZERO; 5];
     let mut len = 0;
-    for k in 0..4 {
-        let (a, b) = (quad[k], quad[(k + 1) % 4]);
+    for k in 0..m {
+        let (a, b) = (rel[k], rel[(k + 1) % m]);
         let (da, db) = (n.dot(a), n.dot(b));
         if da > 0.0 {
             poly[len] = a;
@@ -168,14 +207,133 @@ pub fn quad_irradiance(o: Vec3, n: Vec3, c: Vec3, u: Vec3, v: Vec3) -> f32 {
     0.5 * sum.abs()
 }
 
+/// The unoccluded direct light at `surf` from area light `li`, which the adaptive shadow
+/// test sends to the film for a lit point: `Some((contribution, rays))`, where `rays` is
+/// what uniform mode would have cast (the samples facing both ways; 0: nothing to do, the
+/// point is behind the one-sided emitter or the light below its horizon). Exact for
+/// Lambert (the polygon irradiance), else the penumbra stage's own samples without
+/// occlusion tests. `None` for a point light or a dark light, which take the uniform path.
+#[inline]
+pub fn unoccluded(scene: &Scene, surf: &Surface, li: usize) -> Option<(Vec3, u64)> {
+    let (corner, u, v, normal, _, radiance, triangle) = planar(&scene.lights[li])?;
+    if radiance == Vec3::ZERO {
+        return None;
+    }
+    if normal.dot(surf.o - corner) <= 0.0 {
+        return Some((Vec3::ZERO, 0)); // behind the one-sided emitter
+    }
+    let quad = [corner, corner + u, corner + v, corner + u + v];
+    let verts = if triangle { &quad[..3] } else { &quad[..] };
+    let (mut sum, mut n) = (Vec3::ZERO, 0u64);
+    let above = verts.iter().all(|&p| surf.n.dot(p - surf.o) > 0.0);
+    if surf.specular == Vec3::ZERO && above {
+        n = scene.settings.shadow_samples as u64;
+    } else {
+        area_light_samples(scene, surf, li, |_, _, _, l| {
+            sum += l;
+            n += 1;
+        });
+    }
+    if n > 0 && surf.specular == Vec3::ZERO {
+        let e = if triangle {
+            polygon_irradiance(surf.o, surf.n, &[corner, corner + u, corner + v])
+        } else {
+            quad_irradiance(surf.o, surf.n, corner, u, v)
+        };
+        sum = surf.w * surf.color * FRAC_1_PI * radiance * e;
+    }
+    Some((sum, n))
+}
+
+/// The radiance a ray with direction `d` sees on emitter `light`: one-sided, radiance on
+/// the front and black from behind.
+#[inline]
+pub fn emitted(light: &Light, d: Vec3) -> Option<Vec3> {
+    let (_, _, _, normal, _, radiance, _) = planar(light)?;
+    (normal.dot(d) < 0.0).then_some(radiance)
+}
+
+/// Probe rays per shading point of the adaptive shadow test on `light` with `probe`
+/// (0 for a point light).
+pub fn probe_count(light: &Light, probe: Probe) -> u32 {
+    match light {
+        Light::Point { .. } => 0,
+        Light::Quad { .. } => probe.rays(),
+        Light::Triangle { .. } => match probe {
+            Probe::Corners => 3,
+            Probe::CornersCenter | Probe::Jittered => 4,
+            Probe::Grid3 => 7,
+        },
+    }
+}
+
+/// The probe targets on area light `li` for a shading point whose path is named by `key`
+/// (its point key hashed with its sample index); the first [`probe_count`] are used.
+/// A parallelogram's are its corners (and centre), a jittered point in each quarter, or
+/// its 3×3 grid; a triangle's are its vertices (and centroid), a jittered point in each
+/// of its four midpoint sub-triangles, or its vertices, edge midpoints and centroid.
+#[inline]
+pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3; 9] {
+    let mut t = [Vec3::ZERO; 9];
+    let Some((corner, u, v, _, _, _, triangle)) = planar(&scene.lights[li]) else { return t };
+    let at = |a: f32, b: f32| corner + a * u + b * v;
+    let h = |q: u32, d: u32| to_unit(hash(&[key, li as u32, q, d, dim::PROBE]));
+    if triangle {
+        let third = 1.0 / 3.0;
+        match probe {
+            Probe::Corners | Probe::CornersCenter | Probe::Grid3 => {
+                t[..4].copy_from_slice(&[at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(third, third)]);
+                t[4..7].copy_from_slice(&[at(0.5, 0.0), at(0.5, 0.5), at(0.0, 0.5)]);
+            }
+            Probe::Jittered => {
+                // The midpoint subdivision: three corner triangles (a, b) = o + ½(x, y),
+                // and the middle one, (½, ½) − ½(x, y); (x, y) uniform in the unit triangle.
+                for i in 0..4u32 {
+                    let (mut x, mut y) = (h(i, 0), h(i, 1));
+                    if x + y > 1.0 {
+                        (x, y) = (1.0 - x, 1.0 - y);
+                    }
+                    let (a, b) = match i {
+                        0 => (0.5 * x, 0.5 * y),
+                        1 => (0.5 + 0.5 * x, 0.5 * y),
+                        2 => (0.5 * x, 0.5 + 0.5 * y),
+                        _ => (0.5 - 0.5 * x, 0.5 - 0.5 * y),
+                    };
+                    t[i as usize] = at(a, b);
+                }
+            }
+        }
+        return t;
+    }
+    match probe {
+        Probe::Corners | Probe::CornersCenter => {
+            t[..5].copy_from_slice(&[at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0), at(0.5, 0.5)]);
+        }
+        Probe::Jittered => {
+            for i in 0..4u32 {
+                t[i as usize] = at(0.5 * ((i & 1) as f32 + h(i, 0)), 0.5 * ((i >> 1) as f32 + h(i, 1)));
+            }
+        }
+        Probe::Grid3 => {
+            for (i, p) in t.iter_mut().enumerate() {
+                *p = at(0.5 * (i % 3) as f32, 0.5 * (i / 3) as f32);
+            }
+        }
+    }
+    t
+}
+
 /// Visits the shadow rays uniform mode casts from `surf` to light `li`: one to a point
-/// light, `shadows.samples` stratified ones to a quad light (those that can contribute),
+/// light, `shadows.samples` stratified ones to an area light (those that can contribute),
 /// none to a dark light. Calls `f(direction, tmax, contribution)`.
 #[inline]
 pub fn uniform_shadow_rays(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(Vec3, f32, Vec3)) {
     match scene.lights[li] {
         // A dark light adds nothing: it costs no shadow rays either.
-        Light::Point { intensity, .. } | Light::Quad { radiance: intensity, .. } if intensity == Vec3::ZERO => {}
+        Light::Point { intensity, .. }
+        | Light::Quad { radiance: intensity, .. }
+        | Light::Triangle { radiance: intensity, .. }
+            if intensity == Vec3::ZERO => {}
         Light::Point { position, intensity } => {
             let to = position - surf.o;
             let dist2 = to.length_squared();
@@ -188,6 +346,8 @@ pub fn uniform_shadow_rays(scene: &Scene, surf: &Surface, li: usize, mut f: impl
             let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
             f(wi, dist * SHADOW_TMAX_SCALE, surf.w * brdf * intensity * (cos / dist2));
         }
-        Light::Quad { .. } => quad_light_samples(scene, surf, li, |_, wi, dist, l| f(wi, dist * SHADOW_TMAX_SCALE, l)),
+        Light::Quad { .. } | Light::Triangle { .. } => {
+            area_light_samples(scene, surf, li, |_, wi, dist, l| f(wi, dist * SHADOW_TMAX_SCALE, l))
+        }
     }
 }

@@ -197,13 +197,13 @@ soa! {
 }
 
 soa! {
-    /// Shading points waiting for the adaptive shadow test of one quad light (the shadow
+    /// Shading points waiting for the adaptive shadow test of one area light (the shadow
     /// corner queue): each names a ray of the current wave (whose hit is the point) and a
     /// light, with the light's contribution if nothing blocked it.
     pub struct ShadowPointQueue {
         /// Index of the ray (and hit) in the current wave.
         ray: u32,
-        /// Index of the quad light.
+        /// Index of the area light.
         light: u32,
         /// Accumulation slot of the ray.
         slot: u32,

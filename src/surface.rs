@@ -52,6 +52,32 @@ pub struct Surface {
     pub sample: u32,
 }
 
+/// The shading normal at point `x` of primitive `prim`, on the side of the unit geometric
+/// normal `n` (the side the ray arrived on): the triangle's vertex normals interpolated by
+/// `x`'s barycentric coordinates and normalised (Mitsuba's smooth shading) for a smooth
+/// mesh, else `n` itself. Ray origins keep the geometric normal.
+#[inline]
+pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
+    let Some(&vn) = scene.normals.get(prim) else { return n };
+    let Shape::Triangle { v0, v1, v2 } = scene.accel.prims[prim].shape else { return n };
+    if vn[0] == Vec3::ZERO {
+        return n;
+    }
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let c = e1.cross(e2);
+    let w = c / c.length_squared();
+    let q = x - v0;
+    let (b1, b2) = (w.dot(q.cross(e2)), w.dot(e1.cross(q)));
+    let ns = ((1.0 - b1 - b2) * vn[0] + b1 * vn[1] + b2 * vn[2]).normalize_or_zero();
+    if ns == Vec3::ZERO {
+        n
+    } else if ns.dot(n) < 0.0 {
+        -ns
+    } else {
+        ns
+    }
+}
+
 /// The Lambert/Phong parameters (albedo, Phong reflectance, exponent) of primitive
 /// `prim` when it is a diffuse non-emitter, else `None`.
 #[inline]
@@ -78,7 +104,7 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
     let n = if ng.dot(d) < 0.0 { ng } else { -ng };
     Some(Surface {
         o: offset_ray_origin(x, err, n),
-        n,
+        n: shading_normal(scene, hits.prim[i] as usize, x, n),
         wo: -d,
         color,
         specular,
@@ -162,7 +188,7 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
         put(z, v.z);
     };
     put3(&mut out.ox, &mut out.oy, &mut out.oz, offset_lanes(p, err, n));
-    put3(&mut out.nx, &mut out.ny, &mut out.nz, n);
+    put3(&mut out.nx, &mut out.ny, &mut out.nz, shading_lanes(scene, hits, ids, p, n));
     put3(&mut out.wox, &mut out.woy, &mut out.woz, -d);
     put3(&mut out.wr, &mut out.wg, &mut out.wb, V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) });
     let materials: [_; LANES] = std::array::from_fn(|k| diffuse_material(scene, hits.prim[id(k)]).unwrap_or_default());
@@ -174,6 +200,22 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     out.key.extend(ids.iter().map(|&i| rays.key[i as usize]));
     out.sample.extend(ids.iter().map(|&i| rays.sample[i as usize]));
     out.ray.extend_from_slice(ids);
+}
+
+/// [`shading_normal`] of every lane: `n` itself unless the scene has smooth meshes.
+#[inline]
+pub fn shading_lanes(scene: &Scene, hits: &HitQueue, ids: &[u32], p: V3<f32x16>, n: V3<f32x16>) -> V3<f32x16> {
+    if scene.normals.is_empty() {
+        return n;
+    }
+    let (px, py, pz) = (p.x.to_array(), p.y.to_array(), p.z.to_array());
+    let (nx, ny, nz) = (n.x.to_array(), n.y.to_array(), n.z.to_array());
+    let last = ids[ids.len() - 1];
+    let ns: [Vec3; LANES] = std::array::from_fn(|k| {
+        let prim = hits.prim[ids.get(k).copied().unwrap_or(last) as usize] as usize;
+        shading_normal(scene, prim, Vec3::new(px[k], py[k], pz[k]), Vec3::new(nx[k], ny[k], nz[k]))
+    });
+    V3 { x: f32x16::from(ns.map(|v| v.x)), y: f32x16::from(ns.map(|v| v.y)), z: f32x16::from(ns.map(|v| v.z)) }
 }
 
 /// Entry `p` of `q` as a [`Surface`].

@@ -7,24 +7,8 @@ use glam::Vec3;
 use std::f32::consts::PI;
 use support::*;
 
-const PLANE: &str = r#"
-[materials.white]
-type = "diffuse"
-color = [0.5, 0.5, 0.5]
-[[objects]]
-type = "quad"
-corner = [-50, 0, -50]
-edge_u = [100, 0, 0]
-edge_v = [0, 0, 100]
-material = "white"
-"#;
-
 fn measure_mode(lights: &str, p: Vec3, shadow_samples: u32, mode: &str) -> Vec3 {
-    let text = format!("{}{PLANE}{lights}", probe_camera(p + Vec3::new(0.0, 3.0, 4.0), p));
-    let samples = format!("render.shadows.samples={shadow_samples}");
-    let mode = format!("render.shadows.mode={mode}");
-    let out = render_text(&text, &["render.width=1", "render.height=1", "render.aa.samples=1", &samples, &mode], 1);
-    only_pixel(&out)
+    measure_plane(lights, p, shadow_samples, mode)
 }
 
 fn measure(lights: &str, p: Vec3, shadow_samples: u32) -> Vec3 {

@@ -11,10 +11,10 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use support::{closest, polygon_irradiance, FloorScene};
 use wavetrace::geometry::tracer::{Kernel, Tracer};
+use wavetrace::light::probe_targets;
 use wavetrace::light::SHADOW_TMAX_SCALE;
 use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use wavetrace::scene::{Light, Probe, ShadowMode};
-use wavetrace::stages::shadow_corner::probe_targets;
 use wavetrace::stages::{shade as shade_stage, shadow_corner};
 use wavetrace::Scene;
 

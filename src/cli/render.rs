@@ -23,8 +23,13 @@ use super::{at_least_one, say, scene_source};
 
 #[derive(Args, Debug, Default)]
 pub struct RenderArgs {
-    /// Scene file (TOML). Omitted: the embedded default scene.
+    /// Scene file: TOML, or Mitsuba 3 XML by the `.xml` extension. Omitted: the embedded
+    /// default scene.
     scene: Option<PathBuf>,
+    /// Set a Mitsuba XML parameter (`$name`), as `mitsuba -D name=value` does; wins over
+    /// the file's `<default name=...>`. Repeatable.
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    defines: Vec<String>,
     /// Output image; the extension picks the format: .png (8-bit sRGB) or .exr (linear float).
     #[arg(short, long, default_value = "render.png")]
     output: PathBuf,
@@ -170,12 +175,29 @@ pub fn run(args: RenderArgs) -> Result<i32> {
         check_png_path(&h.path)?;
     }
     let load_start = Instant::now();
-    let source = scene_source(args.scene.as_ref())?;
+    let mut source = scene_source(args.scene.as_ref())?;
+    for d in &args.defines {
+        let (name, value) = d
+            .split_once('=')
+            .filter(|(n, _)| !n.trim().is_empty())
+            .ok_or_else(|| Error::input(format!("-D `{d}`: expected NAME=VALUE")))?;
+        if source.xml.is_none() {
+            return Err(Error::input(format!(
+                "-D `{d}`: -D sets parameters of Mitsuba XML scenes; use --set for TOML"
+            )));
+        }
+        source.defines.push((name.trim().to_string(), value.to_string()));
+    }
     let mut sets = args.sets.clone();
     if let Some(seed) = args.seed {
         sets.push(format!("render.seed={seed}"));
     }
     let scene = load(&source, &sets)?;
+    if !args.quiet {
+        for note in &scene.info.notes {
+            eprintln!("note: {note}");
+        }
+    }
     let load_seconds = load_start.elapsed().as_secs_f64();
     let (w, h) = (scene.settings.width, scene.settings.height);
     let crop_spec = args.crop.or(args.crop_window).or(args.tile);

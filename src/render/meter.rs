@@ -101,21 +101,21 @@ impl Meter {
         self.lap(Stage::Shadow, q.shadow.len(), lit, tr.take_work(), since)
     }
 
-    /// The shadow-corner test: `cast` probe rays, `probes` per point.
+    /// The shadow-corner test: `cast` probe rays, `probes(light)` per point on that light.
     pub fn shadow_corners(
         &mut self,
         q: &WaveQueues,
         heat: &mut SlotHeat,
-        (cast, probes): (usize, f32),
+        (cast, probes): (usize, &dyn Fn(u32) -> f32),
         tr: &mut Tracer,
         since: Instant,
     ) -> Instant {
         self.stats.shadow_corner_rays += cast as u64;
         self.stats.shadow_points += q.points.len() as u64;
         self.stats.penumbra_points += q.penumbra.len() as u64;
-        for &s in &q.points.slot {
+        for (&s, &li) in q.points.slot.iter().zip(&q.points.light) {
             heat.points[s as usize] += 1.0;
-            heat.rays[s as usize] += probes;
+            heat.rays[s as usize] += probes(li);
         }
         for &k in &q.penumbra.index {
             heat.penumbra[q.points.slot[k as usize] as usize] += 1.0;

@@ -133,7 +133,9 @@ impl<'a> Pipeline<'a> {
         if let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode {
             let (rays, hits, points) = (&q.rays, &q.hits, &q.points);
             let cast = shadow_corner::shadow_corners(scene, tr, rays, hits, points, &mut q.film, &mut q.penumbra);
-            t = m.shadow_corners(q, heat, (cast, probe.rays() as f32), tr, t);
+            // Probe rays per point depend on the light's shape (a triangle's 3x3 set is 7).
+            let probes = |li: u32| crate::light::probe_count(&scene.lights[li as usize], probe) as f32;
+            t = m.shadow_corners(q, heat, (cast, &probes), tr, t);
 
             let (rays, hits, points) = (&q.rays, &q.hits, &q.points);
             let pen = penumbra::penumbra(scene, tr, rays, hits, points, &q.penumbra, &mut q.penumbra_rays, &mut q.film);

@@ -1,11 +1,11 @@
 //! Scene format v1: the TOML file as serde types. Every field is documented in
 //! docs/scene-format.md with its default; unknown fields are errors.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// A whole scene file.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile {
     /// Image and sampling settings.
@@ -28,7 +28,7 @@ pub struct SceneFile {
 }
 
 /// `[render]`.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct RenderDesc {
     /// Image width in pixels (default 320).
@@ -65,7 +65,7 @@ impl Default for RenderDesc {
 }
 
 /// `[render.aa]`.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct AaDesc {
     /// Sampling mode: "uniform" or "adaptive" (default "uniform").
@@ -106,7 +106,7 @@ impl Default for AaDesc {
 }
 
 /// `[render.shadows]`.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct ShadowsDesc {
     /// Sampling mode: "uniform" or "adaptive" (default "uniform").
@@ -133,7 +133,7 @@ impl Default for ShadowsDesc {
 }
 
 /// `render.aa.mode` and `render.shadows.mode`: "uniform" or "adaptive".
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Deserialize, Serialize, Debug, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum SamplingDesc {
     /// The same number of rays everywhere.
@@ -143,7 +143,7 @@ pub enum SamplingDesc {
 }
 
 /// `render.shadows.probe`: the rays of the adaptive shadow-corner test.
-#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Deserialize, Serialize, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ProbeDesc {
     /// "corners": the light's four corners (the paper's test).
     #[serde(rename = "corners")]
@@ -160,7 +160,7 @@ pub enum ProbeDesc {
 }
 
 /// `[render.dof]`.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct DofDesc {
     /// Lens samples per pixel sample when the aperture is open (default 1).
@@ -174,24 +174,32 @@ impl Default for DofDesc {
 }
 
 /// `[camera]`.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
-    /// Eye position.
-    pub position: [f32; 3],
-    /// Point the camera looks at.
-    pub look_at: [f32; 3],
+    /// Eye position (required unless `transform` is given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position: Option<[f32; 3]>,
+    /// Point the camera looks at (required unless `transform` is given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub look_at: Option<[f32; 3]>,
     /// Up hint (default [0, 1, 0]).
     #[serde(default = "default_up")]
     pub up: [f32; 3],
+    /// Camera-to-world transform instead of position/look_at/up, with Mitsuba's camera
+    /// frame: the camera sits at the origin looking along +z with +y up (+x is to the
+    /// image's left). Default: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transform: Option<Vec<TransformOp>>,
     /// Vertical field of view in degrees (default 40).
     #[serde(default = "default_fov")]
     pub fov_y: f32,
     /// Thin-lens radius in scene units; 0 is a pinhole (default 0).
     #[serde(default)]
     pub aperture: f32,
-    /// Distance of the plane in focus (default |look_at - position|).
-    #[serde(default)]
+    /// Distance of the plane in focus (default |look_at - position|, or 1 with a
+    /// `transform`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub focus_distance: Option<f32>,
 }
 
@@ -204,7 +212,7 @@ fn default_fov() -> f32 {
 }
 
 /// `[background]`.
-#[derive(Deserialize, Debug, Clone, Default)]
+#[derive(Deserialize, Serialize, Debug, Clone, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct BackgroundDesc {
     /// Radiance of rays that hit nothing (default black).
@@ -212,7 +220,7 @@ pub struct BackgroundDesc {
 }
 
 /// `[materials.NAME]`.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum MaterialDesc {
     /// Lambertian with an optional normalised Phong highlight.
@@ -236,7 +244,7 @@ pub enum MaterialDesc {
         /// Index of refraction relative to the outside medium.
         ior: f32,
         /// The paper's C, or "fresnel" (default "fresnel").
-        #[serde(default)]
+        #[serde(default, skip_serializing_if = "Option::is_none")]
         reflect_ratio: Option<RatioDesc>,
         /// Transmission tint (default white).
         #[serde(default = "white")]
@@ -254,7 +262,7 @@ fn white() -> [f32; 3] {
 /// materials are internally tagged (`type = "..."`), and serde buffers such a table
 /// before it picks the variant, so an error raised while parsing a value inside it can
 /// only point at the table's header. The check in `load` points at the value.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(untagged)]
 pub enum RatioDesc {
     /// A fixed ratio C.
@@ -264,7 +272,7 @@ pub enum RatioDesc {
 }
 
 /// `[[lights]]`.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum LightDesc {
     /// One-sided parallelogram emitter.
@@ -273,10 +281,28 @@ pub enum LightDesc {
         corner: [f32; 3],
         /// First edge.
         edge_u: [f32; 3],
-        /// Second edge; emits towards `edge_u × edge_v`.
+        /// Second edge; emits towards `edge_u × edge_v` (after `transform`).
         edge_v: [f32; 3],
         /// Emitted radiance.
         radiance: [f32; 3],
+        /// Applied to the corner and the edges (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform: Option<Vec<TransformOp>>,
+    },
+    /// One-sided triangle emitter; emits towards `(v1 - v0) × (v2 - v0)` (counter-clockwise
+    /// front).
+    Triangle {
+        /// First vertex.
+        v0: [f32; 3],
+        /// Second vertex.
+        v1: [f32; 3],
+        /// Third vertex.
+        v2: [f32; 3],
+        /// Emitted radiance.
+        radiance: [f32; 3],
+        /// Applied to the vertices (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform: Option<Vec<TransformOp>>,
     },
     /// Isotropic point light.
     Point {
@@ -288,7 +314,7 @@ pub enum LightDesc {
 }
 
 /// `[[objects]]`.
-#[derive(Deserialize, Debug, Clone)]
+#[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
 pub enum ObjectDesc {
     /// A sphere.
@@ -299,6 +325,10 @@ pub enum ObjectDesc {
         radius: f32,
         /// Material name.
         material: String,
+        /// Applied to the centre; its linear part must be a uniform scale times a rotation,
+        /// which scales the radius (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform: Option<Vec<TransformOp>>,
     },
     /// A two-sided parallelogram.
     Quad {
@@ -310,12 +340,16 @@ pub enum ObjectDesc {
         edge_v: [f32; 3],
         /// Material name.
         material: String,
+        /// Applied to the corner and the edges (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform: Option<Vec<TransformOp>>,
     },
-    /// A triangle mesh from an OBJ file.
+    /// A triangle mesh from an OBJ or PLY file (by extension).
     Mesh {
         /// Path relative to the scene file.
         file: String,
-        /// Material name.
+        /// Material name (ignored with `emission`).
+        #[serde(default)]
         material: String,
         /// Uniform scale (default 1).
         #[serde(default = "one")]
@@ -323,12 +357,56 @@ pub enum ObjectDesc {
         /// Rotation about +y in degrees, applied after scaling (default 0).
         #[serde(default)]
         rotate_y: f32,
-        /// Translation, applied last (default 0).
+        /// Translation, applied after `rotate_y` (default 0).
         #[serde(default)]
         translate: [f32; 3],
+        /// Applied after scale, rotate_y and translate (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform: Option<Vec<TransformOp>>,
+        /// Interpolated vertex normals for shading: the file's, or computed from the faces
+        /// as Mitsuba 3 does (angle-weighted) when it has none (default false: flat).
+        #[serde(default)]
+        smooth: bool,
+        /// Makes every triangle a one-sided emitter of this radiance (counter-clockwise
+        /// front); `material` is then not needed (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        emission: Option<[f32; 3]>,
+        /// Flip the winding (which side emits, and the file's normals) (default false).
+        #[serde(default)]
+        flip_normals: bool,
     },
 }
 
 fn one() -> f32 {
     1.0
+}
+
+/// One step of a `transform` list; steps apply in list order (each later one after the
+/// ones before, as Mitsuba composes the children of `<transform>`).
+#[derive(Deserialize, Serialize, Debug, Clone, PartialEq)]
+#[serde(rename_all = "lowercase", deny_unknown_fields)]
+pub enum TransformOp {
+    /// `{ translate = [x, y, z] }`.
+    Translate([f32; 3]),
+    /// `{ scale = [x, y, z] }` (a uniform scale repeats one number).
+    Scale([f32; 3]),
+    /// `{ rotate = { axis = [x, y, z], angle = DEGREES } }`: right-handed about `axis`.
+    Rotate {
+        /// Axis (normalised here).
+        axis: [f32; 3],
+        /// Angle in degrees.
+        angle: f32,
+    },
+    /// `{ matrix = [16 numbers] }`: a 4×4 matrix, row by row.
+    Matrix(Vec<f32>),
+    /// `{ lookat = { origin, target, up } }`: Mitsuba's look-at frame (+z towards the
+    /// target, +y up, +x = up × z).
+    Lookat {
+        /// Where the frame sits.
+        origin: [f32; 3],
+        /// Where +z points to.
+        target: [f32; 3],
+        /// Up hint.
+        up: [f32; 3],
+    },
 }

@@ -7,10 +7,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use super::format::*;
-use super::{
-    AaMode, Camera, Light, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode,
-};
-use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
+use super::mitsuba::xml::Loc;
+use super::objects::transform;
+use super::{AaMode, Camera, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
+use crate::geometry::NO_LIGHT;
 use crate::{Error, Result};
 
 /// Largest coordinate, edge or radius magnitude: the squared length of a cross product of
@@ -19,7 +19,7 @@ use crate::{Error, Result};
 pub const MAX_COORD: f32 = 4e9;
 
 /// True when every component is finite and within ±MAX_COORD.
-fn in_range(v: Vec3) -> bool {
+pub(super) fn in_range(v: Vec3) -> bool {
     v.is_finite() && v.abs().max_element() <= MAX_COORD
 }
 
@@ -43,42 +43,67 @@ pub struct SceneSource {
     pub text: String,
     /// Folder that relative mesh paths start from.
     pub dir: PathBuf,
+    /// A Mitsuba XML scene to import (by the file's `.xml` extension) instead of `text`.
+    pub xml: Option<PathBuf>,
+    /// `-D name=value` parameters of a Mitsuba XML scene.
+    pub defines: Vec<(String, String)>,
 }
 
 impl SceneSource {
     /// Reads a scene file.
     pub fn from_file(path: &Path) -> Result<SceneSource> {
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
+            let name = path.display().to_string();
+            return Ok(SceneSource { name, text: String::new(), dir, xml: Some(path.into()), defines: Vec::new() });
+        }
         let text = std::fs::read_to_string(path)
             .map_err(|e| Error::input(format!("scene `{}`: cannot read: {e}", path.display())))?;
-        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        Ok(SceneSource { name: path.display().to_string(), text, dir })
+        Ok(SceneSource { name: path.display().to_string(), text, dir, xml: None, defines: Vec::new() })
     }
 
     /// The embedded default scene.
     pub fn default_scene() -> SceneSource {
-        SceneSource { name: "<default scene>".into(), text: super::DEFAULT_SCENE.into(), dir: PathBuf::from(".") }
+        SceneSource {
+            name: "<default scene>".into(),
+            text: super::DEFAULT_SCENE.into(),
+            dir: PathBuf::from("."),
+            xml: None,
+            defines: Vec::new(),
+        }
     }
 
     /// A scene given as text, with meshes relative to `dir`.
     pub fn from_text(name: &str, text: &str, dir: &Path) -> SceneSource {
-        SceneSource { name: name.into(), text: text.into(), dir: dir.into() }
+        SceneSource { name: name.into(), text: text.into(), dir: dir.into(), xml: None, defines: Vec::new() }
     }
 }
 
 /// Error context: maps a dotted field path back to the file position or `--set` flag.
-struct Ctx<'a> {
-    src: &'a SceneSource,
+pub(super) struct Ctx<'a> {
+    pub(super) src: &'a SceneSource,
     doc: Option<toml_edit::ImDocument<&'a str>>,
     sets: &'a [String],
+    /// For an imported scene: field prefix → the element it came from.
+    places: &'a [(String, Loc)],
 }
 
 impl Ctx<'_> {
-    fn fail(&self, path: &str, msg: impl std::fmt::Display) -> Error {
+    pub(super) fn fail(&self, path: &str, msg: impl std::fmt::Display) -> Error {
         if let Some(set) = self.sets.iter().find(|s| {
             let key = s.split('=').next().unwrap_or("");
             key == path || path.starts_with(&format!("{key}.")) || key.starts_with(&format!("{path}."))
         }) {
             return Error::input(format!("{} (--set {set}): field `{path}`: {msg}", self.src.name));
+        }
+        // An imported scene: the element the field came from (the longest prefix).
+        let place = self
+            .places
+            .iter()
+            .filter(|(p, _)| path == p || path.starts_with(&format!("{p}.")))
+            .max_by_key(|(p, _)| p.len());
+        if let Some((_, loc)) = place {
+            return Error::at(&loc.file, Some((loc.line as usize, loc.col as usize)), path, msg);
         }
         Error::at(&self.src.name, self.locate(path), path, msg)
     }
@@ -161,8 +186,11 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 /// Parses, overrides, validates and builds a scene. `sets` are `KEY=VALUE` overrides
 /// with dotted keys (array elements by index: `objects.0.radius=2`).
 pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
+    if let Some(path) = &src.xml {
+        return load_xml(src, path, sets);
+    }
     let doc = toml_edit::ImDocument::parse(src.text.as_str()).ok();
-    let ctx = Ctx { src, doc, sets };
+    let ctx = Ctx { src, doc, sets, places: &[] };
     // A serde error in the file: located, with the field it is about when it points at a
     // value (a bad `mode` or `probe`, a wrong type).
     let toml_err = |e: toml::de::Error| {
@@ -189,6 +217,28 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
             .map_err(|e| Error::input(format!("{} (--set {set}): field `{key}`: {}", src.name, e.message().trim())))?;
     }
     build(&file, &ctx)
+}
+
+/// Imports a Mitsuba XML scene, applies `--set` overrides to the scene it maps to (same
+/// dotted paths as the TOML format), and builds it.
+fn load_xml(src: &SceneSource, path: &Path, sets: &[String]) -> Result<Scene> {
+    let imported = super::mitsuba::import(path, &src.defines)?;
+    let ctx = Ctx { src, doc: None, sets, places: &imported.places };
+    let mut file = imported.file;
+    if !sets.is_empty() {
+        let mut value = toml::Value::try_from(&file).map_err(|e| Error::Internal(format!("imported scene: {e}")))?;
+        for set in sets {
+            apply_set(&mut value, set)?;
+            check_finite(&value, "", &ctx)?;
+            let key = set.split_once('=').map_or(set.as_str(), |(k, _)| k).trim();
+            file = SceneFile::deserialize(value.clone()).map_err(|e| {
+                Error::input(format!("{} (--set {set}): field `{key}`: {}", src.name, e.message().trim()))
+            })?;
+        }
+    }
+    let mut scene = build(&file, &ctx)?;
+    scene.info.notes = imported.notes;
+    Ok(scene)
 }
 
 fn apply_set(root: &mut toml::Value, set: &str) -> Result<()> {
@@ -244,11 +294,11 @@ fn check_finite(v: &toml::Value, path: &str, ctx: &Ctx) -> Result<()> {
     }
 }
 
-fn vec3(a: [f32; 3]) -> Vec3 {
+pub(super) fn vec3(a: [f32; 3]) -> Vec3 {
     Vec3::from_array(a)
 }
 
-fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
+pub(super) fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
     if c.iter().any(|&x| x < 0.0) {
         return Err(ctx.fail(path, "components must be >= 0"));
     }
@@ -256,7 +306,7 @@ fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
 }
 
 /// A position or extent, refused beyond ±MAX_COORD.
-fn coord(ctx: &Ctx, path: &str, v: Vec3) -> Result<Vec3> {
+pub(super) fn coord(ctx: &Ctx, path: &str, v: Vec3) -> Result<Vec3> {
     if in_range(v) {
         Ok(v)
     } else {
@@ -264,7 +314,7 @@ fn coord(ctx: &Ctx, path: &str, v: Vec3) -> Result<Vec3> {
     }
 }
 
-fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)> {
+pub(super) fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)> {
     let u = coord(ctx, &format!("{path}.edge_u"), vec3(u))?;
     let v = coord(ctx, &format!("{path}.edge_v"), vec3(v))?;
     if u.length_squared() == 0.0 {
@@ -281,7 +331,7 @@ fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)
 }
 
 /// Bytes of memory available to this process: MemAvailable, or a conservative guess.
-fn available_memory() -> u64 {
+pub(super) fn available_memory() -> u64 {
     std::fs::read_to_string("/proc/meminfo")
         .ok()
         .and_then(|s| {
@@ -291,36 +341,6 @@ fn available_memory() -> u64 {
                 .and_then(|kb| kb.parse::<u64>().ok())
         })
         .map_or(8 << 30, |kb| kb * 1024)
-}
-
-/// Memory a mesh costs per byte of OBJ text: tobj's buffers, our triangles (36 bytes
-/// per 3 indices of about 10 text bytes) and about two 48-byte BVH nodes per triangle,
-/// with margin.
-const MESH_BYTES_PER_TEXT_BYTE: u64 = 16;
-
-/// Refuses, before reading it, a mesh whose file is too large for the memory available.
-fn check_mesh_size(path: &Path) -> std::result::Result<(), String> {
-    let Ok(meta) = std::fs::metadata(path) else { return Ok(()) }; // load_obj reports it
-    let need = meta.len().saturating_mul(MESH_BYTES_PER_TEXT_BYTE);
-    let have = available_memory();
-    if need > have / 2 {
-        return Err(format!(
-            "mesh `{}` ({:.1} MiB of text) would need about {:.1} GiB of memory; {:.1} GiB is available (at most half may be used)",
-            path.display(),
-            meta.len() as f64 / (1u64 << 20) as f64,
-            need as f64 / (1u64 << 30) as f64,
-            have as f64 / (1u64 << 30) as f64
-        ));
-    }
-    Ok(())
-}
-
-/// True when `path` resolves (following `..` and symlinks) outside `dir`.
-fn outside_folder(dir: &Path, path: &Path) -> bool {
-    match (std::fs::canonicalize(dir), std::fs::canonicalize(path)) {
-        (Ok(d), Ok(p)) => !p.starts_with(d),
-        _ => false,
-    }
 }
 
 fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
@@ -442,32 +462,59 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
 }
 
 fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> {
-    let position = vec3(c.position);
-    if !in_range(position) {
-        return Err(ctx.fail("camera.position", format!("beyond ±{MAX_COORD:e} scene units")));
-    }
-    if !in_range(vec3(c.look_at)) {
-        return Err(ctx.fail("camera.look_at", format!("beyond ±{MAX_COORD:e} scene units")));
-    }
-    let to = vec3(c.look_at) - position;
-    if to.length_squared() == 0.0 {
-        return Err(ctx.fail("camera.look_at", "equals camera.position: no view direction"));
-    }
-    let forward = to.normalize();
-    let up_hint = vec3(c.up);
+    // With a transform, the frame's image-right direction (-x): a mirroring transform
+    // flips the image.
+    let (position, forward, up_hint, default_focus, frame_right) = match (&c.transform, c.position, c.look_at) {
+        (Some(ops), None, None) => {
+            let t = transform(ctx, "camera.transform", ops)?;
+            let (p, fwd, up, left) = t.frame();
+            if !in_range(p) {
+                return Err(ctx.fail("camera.transform", format!("puts the camera beyond ±{MAX_COORD:e} scene units")));
+            }
+            let f = fwd.normalize_or_zero();
+            if f == Vec3::ZERO || !f.is_finite() {
+                return Err(ctx.fail("camera.transform", "maps +z to no direction"));
+            }
+            (p, f, up, 1.0, Some(-left))
+        }
+        (Some(_), _, _) => {
+            return Err(ctx.fail("camera.transform", "replaces position and look_at: give one or the other"))
+        }
+        (None, Some(p), Some(l)) => {
+            let position = vec3(p);
+            if !in_range(position) {
+                return Err(ctx.fail("camera.position", format!("beyond ±{MAX_COORD:e} scene units")));
+            }
+            if !in_range(vec3(l)) {
+                return Err(ctx.fail("camera.look_at", format!("beyond ±{MAX_COORD:e} scene units")));
+            }
+            let to = vec3(l) - position;
+            if to.length_squared() == 0.0 {
+                return Err(ctx.fail("camera.look_at", "equals camera.position: no view direction"));
+            }
+            (position, to.normalize(), vec3(c.up), to.length(), None)
+        }
+        (None, None, _) => return Err(ctx.fail("camera", "missing field `position` (or a `transform`)")),
+        (None, Some(_), None) => return Err(ctx.fail("camera", "missing field `look_at`")),
+    };
     let right = forward.cross(up_hint);
     if up_hint.length_squared() == 0.0 || right.length() < 1e-6 * up_hint.length() {
-        return Err(ctx.fail("camera.up", "is zero or parallel to the view direction (look_at - position)"));
+        let field = if c.transform.is_some() { "camera.transform" } else { "camera.up" };
+        return Err(ctx.fail(field, "up is zero or parallel to the view direction"));
     }
     let right = right.normalize();
     let up = right.cross(forward);
+    let right = match frame_right {
+        Some(r) if r.dot(right) < 0.0 => -right,
+        _ => right,
+    };
     if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
         return Err(ctx.fail("camera.fov_y", format!("{} is not in (0, 180) degrees", c.fov_y)));
     }
     if c.aperture < 0.0 {
         return Err(ctx.fail("camera.aperture", "must be >= 0"));
     }
-    let focus_distance = c.focus_distance.unwrap_or(to.length());
+    let focus_distance = c.focus_distance.unwrap_or(default_focus);
     if focus_distance <= 0.0 {
         return Err(ctx.fail("camera.focus_distance", "must be > 0"));
     }
@@ -519,6 +566,7 @@ fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
 
 fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     let settings = settings(&f.render, &f.camera, ctx)?;
+    let mut info = SceneInfo::default();
     let camera = camera(&f.camera, settings.width, settings.height, ctx)?;
     let background = color(ctx, "background.color", f.background.color)?;
     let mut names: BTreeMap<&str, u32> = BTreeMap::new();
@@ -527,106 +575,15 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         names.insert(name.as_str(), materials.len() as u32);
         materials.push(material(name, m, ctx)?);
     }
-    let mut prims = Vec::new();
-    let mut lights = Vec::new();
-    for (i, l) in f.lights.iter().enumerate() {
-        let path = format!("lights.{i}");
-        lights.push(match *l {
-            LightDesc::Quad { corner, edge_u, edge_v, radiance } => {
-                let (u, v) = edges(ctx, &path, edge_u, edge_v)?;
-                coord(ctx, &format!("{path}.corner"), vec3(corner))?;
-                let n = u.cross(v);
-                let shape = Shape::Quad { corner: vec3(corner), u, v };
-                prims.push(Primitive { shape, material: 0, light: i as u32 });
-                Light::Quad {
-                    corner: vec3(corner),
-                    u,
-                    v,
-                    normal: n.normalize(),
-                    area: n.length(),
-                    radiance: color(ctx, &format!("{path}.radiance"), radiance)?,
-                }
-            }
-            LightDesc::Point { position, intensity } => Light::Point {
-                position: coord(ctx, &format!("{path}.position"), vec3(position))?,
-                intensity: color(ctx, &format!("{path}.intensity"), intensity)?,
-            },
-        });
-    }
-    let mut info = SceneInfo::default();
-    for (i, o) in f.objects.iter().enumerate() {
-        let path = format!("objects.{i}");
-        let lookup = |name: &str| {
-            names.get(name).copied().ok_or_else(|| {
-                let known: Vec<&str> = names.keys().copied().collect();
-                ctx.fail(
-                    &format!("{path}.material"),
-                    format!("unknown material \"{name}\" (defined: {})", known.join(", ")),
-                )
-            })
-        };
-        match o {
-            ObjectDesc::Sphere { center, radius, material } => {
-                // Numbers are checked finite before this point, so `<=` catches every bad radius.
-                if *radius <= 0.0 {
-                    return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
-                }
-                coord(ctx, &format!("{path}.radius"), Vec3::splat(*radius))?;
-                coord(ctx, &format!("{path}.center"), vec3(*center))?;
-                let material = lookup(material)?;
-                prims.push(Primitive {
-                    shape: Shape::Sphere { center: vec3(*center), radius: *radius },
-                    material,
-                    light: NO_LIGHT,
-                });
-            }
-            ObjectDesc::Quad { corner, edge_u, edge_v, material } => {
-                let (u, v) = edges(ctx, &path, *edge_u, *edge_v)?;
-                coord(ctx, &format!("{path}.corner"), vec3(*corner))?;
-                let material = lookup(material)?;
-                prims.push(Primitive { shape: Shape::Quad { corner: vec3(*corner), u, v }, material, light: NO_LIGHT });
-            }
-            ObjectDesc::Mesh { file, material, scale, rotate_y, translate } => {
-                let material = lookup(material)?;
-                if *scale <= 0.0 {
-                    return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
-                }
-                let mesh_path = ctx.src.dir.join(file);
-                let fail = |e: String| ctx.fail(&format!("{path}.file"), e);
-                check_mesh_size(&mesh_path).map_err(fail)?;
-                if outside_folder(&ctx.src.dir, &mesh_path) {
-                    info.outside_paths.push(mesh_path.display().to_string());
-                }
-                let tris = super::mesh::load_obj(&mesh_path).map_err(fail)?;
-                let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
-                let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
-                let xf = |p: Vec3| rot * (p * *scale) + t;
-                for tri in tris {
-                    let (v0, v1, v2) = (xf(tri[0]), xf(tri[1]), xf(tri[2]));
-                    if [v0, v1, v2].iter().any(|v| !in_range(*v)) {
-                        return Err(ctx.fail(
-                            &format!("{path}.scale"),
-                            format!("a vertex lands at {v0}/{v1}/{v2} after scale, rotate_y and translate: beyond ±{MAX_COORD:e}"),
-                        ));
-                    }
-                    if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
-                        info.degenerate_triangles += 1;
-                        continue;
-                    }
-                    info.triangles += 1;
-                    prims.push(Primitive { shape: Shape::Triangle { v0, v1, v2 }, material, light: NO_LIGHT });
-                }
-            }
-        }
-    }
+    let (prims, lights, normals) = super::objects::objects(f, ctx, &names, &mut info)?;
     // Only specular materials that some object uses give the scatter stage work.
     let has_specular = prims
         .iter()
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = prims.len();
-    let accel = Accel::build(prims);
+    let (accel, normals) = super::objects::build_accel(prims, normals);
     info.bvh_seconds = accel.build_seconds;
-    Ok(Scene { settings, camera, background, materials, lights, accel, has_specular, info })
+    Ok(Scene { settings, camera, background, materials, lights, accel, normals, has_specular, info })
 }
 
 #[cfg(test)]

@@ -1,12 +1,88 @@
-//! Wavefront OBJ meshes through `tobj`: triangles only, positions checked.
+//! Triangle meshes: Wavefront OBJ through `tobj` (triangles only, positions checked),
+//! PLY through [`super::ply`], and the vertex normals Mitsuba 3 computes for a mesh
+//! whose file has none.
 
 use glam::Vec3;
+use std::collections::HashMap;
 use std::io::BufReader;
 use std::path::Path;
+
+/// An indexed triangle mesh in object space.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshData {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Vertex normals from the file, one per position, or empty when it has none.
+    pub normals: Vec<Vec3>,
+    /// Triangles as indices into `positions` (and `normals`), counter-clockwise front.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl MeshData {
+    /// The triangles' corner positions.
+    pub fn corners(&self) -> Vec<[Vec3; 3]> {
+        self.triangles.iter().map(|t| t.map(|i| self.positions[i as usize])).collect()
+    }
+}
+
+/// Vertex normals computed from the faces as Mitsuba 3's `Mesh::recompute_vertex_normals`
+/// does (Thürmer and Wüthrich, "Computing vertex normals from polygonal facets", JGT
+/// 1998): each face's unit normal weighted by the face's angle at the vertex, summed over
+/// the faces that share the vertex (by index), normalised; a vertex whose sum is zero
+/// gets (1, 0, 0) as in Mitsuba. Zero-area faces are skipped.
+pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut sum = vec![Vec3::ZERO; positions.len()];
+    for t in triangles {
+        let v = t.map(|i| positions[i as usize]);
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        let len2 = n.length_squared();
+        // Zero-area (or NaN) faces have no normal.
+        if len2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            continue;
+        }
+        let n = n / len2.sqrt();
+        for j in 0..3 {
+            let a = (v[(j + 1) % 3] - v[j]).normalize_or_zero();
+            let b = (v[(j + 2) % 3] - v[j]).normalize_or_zero();
+            sum[t[j] as usize] += n * unit_angle(a, b);
+        }
+    }
+    sum.into_iter().map(|n| if n.length() != 0.0 { n / n.length() } else { Vec3::X }).collect()
+}
+
+/// The angle between unit vectors, accurate near 0 and π (Mitsuba's `unit_angle`).
+fn unit_angle(a: Vec3, b: Vec3) -> f32 {
+    let dot = a.dot(b);
+    let t = 2.0 * (0.5 * (b - a * 1f32.copysign(dot)).length()).min(1.0).asin();
+    if dot >= 0.0 {
+        t
+    } else {
+        std::f32::consts::PI - t
+    }
+}
+
+/// Reads a mesh file, OBJ or PLY by its extension (`.ply`, case-insensitive; anything
+/// else is read as OBJ).
+pub fn load_mesh(path: &Path) -> Result<MeshData, String> {
+    let ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+    if ply {
+        super::ply::load_ply(path)
+    } else {
+        load_obj_mesh(path)
+    }
+}
 
 /// Reads the triangles of an OBJ file (faces fan-triangulated by tobj), in object space.
 /// Errors are messages to be placed after the field that named the file.
 pub fn load_obj(path: &Path) -> Result<Vec<[Vec3; 3]>, String> {
+    load_obj_mesh(path).map(|m| m.corners())
+}
+
+/// Reads an OBJ file as an indexed mesh. A vertex is a distinct (position, texture
+/// coordinate, normal) index triple, as in Mitsuba's OBJ loader, so computed normals are
+/// shared exactly where Mitsuba shares them; the file's normals (`vn`) are kept when every
+/// face corner has one.
+pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
     // A device or a pipe would be read without end or block for ever.
     match std::fs::metadata(path) {
         Ok(m) if !m.is_file() => return Err(format!("mesh `{}` is not a regular file", path.display())),
@@ -17,33 +93,61 @@ pub fn load_obj(path: &Path) -> Result<Vec<[Vec3; 3]>, String> {
     // Materials are not used: never let tobj open .mtl files next to the mesh.
     let (models, _) = tobj::load_obj_buf(&mut BufReader::new(file), &opts, |_| Err(tobj::LoadError::OpenFileFailed))
         .map_err(|e| format!("malformed OBJ `{}`: {}", path.display(), describe(&e)))?;
-    let mut tris = Vec::new();
+    let mut out = MeshData::default();
+    let mut with_normals = true;
     for model in &models {
         let m = &model.mesh;
         let p = &m.positions;
-        if let Some(bad) = p.iter().position(|x| !x.is_finite()) {
+        if let Some(bad) = p.iter().chain(&m.normals).position(|x| !x.is_finite()) {
+            let what = if bad < p.len() { "vertex" } else { "normal" };
+            let k = if bad < p.len() { bad } else { bad - p.len() };
             return Err(format!(
-                "malformed OBJ `{}`: vertex {} of object `{}` has a non-finite coordinate",
+                "malformed OBJ `{}`: {what} {} of object `{}` has a non-finite coordinate",
                 path.display(),
-                bad / 3 + 1,
+                k / 3 + 1,
                 model.name
             ));
         }
-        let vertex = |i: u32| -> Result<Vec3, String> {
-            let i = i as usize;
-            if 3 * i + 2 >= p.len() {
-                return Err(format!("malformed OBJ `{}`: face refers to missing vertex {}", path.display(), i + 1));
+        with_normals &= !m.normal_indices.is_empty() && m.normal_indices.len() == m.indices.len();
+    }
+    let mut ids: HashMap<(usize, u32, u32, u32), u32> = HashMap::new();
+    for (mi, model) in models.iter().enumerate() {
+        let m = &model.mesh;
+        let (p, nrm) = (&m.positions, &m.normals);
+        for (f, face) in m.indices.chunks_exact(3).enumerate() {
+            let mut tri = [0u32; 3];
+            for k in 0..3 {
+                let c = 3 * f + k;
+                let i = face[k] as usize;
+                if 3 * i + 2 >= p.len() {
+                    return Err(format!("malformed OBJ `{}`: face refers to missing vertex {}", path.display(), i + 1));
+                }
+                let t = m.texcoord_indices.get(c).copied().unwrap_or(u32::MAX);
+                let n = if with_normals { m.normal_indices[c] } else { u32::MAX };
+                let next = out.positions.len() as u32;
+                tri[k] = *ids.entry((mi, face[k], t, n)).or_insert_with(|| {
+                    out.positions.push(Vec3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]));
+                    next
+                });
+                if tri[k] == next && with_normals {
+                    let n = n as usize;
+                    if 3 * n + 2 >= nrm.len() {
+                        return Err(format!(
+                            "malformed OBJ `{}`: face refers to missing normal {}",
+                            path.display(),
+                            n + 1
+                        ));
+                    }
+                    out.normals.push(Vec3::new(nrm[3 * n], nrm[3 * n + 1], nrm[3 * n + 2]));
+                }
             }
-            Ok(Vec3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]))
-        };
-        for f in m.indices.chunks_exact(3) {
-            tris.push([vertex(f[0])?, vertex(f[1])?, vertex(f[2])?]);
+            out.triangles.push(tri);
         }
     }
-    if tris.is_empty() {
+    if out.triangles.is_empty() {
         return Err(format!("OBJ `{}` contains no triangles", path.display()));
     }
-    Ok(tris)
+    Ok(out)
 }
 
 fn describe(e: &tobj::LoadError) -> &'static str {

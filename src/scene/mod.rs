@@ -1,9 +1,15 @@
-//! Scenes: the TOML format ([`format`]), loading and validation ([`load`]), OBJ
-//! meshes ([`mesh`]), and the validated, ready-to-render [`Scene`].
+//! Scenes: the TOML format ([`format`]), loading and validation ([`load`], with the
+//! lights and objects in `objects`), transforms ([`transform`]), OBJ and PLY meshes
+//! ([`mesh`], [`ply`]), Mitsuba 3 XML import ([`mitsuba`]), and the validated,
+//! ready-to-render [`Scene`].
 
 pub mod format;
 pub mod load;
 pub mod mesh;
+pub mod mitsuba;
+mod objects;
+pub mod ply;
+pub mod transform;
 
 use glam::{Vec2, Vec3};
 
@@ -197,6 +203,21 @@ pub enum Light {
         /// Emitted radiance.
         radiance: Vec3,
     },
+    /// One-sided triangle emitter: points `v0 + a·e1 + b·e2`, a, b >= 0, a + b <= 1.
+    Triangle {
+        /// First vertex.
+        v0: Vec3,
+        /// Second vertex minus the first.
+        e1: Vec3,
+        /// Third vertex minus the first.
+        e2: Vec3,
+        /// Unit normal of the emitting side (e1 × e2: counter-clockwise front).
+        normal: Vec3,
+        /// Area.
+        area: f32,
+        /// Emitted radiance.
+        radiance: Vec3,
+    },
     /// Isotropic point light.
     Point {
         /// Position.
@@ -220,6 +241,8 @@ pub struct SceneInfo {
     /// Mesh files that resolve outside the scene file's folder (through `..` or a
     /// symlink): allowed, but reported.
     pub outside_paths: Vec<String>,
+    /// What an imported (Mitsuba XML) scene reads differently from Mitsuba, or ignores.
+    pub notes: Vec<String>,
 }
 
 /// A validated scene ready to render.
@@ -236,6 +259,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Geometry with its BVH.
     pub accel: Accel,
+    /// Vertex normals of smooth-shaded triangles, indexed like `accel.prims` (all zero for
+    /// a flat primitive); empty when no mesh is smooth.
+    pub normals: Vec<[Vec3; 3]>,
     /// True when some material is a mirror or dielectric (so the scatter stage has work).
     pub has_specular: bool,
     /// Load facts for the stats.

@@ -14,7 +14,7 @@
 //! traces through the shadow stage's kernel, the tracer.
 
 use crate::geometry::tracer::Tracer;
-use crate::light::{quad_light_samples, sample_grid, SHADOW_TMAX_SCALE};
+use crate::light::{area_light_samples, sample_grid, SHADOW_TMAX_SCALE};
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, PenumbraQueues, RayQueue, ShadowPointQueue};
 use crate::sampling::{dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
@@ -110,7 +110,7 @@ fn generate(
         let li = points.light[k] as usize;
         q.cells.clear();
         let (shadow, cells) = (&mut q.rays, &mut q.cells);
-        quad_light_samples(scene, &surf, li, |cell, wi, dist, l| {
+        area_light_samples(scene, &surf, li, |cell, wi, dist, l| {
             if progressive {
                 let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
                 cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });

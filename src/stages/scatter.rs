@@ -16,7 +16,7 @@ use crate::queue::{HitQueue, IndexQueue, RayQueue};
 use crate::sampling::hash_lanes;
 use crate::scene::{Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
-use crate::surface::{hit_lanes, HitLanes};
+use crate::surface::{hit_lanes, shading_lanes, HitLanes};
 
 /// Mirror direction of `d` about the unit normal `n`.
 #[inline]
@@ -142,15 +142,17 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     let side = d.dot(ng);
     let n = V3::if_negative(side, ng, -ng);
     let eta = f32x16::if_negative(side, f32x16::ONE / ior, ior);
-    let (t, cos2_t) = refract_lanes(d, n, eta);
-    let cos_i = -d.dot(n);
+    // Directions use the shading normal (smooth meshes), origins the geometric one.
+    let ns = shading_lanes(scene, hits, ids, p, n);
+    let (t, cos2_t) = refract_lanes(d, ns, eta);
+    let cos_i = -d.dot(ns);
     let (r, fresnel_cos2_t) = fresnel_lanes(
         cos_i.simd_lt(f32x16::ZERO).select(f32x16::ZERO, cos_i.simd_gt(f32x16::ONE).select(f32x16::ONE, cos_i)),
         eta,
     );
     let fresnel_r = fresnel_cos2_t.simd_le(f32x16::ZERO).select(f32x16::ONE, r).to_array();
     let arr = |v: V3<f32x16>| [v.x.to_array(), v.y.to_array(), v.z.to_array()];
-    let (refl_o, refl_d) = (arr(offset_lanes(p, err, n)), arr(reflect_lanes(d, n)));
+    let (refl_o, refl_d) = (arr(offset_lanes(p, err, n)), arr(reflect_lanes(d, ns)));
     let (refr_o, refr_d) = (arr(offset_lanes(p, err, -n)), arr(t));
     // As refract(): no refraction where cos²θt ≤ 0 (a NaN refracts, as there).
     let refracts = !cos2_t.simd_le(f32x16::ZERO).to_bitmask();

@@ -1,7 +1,7 @@
 //! Shading: reads the ray and hit queues; sends escaped rays and visible emitters to
 //! the film queue, mirror or dielectric hits to the specular list for the scatter
 //! stage, and diffuse hits' direct lighting to the shadow queue (one ray per point
-//! light; per quad light `shadows.samples` stratified rays in uniform mode, or one entry
+//! light; per area light `shadows.samples` stratified rays in uniform mode, or one entry
 //! in the shadow-corner queue in adaptive mode). Uniform shadow rays to quad lights are
 //! computed on 16 lanes at a time, in the order and with the bits of the scalar loop.
 
@@ -11,8 +11,7 @@ use wide::{f32x16, u32x16};
 
 use crate::geometry::NO_LIGHT;
 use crate::light::{
-    light_seed_lanes, quad_irradiance, quad_light_samples, quad_sample, uniform_shadow_rays, QuadLanes,
-    SHADOW_TMAX_SCALE,
+    emitted, light_seed_lanes, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes, SHADOW_TMAX_SCALE,
 };
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use crate::scene::{Light, Scene, ShadowMode};
@@ -62,11 +61,8 @@ pub fn shade(
         }
         let prim = &scene.accel.prims[hits.prim[i] as usize];
         if prim.light != NO_LIGHT {
-            // One-sided emitter: radiance on the front, black from behind.
-            if let Light::Quad { radiance, normal, .. } = scene.lights[prim.light as usize] {
-                if normal.dot(rays.dir(i)) < 0.0 {
-                    film.push(rays.slot[i], rays.weight(i) * radiance);
-                }
+            if let Some(radiance) = emitted(&scene.lights[prim.light as usize], rays.dir(i)) {
+                film.push(rays.slot[i], rays.weight(i) * radiance);
             }
         } else if rays.depth[i] < scene.settings.max_depth {
             specular.push(i as u32);
@@ -80,38 +76,19 @@ pub fn shade(
     let mut uniform_equivalent = 0u64;
     for p in 0..surfaces.len() {
         let (surf, i) = (queued_surface(surfaces, p), surfaces.ray[p]);
-        for (li, light) in scene.lights.iter().enumerate() {
-            match *light {
-                Light::Quad { corner, u, v, normal, radiance, .. } if adaptive && radiance != Vec3::ZERO => {
-                    // The unoccluded contribution costs no rays: exact for Lambert
-                    // (the polygon irradiance), else the penumbra stage's own samples
-                    // without occlusion tests. Uniform mode would cast one ray per
-                    // sample facing both ways; count those for the stats.
-                    if normal.dot(surf.o - corner) <= 0.0 {
-                        continue; // behind the one-sided emitter
-                    }
-                    let (mut sum, mut n) = (Vec3::ZERO, 0u64);
-                    let corners = [corner, corner + u, corner + v, corner + u + v];
-                    let above = corners.iter().all(|&p| surf.n.dot(p - surf.o) > 0.0);
-                    if surf.specular == Vec3::ZERO && above {
-                        n = scene.settings.shadow_samples as u64;
-                    } else {
-                        quad_light_samples(scene, &surf, li, |_, _, _, l| {
-                            sum += l;
-                            n += 1;
-                        });
-                    }
-                    if n == 0 {
-                        continue;
-                    }
-                    if surf.specular == Vec3::ZERO {
-                        let e = quad_irradiance(surf.o, surf.n, corner, u, v);
-                        sum = surf.w * surf.color * FRAC_1_PI * radiance * e;
-                    }
+        for li in 0..scene.lights.len() {
+            // An area light in adaptive mode: its unoccluded contribution costs no rays;
+            // the shadow-corner stage decides whether it reaches the film. Count the rays
+            // uniform mode would have cast, for the stats.
+            match adaptive.then(|| unoccluded(scene, &surf, li)).flatten() {
+                Some((_, 0)) => {}
+                Some((sum, n)) => {
                     points.push(i, li as u32, surf.slot, sum);
                     uniform_equivalent += n;
                 }
-                _ => uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l)),
+                None => {
+                    uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l))
+                }
             }
         }
     }
@@ -173,7 +150,10 @@ impl LightLanes {
         let n = scene.settings.shadow_samples as f32;
         let params = |li: u32| match scene.lights[li as usize] {
             Light::Quad { corner, u, v, normal, area, radiance } => (corner, u, v, normal, area / n, radiance),
-            Light::Point { .. } => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO),
+            // Not reached: lanes run only when every light is a quad.
+            Light::Point { .. } | Light::Triangle { .. } => {
+                (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO)
+            }
         };
         if lights.iter().all(|&l| l == lights[0]) {
             let (corner, u, v, normal, scale, radiance) = params(lights[0]);
@@ -189,7 +169,7 @@ impl LightLanes {
 }
 
 /// The shadow rays of one lane group of `triples`: the scalar formulas of
-/// [`quad_light_samples`] (through [`quad_sample`]), Lambert on the lanes and a Phong
+/// [`area_light_samples`](crate::light::area_light_samples) (through [`quad_sample`]), Lambert on the lanes and a Phong
 /// point's BRDF by the scalar function.
 fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) {
     let n = scene.settings.shadow_samples;
@@ -209,7 +189,7 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
     let (o, normal) = (v3(&q.ox, &q.oy, &q.oz), v3(&q.nx, &q.ny, &q.nz));
     let index = u(&q.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(triples.sample));
     let seed = light_seed_lanes(u(&q.key), u32x16::from(triples.light));
-    let s = quad_sample(&lights.quad, o, normal, index, seed);
+    let s = quad_sample(&lights.quad, o, normal, index, seed, false);
     let factor = s.cos_x * s.cos_y * lights.scale / s.dist2;
     let (w, brdf) = (v3(&q.wr, &q.wg, &q.wb), v3(&q.cr, &q.cg, &q.cb).scale(f32x16::splat(FRAC_1_PI)));
     let r = lights.radiance;

@@ -1,43 +1,14 @@
 //! The shadow-corner test (paper §2.2): a few any-hit probe rays from each queued
-//! shading point to a quad light. If all reach the light the point is lit (its
+//! shading point to an area light. If all reach the light the point is lit (its
 //! unoccluded contribution goes to the film); if none does it is dark; otherwise it
 //! goes to the penumbra queue.
 
-use glam::Vec3;
-
 use crate::geometry::tracer::Tracer;
-use crate::light::SHADOW_TMAX_SCALE;
+use crate::light::{probe_count, probe_targets, SHADOW_TMAX_SCALE};
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue};
-use crate::sampling::{dim, hash, to_unit};
-use crate::scene::{Light, Probe, Scene, ShadowMode};
+use crate::sampling::hash;
+use crate::scene::{Scene, ShadowMode};
 use crate::surface::diffuse_surface;
-
-/// The probe targets on quad light `li` for a shading point whose path is named by
-/// `key` (its point key hashed with its sample index); the
-/// first `probe.rays()` entries are used.
-#[inline]
-pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3; 9] {
-    let mut t = [Vec3::ZERO; 9];
-    let Light::Quad { corner, u, v, .. } = scene.lights[li] else { return t };
-    let at = |a: f32, b: f32| corner + a * u + b * v;
-    match probe {
-        Probe::Corners | Probe::CornersCenter => {
-            t[..5].copy_from_slice(&[at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0), at(1.0, 1.0), at(0.5, 0.5)]);
-        }
-        Probe::Jittered => {
-            let h = |q: u32, d: u32| to_unit(hash(&[key, li as u32, q, d, dim::PROBE]));
-            for i in 0..4u32 {
-                t[i as usize] = at(0.5 * ((i & 1) as f32 + h(i, 0)), 0.5 * ((i >> 1) as f32 + h(i, 1)));
-            }
-        }
-        Probe::Grid3 => {
-            for (i, p) in t.iter_mut().enumerate() {
-                *p = at(0.5 * (i % 3) as f32, 0.5 * (i / 3) as f32);
-            }
-        }
-    }
-    t
-}
 
 /// Tests every queued point against its light, with the probe set of
 /// `render.shadows.probe`; lit points append their unoccluded contribution to `film`,
@@ -58,8 +29,9 @@ pub fn shadow_corners(
     let mut cast = 0;
     for k in 0..points.len() {
         let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
-        let targets = probe_targets(scene, probe, points.light[k] as usize, hash(&[surf.key, surf.sample]));
-        let n = probe.rays() as usize;
+        let li = points.light[k] as usize;
+        let targets = probe_targets(scene, probe, li, hash(&[surf.key, surf.sample]));
+        let n = probe_count(&scene.lights[li], probe) as usize;
         let mut visible = 0;
         for target in &targets[..n] {
             let to = *target - surf.o;

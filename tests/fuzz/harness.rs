@@ -196,7 +196,11 @@ fn guarded<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> Result<
 /// and is small. `Err` names the broken rule.
 pub(crate) fn check_scene(text: &str, dir: &Path, sets: &[String]) -> Result<Verdict, String> {
     assert!(text.len() <= MAX_SCENE_BYTES + 1024, "generator produced {} bytes", text.len());
-    let src = SceneSource::from_text("<fuzz>", text, dir);
+    check_source(SceneSource::from_text("<fuzz>", text, dir), sets)
+}
+
+/// [`check_scene`] for any scene source (a Mitsuba XML file).
+pub(crate) fn check_source(src: SceneSource, sets: &[String]) -> Result<Verdict, String> {
     let sets = sets.to_vec();
     let out = guarded(move || -> Result<Verdict, String> {
         let before = LIVE.with(Cell::get);

@@ -1,7 +1,7 @@
 //! Hostile input (issue 6): property tests over generated scene TOML and OBJ text, and
 //! the fixed regression cases they found.
 //!
-//! Three generators feed `wavetrace::scene::load`:
+//! Five generators feed `wavetrace::scene::load`:
 //! - `mutated_default_scene` ([`mutated`]): scenes/default.toml with random line and
 //!   character mutations (delete, duplicate, swap, truncate, numbers replaced by extreme
 //!   values, empty strings, deeply nested arrays and tables);
@@ -9,7 +9,12 @@
 //!   types) plus unknown keys and values of the wrong type, with random `--set` overrides;
 //! - `obj_mesh` ([`obj`]): OBJ text (v/vn/vt/f/l/p/o/g/s/usemtl/mtllib lines, out-of-range
 //!   and negative indices, huge numbers, junk tokens, very long lines) written to a
-//!   temporary folder and named by a mesh object.
+//!   temporary folder and named by a mesh object;
+//! - `xml_scene` ([`xml`]): edits of the Mitsuba XML scenes of scenes/import (lines,
+//!   attribute values, unsupported plugins, entity definitions, deep nesting, include
+//!   cycles, undefined `$` parameters);
+//! - `ply_mesh` ([`ply`]): PLY headers and bodies (every format, counts up to 2^64 − 1,
+//!   random binary), named by a mesh object, flat, smooth or emissive.
 //!
 //! [`values`] holds the value generators they share.
 //!
@@ -34,5 +39,7 @@ mod values;
 mod grammar;
 mod mutated;
 mod obj;
+mod ply;
+mod xml;
 
 mod regressions;

@@ -69,6 +69,29 @@ pub fn polygon_irradiance(p: Vec3, n: Vec3, verts: &[Vec3], l: f32) -> f32 {
     (0.5 * l as f64 * sum.abs()) as f32
 }
 
+/// A diffuse plane y = 0 of albedo 0.5, 100 units wide: a floor for point measurements.
+pub const PLANE: &str = r#"
+[materials.white]
+type = "diffuse"
+color = [0.5, 0.5, 0.5]
+[[objects]]
+type = "quad"
+corner = [-50, 0, -50]
+edge_u = [100, 0, 0]
+edge_v = [0, 0, 100]
+material = "white"
+"#;
+
+/// The radiance a probe camera sees at `p` on [`PLANE`] under `lights` (TOML), one
+/// pixel, one camera sample, `shadow_samples` shadow rays per light in shadow `mode`.
+pub fn measure_plane(lights: &str, p: Vec3, shadow_samples: u32, mode: &str) -> Vec3 {
+    let text = format!("{}{PLANE}{lights}", probe_camera(p + Vec3::new(0.0, 3.0, 4.0), p));
+    let samples = format!("render.shadows.samples={shadow_samples}");
+    let mode = format!("render.shadows.mode={mode}");
+    let out = render_text(&text, &["render.width=1", "render.height=1", "render.aa.samples=1", &samples, &mode], 1);
+    only_pixel(&out)
+}
+
 /// A camera that sees only a tiny patch around `p` from `from`, for point measurements.
 pub fn probe_camera(from: Vec3, p: Vec3) -> String {
     format!(

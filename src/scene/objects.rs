@@ -1,0 +1,285 @@
+//! Lights and objects of a scene description: shapes with their transforms, OBJ and PLY
+//! meshes with their smooth normals and emission, turned into primitives and lights; and
+//! the BVH build that keeps the normals in its primitive order.
+
+use glam::Vec3;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use super::format::*;
+use super::load::{available_memory, color, coord, edges, in_range, vec3, Ctx, MAX_COORD};
+use super::transform::Transform;
+use super::{Light, SceneInfo};
+use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
+use crate::Result;
+
+/// Per primitive (in build order): its three vertex normals, for smooth meshes.
+type Normals = Vec<Option<[Vec3; 3]>>;
+
+/// The primitives, lights and vertex normals of the scene's `[[lights]]` and
+/// `[[objects]]`; `names` maps material names to indices.
+pub(super) fn objects(
+    f: &SceneFile,
+    ctx: &Ctx,
+    names: &BTreeMap<&str, u32>,
+    info: &mut SceneInfo,
+) -> Result<(Vec<Primitive>, Vec<Light>, Normals)> {
+    let mut prims = Vec::new();
+    let mut lights = Vec::new();
+    // Per primitive (in `prims` order): its three vertex normals, for smooth meshes.
+    let mut normals: Normals = Vec::new();
+    for (i, l) in f.lights.iter().enumerate() {
+        let path = format!("lights.{i}");
+        let li = lights.len() as u32;
+        match l {
+            LightDesc::Quad { corner, edge_u, edge_v, radiance, transform } => {
+                let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
+                let n = u.cross(v);
+                prims.push(Primitive { shape: Shape::Quad { corner, u, v }, material: 0, light: li });
+                lights.push(Light::Quad {
+                    corner,
+                    u,
+                    v,
+                    normal: n.normalize(),
+                    area: n.length(),
+                    radiance: color(ctx, &format!("{path}.radiance"), *radiance)?,
+                });
+            }
+            LightDesc::Triangle { v0, v1, v2, radiance, transform } => {
+                let t = transform_opt(ctx, &path, transform)?;
+                let mut vs = [Vec3::ZERO; 3];
+                for (k, p) in [v0, v1, v2].into_iter().enumerate() {
+                    let field = format!("{path}.v{k}");
+                    vs[k] = coord(ctx, &field, t.point(coord(ctx, &field, vec3(*p))?))?;
+                }
+                let radiance = color(ctx, &format!("{path}.radiance"), *radiance)?;
+                let light = triangle_light(vs, radiance)
+                    .ok_or_else(|| ctx.fail(&format!("{path}.v2"), "the triangle has zero area"))?;
+                prims.push(Primitive {
+                    shape: Shape::Triangle { v0: vs[0], v1: vs[1], v2: vs[2] },
+                    material: 0,
+                    light: li,
+                });
+                lights.push(light);
+            }
+            LightDesc::Point { position, intensity } => lights.push(Light::Point {
+                position: coord(ctx, &format!("{path}.position"), vec3(*position))?,
+                intensity: color(ctx, &format!("{path}.intensity"), *intensity)?,
+            }),
+        }
+        normals.resize(prims.len(), None);
+    }
+    for (i, o) in f.objects.iter().enumerate() {
+        let path = format!("objects.{i}");
+        let lookup = |name: &str| {
+            names.get(name).copied().ok_or_else(|| {
+                let known: Vec<&str> = names.keys().copied().collect();
+                let msg = if name.is_empty() {
+                    format!("missing: name one of the materials ({})", known.join(", "))
+                } else {
+                    format!("unknown material \"{name}\" (defined: {})", known.join(", "))
+                };
+                ctx.fail(&format!("{path}.material"), msg)
+            })
+        };
+        match o {
+            ObjectDesc::Sphere { center, radius, material, transform } => {
+                // Numbers are checked finite before this point, so `<=` catches every bad radius.
+                if *radius <= 0.0 {
+                    return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
+                }
+                coord(ctx, &format!("{path}.radius"), Vec3::splat(*radius))?;
+                coord(ctx, &format!("{path}.center"), vec3(*center))?;
+                let (mut c, mut r) = (vec3(*center), *radius);
+                if let Some(ops) = transform {
+                    let tp = format!("{path}.transform");
+                    let t = self::transform(ctx, &tp, ops)?;
+                    let s = t.uniform_scale().ok_or_else(|| {
+                        ctx.fail(&tp, "a sphere takes only a uniform scale (with rotations and translations)")
+                    })?;
+                    c = coord(ctx, &tp, t.point(c))?;
+                    r = coord(ctx, &tp, Vec3::splat(r * s))?.x;
+                }
+                let material = lookup(material)?;
+                prims.push(Primitive { shape: Shape::Sphere { center: c, radius: r }, material, light: NO_LIGHT });
+            }
+            ObjectDesc::Quad { corner, edge_u, edge_v, material, transform } => {
+                let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
+                let material = lookup(material)?;
+                prims.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT });
+            }
+            ObjectDesc::Mesh {
+                file,
+                material,
+                scale,
+                rotate_y,
+                translate,
+                transform,
+                smooth,
+                emission,
+                flip_normals,
+            } => {
+                let emission = emission.map(|e| color(ctx, &format!("{path}.emission"), e)).transpose()?;
+                let material = if emission.is_some() { 0 } else { lookup(material)? };
+                if *scale <= 0.0 {
+                    return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
+                }
+                let mesh_path = ctx.src.dir.join(file);
+                let fail = |e: String| ctx.fail(&format!("{path}.file"), e);
+                check_mesh_size(&mesh_path).map_err(fail)?;
+                if outside_folder(&ctx.src.dir, &mesh_path) {
+                    info.outside_paths.push(mesh_path.display().to_string());
+                }
+                let mesh = super::mesh::load_mesh(&mesh_path).map_err(fail)?;
+                let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
+                let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
+                let after = transform_opt(ctx, &path, transform)?;
+                let xf = |p: Vec3| {
+                    let p = rot * (p * *scale) + t;
+                    if transform.is_some() {
+                        after.point(p)
+                    } else {
+                        p
+                    }
+                };
+                let positions: Vec<Vec3> = mesh.positions.iter().map(|&p| xf(p)).collect();
+                if let Some(v) = positions.iter().find(|v| !in_range(**v)) {
+                    let field = if transform.is_some() { "transform" } else { "scale" };
+                    return Err(ctx.fail(
+                        &format!("{path}.{field}"),
+                        format!("a vertex lands at {v} after the mesh's transform: beyond ±{MAX_COORD:e}"),
+                    ));
+                }
+                let mut tris = mesh.triangles.clone();
+                if *flip_normals {
+                    tris.iter_mut().for_each(|t| t.swap(1, 2));
+                }
+                let vertex_normals = smooth.then(|| {
+                    if mesh.normals.is_empty() {
+                        super::mesh::vertex_normals(&positions, &tris)
+                    } else {
+                        // The file's normals follow the mesh: rotated with it, and through
+                        // the inverse transpose of a non-uniform scale.
+                        let lin = Transform { m: glam::DMat4::from_quat(rot.as_dquat()) }.m;
+                        let whole = Transform { m: after.m * lin };
+                        let sign = if *flip_normals { -1.0 } else { 1.0 };
+                        mesh.normals.iter().map(|&n| sign * whole.normal(n)).collect()
+                    }
+                });
+                for tri in &tris {
+                    let [v0, v1, v2] = tri.map(|k| positions[k as usize]);
+                    if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
+                        info.degenerate_triangles += 1;
+                        continue;
+                    }
+                    info.triangles += 1;
+                    let light = match emission {
+                        Some(radiance) => {
+                            // Non-zero area was checked just above.
+                            lights.push(triangle_light([v0, v1, v2], radiance).unwrap_or_else(|| unreachable!()));
+                            lights.len() as u32 - 1
+                        }
+                        None => NO_LIGHT,
+                    };
+                    prims.push(Primitive { shape: Shape::Triangle { v0, v1, v2 }, material, light });
+                    normals.push(vertex_normals.as_ref().map(|n| tri.map(|k| n[k as usize])));
+                }
+            }
+        }
+        normals.resize(prims.len(), None);
+    }
+    Ok((prims, lights, normals))
+}
+
+/// A `transform` list composed; errors name the step.
+pub(super) fn transform(ctx: &Ctx, path: &str, ops: &[TransformOp]) -> Result<Transform> {
+    Transform::from_ops(ops).map_err(|(i, e)| ctx.fail(&format!("{path}.{i}"), e))
+}
+
+/// The optional `transform` of an object or light.
+fn transform_opt(ctx: &Ctx, path: &str, ops: &Option<Vec<TransformOp>>) -> Result<Transform> {
+    match ops {
+        Some(ops) => transform(ctx, &format!("{path}.transform"), ops),
+        None => Ok(Transform::IDENTITY),
+    }
+}
+
+/// Corner and edges of a parallelogram after its transform, checked.
+fn quad_geometry(
+    ctx: &Ctx,
+    path: &str,
+    corner: [f32; 3],
+    u: [f32; 3],
+    v: [f32; 3],
+    xf: &Option<Vec<TransformOp>>,
+) -> Result<(Vec3, Vec3, Vec3)> {
+    let (u, v) = edges(ctx, path, u, v)?;
+    let c = coord(ctx, &format!("{path}.corner"), vec3(corner))?;
+    let Some(ops) = xf else { return Ok((c, u, v)) };
+    let t = transform(ctx, &format!("{path}.transform"), ops)?;
+    let (c, u, v) = (t.point(c), t.vector(u), t.vector(v));
+    let tp = format!("{path}.transform");
+    let (u, v) = edges(ctx, &tp, u.to_array(), v.to_array())?;
+    Ok((coord(ctx, &tp, c)?, u, v))
+}
+
+/// Memory a mesh costs per byte of OBJ text: tobj's buffers, our triangles (36 bytes
+/// per 3 indices of about 10 text bytes) and about two 48-byte BVH nodes per triangle,
+/// with margin.
+const MESH_BYTES_PER_TEXT_BYTE: u64 = 16;
+
+/// Refuses, before reading it, a mesh whose file is too large for the memory available.
+fn check_mesh_size(path: &Path) -> std::result::Result<(), String> {
+    let Ok(meta) = std::fs::metadata(path) else { return Ok(()) }; // load_obj reports it
+    let need = meta.len().saturating_mul(MESH_BYTES_PER_TEXT_BYTE);
+    let have = available_memory();
+    if need > have / 2 {
+        return Err(format!(
+            "mesh `{}` ({:.1} MiB of text) would need about {:.1} GiB of memory; {:.1} GiB is available (at most half may be used)",
+            path.display(),
+            meta.len() as f64 / (1u64 << 20) as f64,
+            need as f64 / (1u64 << 30) as f64,
+            have as f64 / (1u64 << 30) as f64
+        ));
+    }
+    Ok(())
+}
+
+/// True when `path` resolves (following `..` and symlinks) outside `dir`.
+fn outside_folder(dir: &Path, path: &Path) -> bool {
+    match (std::fs::canonicalize(dir), std::fs::canonicalize(path)) {
+        (Ok(d), Ok(p)) => !p.starts_with(d),
+        _ => false,
+    }
+}
+
+/// A one-sided triangle light, or `None` for a zero-area triangle.
+fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let n = e1.cross(e2);
+    let len = n.length();
+    (len > 0.0 && len.is_finite()).then(|| Light::Triangle { v0, e1, e2, normal: n / len, area: 0.5 * len, radiance })
+}
+
+/// Builds the BVH and puts the vertex normals in its primitive order. [`Accel::build`]
+/// reorders the primitives and keeps no map back, and the geometry module does not know
+/// about shading normals: each primitive's position rides through the build in its
+/// `material` field and is replaced by the real one afterwards. Without smooth meshes the
+/// normals table is empty and the build is the plain one.
+pub(super) fn build_accel(mut prims: Vec<Primitive>, normals: Normals) -> (Accel, Vec<[Vec3; 3]>) {
+    if normals.iter().all(Option::is_none) {
+        return (Accel::build(prims), Vec::new());
+    }
+    let materials: Vec<u32> = prims.iter().map(|p| p.material).collect();
+    for (i, p) in prims.iter_mut().enumerate() {
+        p.material = i as u32;
+    }
+    let mut accel = Accel::build(prims);
+    let mut table = Vec::with_capacity(accel.prims.len());
+    for p in &mut accel.prims {
+        let i = p.material as usize;
+        p.material = materials[i];
+        table.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
+    }
+    (accel, table)
+}
