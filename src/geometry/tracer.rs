@@ -1,5 +1,6 @@
 //! The tracer context: the acceleration structure, the kernel that traverses it (one
-//! ray at a time, or packets of 4, 8 or 16 lanes formed in a chosen order), the
+//! ray at a time over the binary or the wide BVH, packets of 4, 8 or 16 lanes formed in
+//! a chosen order, or the hybrid that picks per queue by coherence), the
 //! traversal counters and the scratch space, as one value. The stages that trace rays
 //! (intersect, shadow, shadow corners, focus) take it as one `&mut`; the renderer builds
 //! one per worker from the scene's settings, `wavetrace bench` one per kernel it measures.
@@ -26,21 +27,43 @@ pub enum Width {
 /// Which traversal kernel a tracer runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
-    /// One ray at a time.
+    /// One ray at a time over the binary BVH.
     Scalar,
-    /// Packets of `width` lanes, formed and traced as `cfg` says.
+    /// One ray at a time over the wide BVH (all of a node's children in one SIMD test).
+    Wide,
+    /// Packets of `width` lanes, formed and traced as `cfg` says (their lone rays over the
+    /// binary BVH).
     Packet(Width, PacketConfig),
+    /// Chosen per queue by coherence: camera rays in packets (lone rays, and packets
+    /// that mix octants, one at a time over the wide BVH), bounce rays one at a time over
+    /// the wide BVH, shadow rays in packets when `shadow_packets`, else wide.
+    Hybrid {
+        /// Lanes per packet.
+        width: Width,
+        /// How packets are formed and traced.
+        cfg: PacketConfig,
+        /// Trace shadow queues in packets (else one ray at a time, wide).
+        shadow_packets: bool,
+    },
 }
 
 impl Kernel {
-    /// The renderer's kernel: its packets (`render.packets = true`, chosen by
-    /// measurement: docs/performance.md), or one ray at a time.
+    /// The renderer's kernel: the hybrid (`render.packets = true`, chosen by measurement:
+    /// docs/performance.md), or one ray at a time over the binary BVH.
     pub fn render(packets: bool) -> Kernel {
         if packets {
-            Kernel::Packet(Width::X16, PacketConfig::RENDER)
+            Kernel::HYBRID
         } else {
             Kernel::Scalar
         }
+    }
+
+    /// The renderer's hybrid settings (measured: docs/performance.md).
+    pub const HYBRID: Kernel = Kernel::Hybrid { width: Width::X16, cfg: PacketConfig::RENDER, shadow_packets: false };
+
+    /// Whether single rays (alone, or falling out of packets) take the wide BVH.
+    fn wide_singles(self) -> bool {
+        matches!(self, Kernel::Wide | Kernel::Hybrid { .. })
     }
 }
 
@@ -86,12 +109,17 @@ impl<'a> Tracer<'a> {
 
     /// Finds the closest hit of every ray in `rays`, in order, into `hits` (cleared first).
     pub fn closest(&mut self, rays: &RayQueue, coherence: Coherence, hits: &mut HitQueue) {
-        match self.kernel {
-            Kernel::Scalar if self.count => self.closest_single::<true>(rays, hits),
-            Kernel::Scalar => self.closest_single::<false>(rays, hits),
-            Kernel::Packet(Width::X4, cfg) => self.closest_packets::<f32x4>(rays, coherence, cfg, hits),
-            Kernel::Packet(Width::X8, cfg) => self.closest_packets::<f32x8>(rays, coherence, cfg, hits),
-            Kernel::Packet(Width::X16, cfg) => self.closest_packets::<f32x16>(rays, coherence, cfg, hits),
+        let packets = match self.kernel {
+            Kernel::Scalar | Kernel::Wide => None,
+            Kernel::Hybrid { .. } if coherence != Coherence::Camera => None,
+            Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
+        };
+        match packets {
+            None if self.count => self.closest_single::<true>(rays, hits),
+            None => self.closest_single::<false>(rays, hits),
+            Some((Width::X4, cfg)) => self.closest_packets::<f32x4>(rays, coherence, cfg, hits),
+            Some((Width::X8, cfg)) => self.closest_packets::<f32x8>(rays, coherence, cfg, hits),
+            Some((Width::X16, cfg)) => self.closest_packets::<f32x16>(rays, coherence, cfg, hits),
         }
     }
 
@@ -99,12 +127,16 @@ impl<'a> Tracer<'a> {
     /// flag per ray, in queue order (true: blocked).
     pub fn occluded(&mut self, shadow: &ShadowQueue) -> &[bool] {
         self.blocked.clear();
-        match self.kernel {
-            Kernel::Scalar if self.count => self.occluded_single::<true>(shadow),
-            Kernel::Scalar => self.occluded_single::<false>(shadow),
-            Kernel::Packet(Width::X4, cfg) => self.occluded_packets::<f32x4>(shadow, cfg),
-            Kernel::Packet(Width::X8, cfg) => self.occluded_packets::<f32x8>(shadow, cfg),
-            Kernel::Packet(Width::X16, cfg) => self.occluded_packets::<f32x16>(shadow, cfg),
+        let packets = match self.kernel {
+            Kernel::Scalar | Kernel::Wide | Kernel::Hybrid { shadow_packets: false, .. } => None,
+            Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
+        };
+        match packets {
+            None if self.count => self.occluded_single::<true>(shadow),
+            None => self.occluded_single::<false>(shadow),
+            Some((Width::X4, cfg)) => self.occluded_packets::<f32x4>(shadow, cfg),
+            Some((Width::X8, cfg)) => self.occluded_packets::<f32x8>(shadow, cfg),
+            Some((Width::X16, cfg)) => self.occluded_packets::<f32x16>(shadow, cfg),
         }
         &self.blocked
     }
@@ -125,19 +157,24 @@ impl<'a> Tracer<'a> {
     /// about a point's other probes only after tracing them, and they are few).
     pub fn occluded_one(&mut self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         if self.count {
-            self.accel.occluded::<true>(o, d, 0.0, tmax, &mut self.work)
+            self.one_occluded::<true>(o, d, tmax)
         } else {
-            self.accel.occluded::<false>(o, d, 0.0, tmax, &mut self.work)
+            self.one_occluded::<false>(o, d, tmax)
         }
+    }
+
+    /// One shadow segment `(0, tmax)` through the kernel's single-ray traversal.
+    #[inline(always)]
+    fn one_occluded<const COUNT: bool>(&mut self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        single_occluded::<COUNT>(self.accel, self.kernel, o, d, tmax, &mut self.work)
     }
 
     fn closest_single<const COUNT: bool>(&mut self, rays: &RayQueue, hits: &mut HitQueue) {
         hits.clear();
         for i in 0..rays.len() {
-            match self.accel.closest::<COUNT>(rays.origin(i), rays.dir(i), 0.0, f32::INFINITY, &mut self.work) {
-                Some((t, prim)) => hits.push(t, prim),
-                None => hits.push(f32::INFINITY, MISS),
-            }
+            let (t, prim) =
+                single_closest::<COUNT>(self.accel, self.kernel, rays.origin(i), rays.dir(i), &mut self.work);
+            hits.push(t, prim);
         }
     }
 
@@ -169,10 +206,7 @@ impl<'a> Tracer<'a> {
             } else {
                 // Lanes traced alone here are not counted (as before the tracer existed).
                 for l in 0..k {
-                    out[l] = self
-                        .accel
-                        .closest::<false>(o[l], d[l], 0.0, f32::INFINITY, &mut self.work)
-                        .unwrap_or((f32::INFINITY, MISS));
+                    out[l] = single_closest::<false>(self.accel, self.kernel, o[l], d[l], &mut self.work);
                 }
             }
             for (l, &(_, i)) in group.iter().enumerate() {
@@ -185,8 +219,7 @@ impl<'a> Tracer<'a> {
 
     fn occluded_single<const COUNT: bool>(&mut self, shadow: &ShadowQueue) {
         for i in 0..shadow.len() {
-            let blocked =
-                self.accel.occluded::<COUNT>(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i], &mut self.work);
+            let blocked = self.one_occluded::<COUNT>(shadow.origin(i), shadow.dir(i), shadow.tmax[i]);
             self.blocked.push(blocked);
         }
     }
@@ -209,7 +242,7 @@ impl<'a> Tracer<'a> {
                 self.work.packet_rays += k as u64;
             } else {
                 for l in 0..k {
-                    blocked[l] = accel.occluded::<false>(o[l], d[l], 0.0, t[l], &mut self.work);
+                    blocked[l] = single_occluded::<false>(accel, self.kernel, o[l], d[l], t[l], &mut self.work);
                 }
             }
             for (l, &(_, i)) in group.iter().enumerate() {
@@ -235,4 +268,38 @@ impl<'a> Tracer<'a> {
 fn shares_octant(d: &[Vec3], cfg: PacketConfig) -> bool {
     let oct = octant(d[0]);
     d.len() > 1 && !(cfg.split_mixed && d.iter().any(|&x| octant(x) != oct))
+}
+
+/// One closest-hit ray through `kernel`'s single-ray traversal (wide or binary BVH).
+#[inline(always)]
+fn single_closest<const COUNT: bool>(
+    accel: &Accel,
+    kernel: Kernel,
+    o: Vec3,
+    d: Vec3,
+    work: &mut Traversal,
+) -> (f32, u32) {
+    let hit = if kernel.wide_singles() {
+        accel.closest_wide::<COUNT>(o, d, 0.0, f32::INFINITY, work)
+    } else {
+        accel.closest::<COUNT>(o, d, 0.0, f32::INFINITY, work)
+    };
+    hit.unwrap_or((f32::INFINITY, MISS))
+}
+
+/// One shadow segment `(0, tmax)` through `kernel`'s single-ray traversal.
+#[inline(always)]
+fn single_occluded<const COUNT: bool>(
+    accel: &Accel,
+    kernel: Kernel,
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+    work: &mut Traversal,
+) -> bool {
+    if kernel.wide_singles() {
+        accel.occluded_wide::<COUNT>(o, d, 0.0, tmax, work)
+    } else {
+        accel.occluded::<COUNT>(o, d, 0.0, tmax, work)
+    }
 }
