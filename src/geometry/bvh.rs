@@ -174,7 +174,7 @@ impl Accel {
         let root = bvh.nodes[0].aabb();
         let scale = Vec3::from(root.min).abs().max(Vec3::from(root.max).abs()).max_element();
         let slack = if scale.is_finite() { scale / 65536.0 } else { 0.0 };
-        let wide = WideBvh::build(&bvh);
+        let wide = WideBvh::build(&bvh, &prims);
         Accel { prims, bvh: Some(bvh), wide, depth, slack, build_seconds: start.elapsed().as_secs_f64() }
     }
 

@@ -5,9 +5,16 @@
 //! "Getting Rid of Packets", 2008). obvhs stays the builder: the collapse only regroups
 //! its nodes, and the leaves are its leaves, over the same primitive order.
 //!
+//! A leaf's triangles are stored structure-of-arrays too, in blocks of [`TRIS`] lanes (a
+//! leaf of more takes consecutive blocks), and tested at once, one lane per triangle.
+//!
 //! Exactness: each child box is tested with the scalar traversal's arithmetic
 //! (`(bound − origin) · inv`, far distance widened by 1 + 2γ₃, culled past
-//! `tmax · CULL + slack`), and leaves run the scalar primitive kernels. Skipping the
+//! `tmax · CULL + slack`); each triangle lane performs [`intersect_triangle`]'s operations
+//! in the same order (a lane whose edge function rounds to zero takes the scalar kernel,
+//! which recomputes in f64), the nearest lane wins and the lowest lane on a tie, as the
+//! scalar loop's strict `t < tmax` would; blocks holding another shape run the scalar
+//! kernels. Skipping the
 //! binary tree's intermediate boxes loses no hit: a parent's computed entry distance is
 //! never later than its child's (subtraction and multiplication round monotonically), so
 //! a primitive reachable here is reachable there. The closest distance is the same bit
@@ -16,21 +23,28 @@
 use glam::Vec3;
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::Ray;
-use wide::f32x8;
+use wide::{f32x4, f32x8};
 
 use super::bvh::{Traversal, CULL};
 use super::packet::{Simd, MAX};
-use super::shapes::{Primitive, NO_LIGHT};
+use super::shapes::{intersect_triangle, shear_axes, Primitive, Shape, NO_LIGHT};
 
 /// The node width the renderer uses (chosen by measurement: docs/performance.md).
 pub type Wide = f32x8;
 
+/// The SIMD type of a leaf block (lanes = triangles; measured: docs/performance.md).
+type Tris = f32x4;
+/// Triangles per leaf block.
+const TRIS: usize = <Tris as Simd>::LANES;
+
 /// Child slot flag: the child is a leaf.
 const LEAF: u32 = 1 << 31;
-/// Bits of a leaf's first primitive; the bits above (below [`LEAF`]) hold its count − 1.
-const FIRST_BITS: u32 = 25;
-/// Most primitives per leaf the encoding holds.
-const MAX_LEAF: u32 = 1 << (31 - FIRST_BITS);
+/// Bits of a leaf's first block; the bits above (below [`LEAF`]) hold its block count − 1.
+const FIRST_BITS: u32 = 27;
+/// Most blocks per leaf the encoding holds.
+const MAX_BLOCKS: usize = 1 << (31 - FIRST_BITS);
+/// Most children per node (the width of [`Node::child`]).
+const MAX_W: usize = 8;
 /// Entries of the traversal stack; a tree that may need more is not built (the
 /// scalar traversal serves it).
 const STACK: usize = 512;
@@ -43,17 +57,93 @@ struct Node<S> {
     lo: [S; 3],
     /// Box maxima per axis; empty slots hold +∞ too (a box no ray enters).
     hi: [S; 3],
-    /// Per child: an inner node's index, or [`LEAF`] | (count − 1) << [`FIRST_BITS`] | first.
-    child: [u32; MAX],
+    /// Per child: an inner node's index, or [`LEAF`] | (blocks − 1) << [`FIRST_BITS`] | first block.
+    child: [u32; MAX_W],
     /// One bit per occupied child slot.
     valid: u32,
+}
+
+/// Up to [`TRIS`] consecutive primitives of a leaf; their vertices by lane when all are
+/// triangles.
+#[derive(Clone, Copy)]
+#[repr(C)]
+struct Block {
+    /// `v[j][axis]`: vertex j's coordinate on `axis`, one lane per triangle.
+    v: [[Tris; 3]; 3],
+    /// The first primitive's index (lane l is primitive `first + l`).
+    first: u32,
+    /// Primitives in the block.
+    count: u32,
+    /// Lanes that block shadow rays (not emitters).
+    blockers: u32,
+    /// All primitives are triangles (else the scalar kernels test them).
+    triangles: bool,
 }
 
 /// The collapsed tree (see the module docs).
 pub struct WideBvh<S> {
     nodes: Vec<Node<S>>,
+    blocks: Vec<Block>,
     /// Depth in wide nodes (root = 1): bounds the stack.
     depth: usize,
+}
+
+/// A ray set up for the SIMD triangle test: [`intersect_triangle`]'s shear frame, once.
+struct Sheared {
+    axes: [usize; 3],
+    /// d[kx]/d[kz], d[ky]/d[kz], 1/d[kz].
+    shear: [f32; 3],
+    /// The origin's components, permuted to the frame.
+    origin: [f32; 3],
+}
+
+impl Sheared {
+    fn new(o: Vec3, d: Vec3) -> Sheared {
+        let [kx, ky, kz] = shear_axes(d);
+        Sheared {
+            axes: [kx, ky, kz],
+            shear: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
+            origin: [o[kx], o[ky], o[kz]],
+        }
+    }
+
+    /// Each lane's distance to its triangle exactly as [`intersect_triangle`] computes it
+    /// (infinity for a miss); `lanes` says which lanes matter.
+    #[inline(always)]
+    fn triangles(&self, b: &Block, lanes: u32, o: Vec3, d: Vec3) -> Tris {
+        let rel = |j: usize| {
+            let v = &b.v[j];
+            [0, 1, 2].map(|k| v[self.axes[k]] - Tris::splat(self.origin[k]))
+        };
+        let (a, bb, c) = (rel(0), rel(1), rel(2));
+        let (sx, sy, sz) = (Tris::splat(self.shear[0]), Tris::splat(self.shear[1]), Tris::splat(self.shear[2]));
+        let (ax, ay) = (a[0] - sx * a[2], a[1] - sy * a[2]);
+        let (bx, by) = (bb[0] - sx * bb[2], bb[1] - sy * bb[2]);
+        let (cx, cy) = (c[0] - sx * c[2], c[1] - sy * c[2]);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let (zero, inf) = (Tris::splat(0.0), Tris::splat(f32::INFINITY));
+        let outside = (u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero));
+        let det = u + v + w;
+        let dist = (u * sz * a[2] + v * sz * bb[2] + w * sz * c[2]) / det;
+        let t = Tris::select(outside | det.eq(zero), inf, Tris::select(det.finite() & dist.finite(), dist, inf));
+        // An edge function that rounds to zero is recomputed in f64 by the scalar kernel;
+        // those (rare) lanes take it whole.
+        let mut edge = lanes & (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
+        if edge == 0 {
+            return t;
+        }
+        let mut out = [0.0; MAX];
+        t.store(&mut out);
+        while edge != 0 {
+            let l = edge.trailing_zeros() as usize;
+            edge &= edge - 1;
+            let at = |j: usize| Vec3::new(b.v[j][0].to_array()[l], b.v[j][1].to_array()[l], b.v[j][2].to_array()[l]);
+            out[l] = intersect_triangle(at(0), at(1), at(2), o, d);
+        }
+        Tris::load(&out)
+    }
 }
 
 /// What [`WideBvh::walk`]'s leaf callback tells it.
@@ -68,11 +158,12 @@ impl<S: Simd> WideBvh<S> {
     /// Collapses `bvh` (whose leaves index primitives in the order the caller keeps);
     /// `None` when the tree cannot be encoded (more than 2²⁵ primitives, a leaf over 64,
     /// or deep enough to overflow the fixed stack): the scalar traversal then serves.
-    pub fn build(bvh: &Bvh2) -> Option<WideBvh<S>> {
+    pub fn build(bvh: &Bvh2, prims: &[Primitive]) -> Option<WideBvh<S>> {
+        assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
         let root = bvh.nodes.first()?;
-        let mut tree = WideBvh { nodes: Vec::new(), depth: 0 };
+        let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), depth: 0 };
         let top = if root.is_leaf() { vec![0] } else { tree.collect(bvh, 0) };
-        tree.emit(bvh, &top, 1)?;
+        tree.emit(bvh, prims, &top, 1)?;
         ((S::LANES - 1) * tree.depth < STACK).then_some(tree)
     }
 
@@ -98,12 +189,12 @@ impl<S: Simd> WideBvh<S> {
 
     /// Appends the wide node holding the Bvh2 nodes `kids` (and, depth first, the nodes
     /// below it); returns its index.
-    fn emit(&mut self, bvh: &Bvh2, kids: &[usize], depth: usize) -> Option<u32> {
+    fn emit(&mut self, bvh: &Bvh2, prims: &[Primitive], kids: &[usize], depth: usize) -> Option<u32> {
         self.depth = self.depth.max(depth);
         let index = self.nodes.len();
         let mut lo = [[f32::INFINITY; MAX]; 3];
         let mut hi = [[f32::INFINITY; MAX]; 3];
-        let mut child = [u32::MAX; MAX];
+        let mut child = [u32::MAX; MAX_W];
         self.nodes.push(Node { lo: [S::splat(0.0); 3], hi: [S::splat(0.0); 3], child, valid: 0 });
         for (slot, &k) in kids.iter().enumerate() {
             let node = &bvh.nodes[k];
@@ -113,14 +204,10 @@ impl<S: Simd> WideBvh<S> {
                 hi[axis][slot] = b.max[axis];
             }
             child[slot] = if node.is_leaf() {
-                let (first, count) = (node.first_index, node.prim_count);
-                if first >= 1 << FIRST_BITS || count > MAX_LEAF {
-                    return None;
-                }
-                LEAF | (count - 1) << FIRST_BITS | first
+                self.leaf(prims, node.first_index as usize, node.prim_count as usize)?
             } else {
                 let below = self.collect(bvh, k);
-                self.emit(bvh, &below, depth + 1)?
+                self.emit(bvh, prims, &below, depth + 1)?
             };
         }
         let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
@@ -128,9 +215,38 @@ impl<S: Simd> WideBvh<S> {
         Some(index as u32)
     }
 
-    /// Bytes of the node array.
+    /// Appends the blocks of the leaf holding `prims[first..first + count]`; returns its
+    /// child reference.
+    fn leaf(&mut self, prims: &[Primitive], first: usize, count: usize) -> Option<u32> {
+        let (start, n) = (self.blocks.len(), count.div_ceil(TRIS));
+        if start + n > 1 << FIRST_BITS || n > MAX_BLOCKS || n == 0 {
+            return None;
+        }
+        for b in 0..n {
+            let lo = first + b * TRIS;
+            let here = &prims[lo..(lo + TRIS).min(first + count)];
+            let mut v = [[[0.0f32; MAX]; 3]; 3];
+            let mut blockers = 0;
+            for (l, p) in here.iter().enumerate() {
+                if let Shape::Triangle { v0, v1, v2 } = p.shape {
+                    for (j, vert) in [v0, v1, v2].iter().enumerate() {
+                        for axis in 0..3 {
+                            v[j][axis][l] = vert[axis];
+                        }
+                    }
+                }
+                blockers |= ((p.light == NO_LIGHT) as u32) << l;
+            }
+            let triangles = here.iter().all(|p| matches!(p.shape, Shape::Triangle { .. }));
+            let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
+            self.blocks.push(Block { v, first: lo as u32, count: here.len() as u32, blockers, triangles });
+        }
+        Some(LEAF | ((n - 1) as u32) << FIRST_BITS | start as u32)
+    }
+
+    /// Bytes of the node and leaf-block arrays.
     pub fn bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node<S>>()
+        self.nodes.len() * std::mem::size_of::<Node<S>>() + self.blocks.len() * std::mem::size_of::<Block>()
     }
 
     /// Wide nodes in the tree.
@@ -143,16 +259,16 @@ impl<S: Simd> WideBvh<S> {
         self.nodes.is_empty()
     }
 
-    /// Walks the tree for one ray, nearest child first: `leaf(ray, prims)` tests a leaf's
-    /// primitive range, may lower `ray.tmax`, and says whether to go on. `slack` is the
-    /// tree's absolute culling slack (see [`CULL`]).
+    /// Walks the tree for one ray, nearest child first: `leaf(ray, block)` tests a leaf
+    /// block, may lower `ray.tmax`, and says whether to go on. `slack` is the tree's
+    /// absolute culling slack (see [`CULL`]).
     #[inline(always)]
     fn walk<const COUNT: bool>(
         &self,
         slack: f32,
         mut ray: Ray,
         c: &mut Traversal,
-        mut leaf: impl FnMut(&mut Ray, std::ops::Range<usize>) -> Leaf,
+        mut leaf: impl FnMut(&mut Ray, &Block) -> Leaf,
     ) {
         const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let o = [S::splat(ray.origin.x), S::splat(ray.origin.y), S::splat(ray.origin.z)];
@@ -165,11 +281,13 @@ impl<S: Simd> WideBvh<S> {
             if current & LEAF != 0 {
                 let first = (current & ((1 << FIRST_BITS) - 1)) as usize;
                 let count = ((current & !LEAF) >> FIRST_BITS) as usize + 1;
-                if COUNT {
-                    c.prims += count as u64;
-                }
-                if let Leaf::Stop = leaf(&mut ray, first..first + count) {
-                    return;
+                for block in &self.blocks[first..first + count] {
+                    if COUNT {
+                        c.prims += block.count as u64;
+                    }
+                    if let Leaf::Stop = leaf(&mut ray, block) {
+                        return;
+                    }
                 }
                 cull = ray.tmax * CULL + slack;
             } else {
@@ -247,13 +365,38 @@ impl<S: Simd> WideBvh<S> {
         c: &mut Traversal,
     ) -> Option<(f32, u32)> {
         let mut best = (f32::INFINITY, u32::MAX);
-        self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, range| {
-            for id in range {
-                let t = prims[id].shape.intersect(o, d, r.tmin, r.tmax);
-                if t < r.tmax {
-                    r.tmax = t;
-                    best = (t, id as u32);
+        let sheared = Sheared::new(o, d);
+        self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
+            if !b.triangles {
+                for id in b.first as usize..(b.first + b.count) as usize {
+                    let t = prims[id].shape.intersect(o, d, r.tmin, r.tmax);
+                    if t < r.tmax {
+                        r.tmax = t;
+                        best = (t, id as u32);
+                    }
                 }
+                return Leaf::Go;
+            }
+            let lanes = (1 << b.count) - 1;
+            let t = sheared.triangles(b, lanes, o, d);
+            let ok = (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(r.tmax))).bits() & lanes;
+            if ok != 0 {
+                // The nearest lane, the lowest on a tie: what the scalar loop's strict
+                // `t < tmax` keeps.
+                let mut a = [0.0; MAX];
+                t.store(&mut a);
+                let mut m = ok;
+                let mut l = m.trailing_zeros() as usize;
+                m &= m - 1;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if a[k] < a[l] {
+                        l = k;
+                    }
+                }
+                r.tmax = a[l];
+                best = (a[l], b.first + l as u32);
             }
             Leaf::Go
         });
@@ -275,13 +418,22 @@ impl<S: Simd> WideBvh<S> {
         c: &mut Traversal,
     ) -> bool {
         let mut blocked = false;
-        self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, range| {
-            for id in range {
-                let p = &prims[id];
-                if p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax {
-                    blocked = true;
-                    return Leaf::Stop;
+        let sheared = Sheared::new(o, d);
+        self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
+            if !b.triangles {
+                for id in b.first as usize..(b.first + b.count) as usize {
+                    let p = &prims[id];
+                    if p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax {
+                        blocked = true;
+                        return Leaf::Stop;
+                    }
                 }
+                return Leaf::Go;
+            }
+            let t = sheared.triangles(b, b.blockers, o, d);
+            if (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(r.tmax))).bits() & b.blockers != 0 {
+                blocked = true;
+                return Leaf::Stop;
             }
             Leaf::Go
         });

@@ -9,9 +9,11 @@
 //! - `flip`: NVIDIA's LDR-FLIP perceptual difference (feature `flip`);
 //! - [`sweep`]: error against rays and seconds over a cross product of settings;
 //! - `plot`: the sweep's scatter plots (feature `plot`);
-//! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets.
+//! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets;
+//! - [`bench_mesh`]: the ray sets around a bare mesh, a generated sphere, `.npy` export.
 
 pub mod bench;
+pub mod bench_mesh;
 pub mod compare;
 #[cfg(feature = "flip")]
 pub mod flip;
