@@ -58,7 +58,11 @@ pub struct BenchArgs {
     /// Packet kernel: trace packets that mix direction octants one ray at a time (on|off).
     #[arg(long, value_enum, hide_possible_values = true, default_value_t = Switch::of(PacketConfig::RENDER.split_mixed))]
     split_mixed: Switch,
-    /// Print JSON: {"bvh_build_seconds", "threads", "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
+    /// Time by the process's CPU time, not the wall clock (for a shared, loaded machine).
+    #[arg(long)]
+    cpu_time: bool,
+    /// Print JSON: {"bvh_build_seconds", "primitives", "bytes_per_primitive", "threads", "clock",
+    /// "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
     #[arg(long)]
     json: bool,
 }
@@ -136,7 +140,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
         shadow_order: args.shadow_order.into(),
         split_mixed: args.split_mixed.is_on(),
     };
-    let opts = BenchOptions { threads, reps: args.reps, max_rays: args.max_rays, lanes: args.lanes.count(), packet };
+    let opts = BenchOptions {
+        threads,
+        reps: args.reps,
+        max_rays: args.max_rays,
+        lanes: args.lanes.count(),
+        packet,
+        cpu_time: args.cpu_time,
+    };
     opts.check()?;
     let side = (opts.max_rays as f64).sqrt() as usize;
     let (accel, sets) = if let Some(path) = &args.mesh {

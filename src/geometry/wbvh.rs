@@ -45,18 +45,18 @@ const FIRST_BITS: u32 = 27;
 const MAX_BLOCKS: usize = 1 << (31 - FIRST_BITS);
 /// Most children per node (the width of [`Node::child`]).
 const MAX_W: usize = 8;
-/// Entries of the traversal stack; a tree that may need more is not built (the
-/// scalar traversal serves it).
-const STACK: usize = 512;
+thread_local! {
+    /// The traversal stack, kept per thread so a ray neither allocates nor zeroes one.
+    static STACK: std::cell::RefCell<Vec<(u32, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
 
 /// One node: up to `S::LANES` children, their boxes by axis with one lane per child.
 #[derive(Clone, Copy)]
 #[repr(C)]
 struct Node<S> {
-    /// Box minima per axis (x, y, z), one lane per child; empty slots hold +∞.
-    lo: [S; 3],
-    /// Box maxima per axis; empty slots hold +∞ too (a box no ray enters).
-    hi: [S; 3],
+    /// `bounds[0]`: box minima per axis (x, y, z), one lane per child; `bounds[1]`: maxima.
+    /// Empty slots hold +∞ in both (a box no ray enters).
+    bounds: [[S; 3]; 2],
     /// Per child: an inner node's index, or [`LEAF`] | (blocks − 1) << [`FIRST_BITS`] | first block.
     child: [u32; MAX_W],
     /// One bit per occupied child slot.
@@ -84,7 +84,7 @@ struct Block {
 pub struct WideBvh<S> {
     nodes: Vec<Node<S>>,
     blocks: Vec<Block>,
-    /// Depth in wide nodes (root = 1): bounds the stack.
+    /// Depth in wide nodes (root = 1).
     depth: usize,
 }
 
@@ -155,16 +155,16 @@ enum Leaf {
 }
 
 impl<S: Simd> WideBvh<S> {
-    /// Collapses `bvh` (whose leaves index primitives in the order the caller keeps);
-    /// `None` when the tree cannot be encoded (more than 2²⁵ primitives, a leaf over 64,
-    /// or deep enough to overflow the fixed stack): the scalar traversal then serves.
+    /// Collapses `bvh` (whose leaves index `prims`); `None` when the tree cannot be
+    /// encoded (more than 2²⁷ leaf blocks, a leaf over 64 primitives): the binary
+    /// traversal then serves.
     pub fn build(bvh: &Bvh2, prims: &[Primitive]) -> Option<WideBvh<S>> {
         assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
         let root = bvh.nodes.first()?;
         let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), depth: 0 };
         let top = if root.is_leaf() { vec![0] } else { tree.collect(bvh, 0) };
         tree.emit(bvh, prims, &top, 1)?;
-        ((S::LANES - 1) * tree.depth < STACK).then_some(tree)
+        Some(tree)
     }
 
     /// The Bvh2 nodes that become the children of the wide node replacing inner node
@@ -195,7 +195,7 @@ impl<S: Simd> WideBvh<S> {
         let mut lo = [[f32::INFINITY; MAX]; 3];
         let mut hi = [[f32::INFINITY; MAX]; 3];
         let mut child = [u32::MAX; MAX_W];
-        self.nodes.push(Node { lo: [S::splat(0.0); 3], hi: [S::splat(0.0); 3], child, valid: 0 });
+        self.nodes.push(Node { bounds: [[S::splat(0.0); 3]; 2], child, valid: 0 });
         for (slot, &k) in kids.iter().enumerate() {
             let node = &bvh.nodes[k];
             let b = node.aabb();
@@ -211,7 +211,7 @@ impl<S: Simd> WideBvh<S> {
             };
         }
         let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
-        self.nodes[index] = Node { lo: load3(&lo), hi: load3(&hi), child, valid: (1 << kids.len()) - 1 };
+        self.nodes[index] = Node { bounds: [load3(&lo), load3(&hi)], child, valid: (1 << kids.len()) - 1 };
         Some(index as u32)
     }
 
@@ -249,6 +249,11 @@ impl<S: Simd> WideBvh<S> {
         self.nodes.len() * std::mem::size_of::<Node<S>>() + self.blocks.len() * std::mem::size_of::<Block>()
     }
 
+    /// Depth of the tree in wide nodes (root = 1).
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
     /// Wide nodes in the tree.
     pub fn len(&self) -> usize {
         self.nodes.len()
@@ -266,15 +271,33 @@ impl<S: Simd> WideBvh<S> {
     fn walk<const COUNT: bool>(
         &self,
         slack: f32,
+        ray: Ray,
+        c: &mut Traversal,
+        leaf: impl FnMut(&mut Ray, &Block) -> Leaf,
+    ) {
+        STACK.with_borrow_mut(|stack| {
+            stack.clear();
+            self.walk_with::<COUNT>(slack, ray, c, stack, leaf)
+        })
+    }
+
+    /// [`WideBvh::walk`] with its stack.
+    #[inline(always)]
+    fn walk_with<const COUNT: bool>(
+        &self,
+        slack: f32,
         mut ray: Ray,
         c: &mut Traversal,
+        stack: &mut Vec<(u32, f32)>,
         mut leaf: impl FnMut(&mut Ray, &Block) -> Leaf,
     ) {
         const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let o = [S::splat(ray.origin.x), S::splat(ray.origin.y), S::splat(ray.origin.z)];
         let inv = [S::splat(ray.inv_direction.x), S::splat(ray.inv_direction.y), S::splat(ray.inv_direction.z)];
-        let mut stack = [(0u32, 0.0f32); STACK];
-        let mut len = 0;
+        // Per axis, which bound the ray meets first: the minimum when inv > 0 (inv is never
+        // 0 or NaN: obvhs's safe inverse). `(bound − o) · inv` is monotone in the bound, so
+        // this is exactly min(t1, t2) of the scalar slab test, without the min and max.
+        let first = [0, 1, 2].map(|k| (ray.inv_direction[k] < 0.0) as usize);
         let mut cull = ray.tmax * CULL + slack;
         let mut current = 0u32;
         loop {
@@ -292,15 +315,9 @@ impl<S: Simd> WideBvh<S> {
                 cull = ray.tmax * CULL + slack;
             } else {
                 let node = &self.nodes[current as usize];
-                let mut near = S::splat(f32::NEG_INFINITY);
-                let mut far = S::splat(f32::INFINITY);
-                for k in 0..3 {
-                    let t1 = (node.lo[k] - o[k]) * inv[k];
-                    let t2 = (node.hi[k] - o[k]) * inv[k];
-                    near = near.max(t1.min(t2));
-                    far = far.min(t1.max(t2));
-                }
-                let far = far * S::splat(WIDEN);
+                let t = |k: usize, side: usize| (node.bounds[side][k] - o[k]) * inv[k];
+                let near = t(0, first[0]).max(t(1, first[1])).max(t(2, first[2]));
+                let far = t(0, 1 - first[0]).min(t(1, 1 - first[1])).min(t(2, 1 - first[2])) * S::splat(WIDEN);
                 let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(S::splat(cull));
                 let mut bits = hit.bits() & node.valid;
                 if COUNT {
@@ -314,35 +331,31 @@ impl<S: Simd> WideBvh<S> {
                 } else {
                     let mut t = [0.0f32; MAX];
                     near.store(&mut t);
-                    // Push every hit child, then insertion-sort the pushed ones farthest
+                    // Push every hit child, insertion-sorting the pushed ones farthest
                     // first, so the nearest is on top (ties keep slot order: deterministic).
-                    let base = len;
+                    let base = stack.len();
                     while bits != 0 {
                         let i = bits.trailing_zeros() as usize;
                         bits &= bits - 1;
                         let e = (node.child[i], t[i]);
-                        let mut j = len;
+                        stack.push(e);
+                        let mut j = stack.len() - 1;
                         while j > base && stack[j - 1].1 < e.1 {
                             stack[j] = stack[j - 1];
                             j -= 1;
                         }
                         stack[j] = e;
-                        len += 1;
                     }
-                    len -= 1;
-                    current = stack[len].0;
+                    current = stack.pop().map_or(0, |e| e.0);
                     continue;
                 }
             }
             // Next: the most recently saved child that the ray, as it stands, still enters
             // before its tmax (the same culling rule as the box test).
             loop {
-                if len == 0 {
-                    return;
-                }
-                len -= 1;
-                if stack[len].1 < cull {
-                    current = stack[len].0;
+                let Some((next, t)) = stack.pop() else { return };
+                if t < cull {
+                    current = next;
                     break;
                 }
             }

@@ -47,12 +47,35 @@ pub struct BenchOptions {
     pub lanes: usize,
     /// How packets are formed and traced.
     pub packet: PacketConfig,
+    /// Time by the process's CPU time instead of the wall clock (on a shared machine the
+    /// wall clock also counts the time other processes held the cores).
+    pub cpu_time: bool,
 }
 
 impl Default for BenchOptions {
     fn default() -> Self {
-        BenchOptions { threads: 1, reps: 5, max_rays: 1 << 20, lanes: LANES, packet: PacketConfig::RENDER }
+        BenchOptions {
+            threads: 1,
+            reps: 5,
+            max_rays: 1 << 20,
+            lanes: LANES,
+            packet: PacketConfig::RENDER,
+            cpu_time: false,
+        }
     }
+}
+
+/// CPU seconds this process has used, all threads (the wall clock where unavailable).
+fn cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: clock_gettime only writes the timespec it is given.
+        let ok = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } == 0;
+        ok.then(|| ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+    }
+    #[cfg(not(unix))]
+    None
 }
 
 impl BenchOptions {
@@ -94,6 +117,8 @@ pub struct BenchReport {
     pub bytes_per_primitive: [f64; 3],
     /// Worker threads.
     pub threads: usize,
+    /// `"wall"` or `"cpu"`: which clock the Mrays/s figures divide by.
+    pub clock: &'static str,
     /// One entry per set and kernel.
     pub sets: Vec<SetResult>,
 }
@@ -271,10 +296,20 @@ impl Kernel {
     }
 }
 
-/// Traces `set` once on `pool` with `kernel`; returns the seconds and a checksum of the
+/// Seconds one trace took by each clock.
+#[derive(Clone, Copy, Debug)]
+pub struct Seconds {
+    /// Wall-clock seconds.
+    pub wall: f64,
+    /// CPU seconds of the whole process (the wall time where the platform has no CPU clock).
+    pub cpu: f64,
+}
+
+/// Traces `set` once on `pool` with `kernel`; returns the time and a checksum of the
 /// results (hits with their distances, or unblocked rays) so kernels can be compared.
-pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kernel) -> (f64, u64) {
+pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kernel) -> (Seconds, u64) {
     let start = Instant::now();
+    let cpu0 = cpu_seconds();
     // Each thread builds its own tracer (its scratch is per thread); no counters.
     let tracer = || kernel.tracer().map(|k| Tracer::new(accel, k, false));
     let sum: u64 = pool.install(|| match set {
@@ -315,7 +350,9 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
             )
             .sum(),
     });
-    (start.elapsed().as_secs_f64(), sum)
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu0.zip(cpu_seconds()).map_or(wall, |(a, b)| b - a);
+    (Seconds { wall, cpu }, sum)
 }
 
 /// The kernels `wavetrace bench` measures, with their column names.
@@ -350,7 +387,8 @@ pub fn run(accel: &Accel, sets: &[(&'static str, RaySet)], opts: &BenchOptions) 
         let mut secs = vec![Vec::new(); kernels.len()];
         for _ in 0..opts.reps {
             for (k, &(_, kernel)) in kernels.iter().enumerate() {
-                secs[k].push(trace(accel, set, &pool, kernel).0);
+                let t = trace(accel, set, &pool, kernel).0;
+                secs[k].push(if opts.cpu_time { t.cpu } else { t.wall });
             }
         }
         for (k, secs) in secs.iter_mut().enumerate() {
@@ -366,6 +404,7 @@ pub fn run(accel: &Accel, sets: &[(&'static str, RaySet)], opts: &BenchOptions) 
         primitives: accel.prims.len(),
         bytes_per_primitive: accel.bytes().map(|b| b as f64 / n),
         threads: opts.threads,
+        clock: if opts.cpu_time { "cpu" } else { "wall" },
         sets: out,
     })
 }
@@ -382,7 +421,7 @@ impl BenchReport {
     pub fn table(&self) -> String {
         let [b2, bw, bp] = self.bytes_per_primitive;
         let mut t = format!(
-            "BVH build {:.3} s, {} primitives, bytes/primitive: binary nodes {:.0}, wide nodes {:.0}, primitives {:.0}; {} thread{}\n",
+            "BVH build {:.3} s, {} primitives, bytes/primitive: binary nodes {:.0}, wide nodes and leaf blocks {:.0}, primitives {:.0}; {} thread{}, {} clock\n",
             self.bvh_build_seconds,
             self.primitives,
             b2,
@@ -390,6 +429,7 @@ impl BenchReport {
             bp,
             self.threads,
             if self.threads == 1 { "" } else { "s" },
+            self.clock,
         );
         t += &format!("{:<14} {:>9}  Mrays/s:", "set", "rays");
         let per = 4;
