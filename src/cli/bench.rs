@@ -26,6 +26,9 @@ pub struct BenchArgs {
     /// (8: 1,310,720), with the same ray sets as --mesh.
     #[arg(long, value_name = "LEVEL", conflicts_with_all = ["scene", "sets"], value_parser = clap::value_parser!(u32).range(0..=10))]
     sphere: Option<u32>,
+    /// With --mesh or --sphere: most primitives per BVH leaf (1 to 64).
+    #[arg(long, default_value_t = wavetrace::geometry::bvh::LEAF, value_parser = clap::value_parser!(u32).range(1..=64))]
+    leaf: u32,
     /// Write the triangles, the ray sets and the wide kernel's answers as NumPy files to
     /// DIR (for benches/embree.py); triangle-only scenes.
     #[arg(long, value_name = "DIR")]
@@ -151,11 +154,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
     opts.check()?;
     let side = (opts.max_rays as f64).sqrt() as usize;
     let (accel, sets) = if let Some(path) = &args.mesh {
-        let accel = bench_mesh::mesh_accel(wavetrace::scene::mesh::load_obj(path).map_err(Error::input)?);
+        let accel = bench_mesh::mesh_accel(wavetrace::scene::mesh::load_obj(path).map_err(Error::input)?, args.leaf);
         let sets = bench_mesh::mesh_ray_sets(&accel, side.max(1));
         (accel, sets)
     } else if let Some(levels) = args.sphere {
-        let accel = bench_mesh::mesh_accel(bench_mesh::displaced_sphere(levels));
+        let accel = bench_mesh::mesh_accel(bench_mesh::displaced_sphere(levels), args.leaf);
         let sets = bench_mesh::mesh_ray_sets(&accel, side.max(1));
         (accel, sets)
     } else {

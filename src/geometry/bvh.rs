@@ -28,6 +28,10 @@ pub struct Traversal {
     pub packet_rays: u64,
 }
 
+/// Most primitives per leaf (obvhs's collapse may make leaves smaller; measured:
+/// docs/performance.md).
+pub const LEAF: u32 = 8;
+
 /// Deepest tree the fixed-size traversal stack handles; deeper trees (never seen from
 /// obvhs's builders on real meshes) fall back to obvhs's own traversal.
 pub(crate) const STACK: usize = 128;
@@ -160,14 +164,22 @@ pub struct Accel {
 }
 
 impl Accel {
-    /// Builds the BVH over `prims` (which may be empty).
+    /// Builds the BVH over `prims` (which may be empty) with leaves of at most [`LEAF`]
+    /// primitives.
     pub fn build(prims: Vec<Primitive>) -> Accel {
+        Accel::build_with(prims, LEAF)
+    }
+
+    /// [`Accel::build`] with leaves of at most `max_leaf` primitives (1 to 64; obvhs's
+    /// collapse decides by its cost model below that), for measuring the leaf size.
+    pub fn build_with(prims: Vec<Primitive>, max_leaf: u32) -> Accel {
         let start = Instant::now();
         if prims.is_empty() {
             return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
         }
         let mut core = Duration::default();
-        let bvh = obvhs::bvh2::builder::build_bvh2(&prims, BvhBuildParams::medium_build(), &mut core);
+        let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), ..BvhBuildParams::medium_build() };
+        let bvh = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut core);
         // Reorder once so traversal needs no primitive_indices indirection.
         let prims: Vec<Primitive> = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
         let depth = bvh.depth(0);

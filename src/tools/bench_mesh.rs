@@ -22,12 +22,14 @@ use crate::geometry::tracer::Coherence;
 use crate::geometry::{Accel, Primitive, Shape, Traversal, NO_LIGHT};
 use crate::sampling::{hash, to_unit};
 
-/// The acceleration structure over a bare triangle list (one material, no lights).
-pub fn mesh_accel(tris: Vec<[Vec3; 3]>) -> Accel {
-    Accel::build(
+/// The acceleration structure over a bare triangle list (one material, no lights), with
+/// leaves of at most `max_leaf` primitives.
+pub fn mesh_accel(tris: Vec<[Vec3; 3]>, max_leaf: u32) -> Accel {
+    Accel::build_with(
         tris.into_iter()
             .map(|[v0, v1, v2]| Primitive { shape: Shape::Triangle { v0, v1, v2 }, material: 0, light: NO_LIGHT })
             .collect(),
+        max_leaf,
     )
 }
 
@@ -272,7 +274,7 @@ mod tests {
     fn generated_sphere_is_closed_and_sized() {
         let tris = displaced_sphere(2);
         assert_eq!(tris.len(), 20 * 16);
-        let accel = mesh_accel(tris);
+        let accel = mesh_accel(tris, crate::geometry::bvh::LEAF);
         let mut c = Traversal::default();
         for i in 0..2000 {
             let d = sphere_dir(u(i, 0), u(i, 1));
