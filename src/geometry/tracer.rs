@@ -34,16 +34,19 @@ pub enum Kernel {
     /// Packets of `width` lanes, formed and traced as `cfg` says (their lone rays over the
     /// binary BVH).
     Packet(Width, PacketConfig),
-    /// Chosen per queue by coherence: camera rays in packets (lone rays, and packets
-    /// that mix octants, one at a time over the wide BVH), bounce rays one at a time over
-    /// the wide BVH, shadow rays in packets when `shadow_packets`, else wide.
+    /// Chosen per queue by measured coherence: camera rays in packets; bounce and shadow
+    /// queues start in packets, and when their first [`PROBE`] packets keep fewer than
+    /// `min_lanes` percent of their lanes active on average, the rest of the queue goes
+    /// one ray at a time over the wide BVH. Lone rays (and packets that mix octants) take
+    /// the wide BVH too.
     Hybrid {
         /// Lanes per packet.
         width: Width,
         /// How packets are formed and traced.
         cfg: PacketConfig,
-        /// Trace shadow queues in packets (else one ray at a time, wide).
-        shadow_packets: bool,
+        /// Lane utilisation (percent) below which a queue leaves packets (0: never;
+        /// above 100: after the probe always).
+        min_lanes: u32,
     },
 }
 
@@ -59,13 +62,26 @@ impl Kernel {
     }
 
     /// The renderer's hybrid settings (measured: docs/performance.md).
-    pub const HYBRID: Kernel = Kernel::Hybrid { width: Width::X16, cfg: PacketConfig::RENDER, shadow_packets: false };
+    pub const HYBRID: Kernel = Kernel::Hybrid { width: Width::X16, cfg: PacketConfig::RENDER, min_lanes: 50 };
+
+    /// The lane utilisation (percent) below which a queue of rays from `coherence` leaves
+    /// packets; `None`: it never does.
+    fn leave_packets(self, coherence: Coherence) -> Option<u32> {
+        match self {
+            Kernel::Hybrid { min_lanes, .. } if coherence != Coherence::Camera => Some(min_lanes),
+            _ => None,
+        }
+    }
 
     /// Whether single rays (alone, or falling out of packets) take the wide BVH.
     fn wide_singles(self) -> bool {
         matches!(self, Kernel::Wide | Kernel::Hybrid { .. })
     }
 }
+
+/// Packets a hybrid kernel traces of a bounce or shadow queue before it judges their lane
+/// utilisation.
+pub const PROBE: usize = 8;
 
 /// Where a queue's rays come from, which decides how they are ordered into packets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -111,7 +127,6 @@ impl<'a> Tracer<'a> {
     pub fn closest(&mut self, rays: &RayQueue, coherence: Coherence, hits: &mut HitQueue) {
         let packets = match self.kernel {
             Kernel::Scalar | Kernel::Wide => None,
-            Kernel::Hybrid { .. } if coherence != Coherence::Camera => None,
             Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
         };
         match packets {
@@ -128,7 +143,7 @@ impl<'a> Tracer<'a> {
     pub fn occluded(&mut self, shadow: &ShadowQueue) -> &[bool] {
         self.blocked.clear();
         let packets = match self.kernel {
-            Kernel::Scalar | Kernel::Wide | Kernel::Hybrid { shadow_packets: false, .. } => None,
+            Kernel::Scalar | Kernel::Wide => None,
             Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
         };
         match packets {
@@ -194,13 +209,24 @@ impl<'a> Tracer<'a> {
         packet_order(self.accel, n, |i| rays.origin(i), |i| rays.dir(i), how, &mut self.order);
         let mut pw = PacketWork::default();
         let (mut o, mut d, mut out) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [(0.0f32, 0u32); MAX]);
-        for group in self.order.chunks(S::LANES) {
+        let leave = self.kernel.leave_packets(coherence);
+        let mut alone = false;
+        for (p, group) in self.order.chunks(S::LANES).enumerate() {
             for (l, &(_, i)) in group.iter().enumerate() {
                 o[l] = rays.origin(i as usize);
                 d[l] = rays.dir(i as usize);
             }
             let k = group.len();
-            if shares_octant(&d[..k], cfg) {
+            alone = alone || sparse(p, leave, &pw, S::LANES);
+            if alone {
+                for l in 0..k {
+                    out[l] = if self.count {
+                        single_closest::<true>(self.accel, self.kernel, o[l], d[l], &mut self.work)
+                    } else {
+                        single_closest::<false>(self.accel, self.kernel, o[l], d[l], &mut self.work)
+                    };
+                }
+            } else if shares_octant(&d[..k], cfg) {
                 self.accel.closest_packet::<S>(&o[..k], &d[..k], 0.0, cfg.min_active, &mut out, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
@@ -231,13 +257,24 @@ impl<'a> Tracer<'a> {
         let mut pw = PacketWork::default();
         let (mut o, mut d, mut t) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [0.0f32; MAX]);
         let mut blocked = [false; MAX];
-        for group in self.order.chunks(S::LANES) {
+        let leave = self.kernel.leave_packets(Coherence::Bounce);
+        let mut alone = false;
+        for (p, group) in self.order.chunks(S::LANES).enumerate() {
             let k = group.len();
             for (l, &(_, i)) in group.iter().enumerate() {
                 let i = i as usize;
                 (o[l], d[l], t[l]) = (shadow.origin(i), shadow.dir(i), shadow.tmax[i]);
             }
-            if shares_octant(&d[..k], cfg) {
+            alone = alone || sparse(p, leave, &pw, S::LANES);
+            if alone {
+                for l in 0..k {
+                    blocked[l] = if self.count {
+                        single_occluded::<true>(accel, self.kernel, o[l], d[l], t[l], &mut self.work)
+                    } else {
+                        single_occluded::<false>(accel, self.kernel, o[l], d[l], t[l], &mut self.work)
+                    };
+                }
+            } else if shares_octant(&d[..k], cfg) {
                 accel.occluded_packet::<S>(&o[..k], &d[..k], &t[..k], cfg.min_active, &mut blocked, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
@@ -259,6 +296,16 @@ impl<'a> Tracer<'a> {
             self.work.nodes += pw.nodes;
             self.work.prims += pw.prims;
         }
+    }
+}
+
+/// Whether a queue leaves packets before its packet `p`: once [`PROBE`] packets are done,
+/// when the lanes they kept active (`pw`) average below `leave` percent of `lanes`.
+#[inline]
+fn sparse(p: usize, leave: Option<u32>, pw: &PacketWork, lanes: usize) -> bool {
+    match leave {
+        Some(min) if p == PROBE => pw.lanes * 100 < min as u64 * lanes as u64 * pw.steps,
+        _ => false,
     }
 }
 

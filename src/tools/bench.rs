@@ -47,6 +47,8 @@ pub struct BenchOptions {
     pub lanes: usize,
     /// How packets are formed and traced.
     pub packet: PacketConfig,
+    /// Hybrid kernel: lane utilisation (percent) below which a queue leaves packets.
+    pub min_lanes: u32,
     /// Time by the process's CPU time instead of the wall clock (on a shared machine the
     /// wall clock also counts the time other processes held the cores).
     pub cpu_time: bool,
@@ -60,10 +62,17 @@ impl Default for BenchOptions {
             max_rays: 1 << 20,
             lanes: LANES,
             packet: PacketConfig::RENDER,
+            min_lanes: RENDER_MIN_LANES,
             cpu_time: false,
         }
     }
 }
+
+/// The renderer's hybrid threshold ([`TracerKernel::HYBRID`]'s `min_lanes`).
+pub const RENDER_MIN_LANES: u32 = match TracerKernel::HYBRID {
+    TracerKernel::Hybrid { min_lanes, .. } => min_lanes,
+    _ => 0,
+};
 
 /// CPU seconds this process has used, all threads (the wall clock where unavailable).
 fn cpu_seconds() -> Option<f64> {
@@ -266,9 +275,9 @@ pub enum Kernel {
     Packet(usize, PacketConfig),
     /// One ray at a time over the wide BVH.
     Wide,
-    /// The renderer's hybrid (packets for camera rays, wide single rays for the rest)
-    /// with packets of this many lanes.
-    Hybrid(usize, PacketConfig),
+    /// The renderer's hybrid with packets of this many lanes, leaving packets for a
+    /// bounce or shadow queue below this lane utilisation (percent).
+    Hybrid(usize, PacketConfig, u32),
 }
 
 /// SIMD width of a packet kernel of `n` lanes (4, 8, else 16).
@@ -288,10 +297,7 @@ impl Kernel {
             Kernel::Scalar => Some(TracerKernel::Scalar),
             Kernel::Wide => Some(TracerKernel::Wide),
             Kernel::Packet(n, c) => Some(TracerKernel::Packet(width(n), c)),
-            Kernel::Hybrid(n, cfg) => {
-                let TracerKernel::Hybrid { shadow_packets, .. } = TracerKernel::HYBRID else { unreachable!() };
-                Some(TracerKernel::Hybrid { width: width(n), cfg, shadow_packets })
-            }
+            Kernel::Hybrid(n, cfg, min_lanes) => Some(TracerKernel::Hybrid { width: width(n), cfg, min_lanes }),
         }
     }
 }
@@ -361,7 +367,7 @@ fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 4] {
         ("scalar", Kernel::Scalar),
         ("packet", Kernel::Packet(opts.lanes, opts.packet)),
         ("wide", Kernel::Wide),
-        ("hybrid", Kernel::Hybrid(opts.lanes, opts.packet)),
+        ("hybrid", Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
     ]
 }
 
