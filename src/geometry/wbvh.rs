@@ -381,11 +381,12 @@ impl<S: Simd> WideBvh<S> {
         let sheared = Sheared::new(o, d);
         self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
             if !b.triangles {
-                for id in b.first as usize..(b.first + b.count) as usize {
-                    let t = prims[id].shape.intersect(o, d, r.tmin, r.tmax);
+                let first = b.first as usize;
+                for (id, p) in prims[first..first + b.count as usize].iter().enumerate() {
+                    let t = p.shape.intersect(o, d, r.tmin, r.tmax);
                     if t < r.tmax {
                         r.tmax = t;
-                        best = (t, id as u32);
+                        best = (t, (first + id) as u32);
                     }
                 }
                 return Leaf::Go;
@@ -434,8 +435,8 @@ impl<S: Simd> WideBvh<S> {
         let sheared = Sheared::new(o, d);
         self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
             if !b.triangles {
-                for id in b.first as usize..(b.first + b.count) as usize {
-                    let p = &prims[id];
+                let first = b.first as usize;
+                for p in &prims[first..first + b.count as usize] {
                     if p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax {
                         blocked = true;
                         return Leaf::Stop;
