@@ -61,6 +61,10 @@ fn bad_flags_exit_2_with_a_message() {
         (&["--mesh", "no/such/mesh.obj"], "no/such/mesh.obj"),
         (&["--sphere", "11"], "--sphere"),
         (&["--leaf", "0"], "--leaf"),
+        (
+            &["--export-rays", "target/no-such-export-dir", "--set", "render.width=8", "--set", "render.height=8"],
+            "spheres or parallelograms",
+        ),
         (&["--mesh", "a.obj", "scene.toml"], "--mesh"),
     ] {
         let out = bench(args);
@@ -69,6 +73,7 @@ fn bad_flags_exit_2_with_a_message() {
         assert!(err.contains(needle), "{args:?}: {err}");
         assert!(out.stdout.is_empty(), "{args:?}");
     }
+    assert!(!std::path::Path::new("target/no-such-export-dir").exists(), "a refused export leaves nothing");
 }
 
 #[test]

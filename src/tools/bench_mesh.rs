@@ -209,7 +209,6 @@ fn f32_bytes(v: impl Iterator<Item = f32>) -> Vec<u8> {
 /// (`SET.t.npy`: closest distance, infinity for a miss; `SET.prim.npy` i32, −1 for a miss;
 /// or `SET.blocked.npy` u8). `sets.txt` lists `SET closest|anyhit` per line.
 pub fn export(dir: &Path, accel: &Accel, sets: &[(&'static str, RaySet)]) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::input(format!("{}: {e}", dir.display())))?;
     let mut tris = Vec::with_capacity(accel.prims.len() * 9);
     for p in &accel.prims {
         let Shape::Triangle { v0, v1, v2 } = p.shape else {
@@ -217,6 +216,8 @@ pub fn export(dir: &Path, accel: &Accel, sets: &[(&'static str, RaySet)]) -> Res
         };
         tris.extend([v0, v1, v2].iter().flat_map(|v| v.to_array()));
     }
+    // Only now, so a refused scene leaves nothing behind.
+    std::fs::create_dir_all(dir).map_err(|e| Error::input(format!("{}: {e}", dir.display())))?;
     write_npy(&dir.join("triangles.npy"), "<f4", &[accel.prims.len(), 3, 3], &f32_bytes(tris.into_iter()))?;
     let mut list = String::new();
     let mut c = Traversal::default();
