@@ -1,5 +1,6 @@
 //! Traversal kernels on the bunny (69k triangles) and the ogre (124k, the largest test
-//! mesh): obvhs's own single-ray traversal and ours against packets of 4, 8 and 16 lanes, on the ray sets of
+//! mesh): obvhs's own single-ray traversal and ours against packets of 4, 8 and 16 lanes,
+//! the wide BVH's single-ray kernel and the hybrid, on the ray sets of
 //! `wavetrace bench` (coherent primary rays, shadow any-hit rays, incoherent diffuse
 //! bounces), traced through the renderer's own stages on one thread. Throughput is rays
 //! per second (criterion `Throughput::Elements`).
@@ -8,7 +9,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::Path;
 use wavetrace::geometry::packet::PacketConfig;
 use wavetrace::scene::{load, SceneSource};
-use wavetrace::tools::bench::{ray_sets, trace, Kernel};
+use wavetrace::tools::bench::{ray_sets, trace, Kernel, RENDER_MIN_LANES};
 
 fn kernels(c: &mut Criterion) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
@@ -27,9 +28,13 @@ fn kernels(c: &mut Criterion) {
                 ("packet4", Kernel::Packet(4, PacketConfig::RENDER)),
                 ("packet8", Kernel::Packet(8, PacketConfig::RENDER)),
                 ("packet16", Kernel::Packet(16, PacketConfig::RENDER)),
+                ("wide", Kernel::Wide),
+                ("hybrid", Kernel::Hybrid(16, PacketConfig::RENDER, RENDER_MIN_LANES)),
             ];
             for (label, kernel) in kernels {
-                g.bench_function(format!("{set_name}/{label}"), |b| b.iter(|| trace(&scene, set, &pool, kernel).1));
+                g.bench_function(format!("{set_name}/{label}"), |b| {
+                    b.iter(|| trace(&scene.accel, set, &pool, kernel).1)
+                });
             }
         }
         g.finish();

@@ -2,7 +2,7 @@
 //! printed to stdout).
 
 use std::process::Command;
-use wavetrace::tools::bench::{ray_sets, run, BenchOptions, RaySet};
+use wavetrace::tools::bench::{ray_sets, run_scene, BenchOptions, RaySet};
 
 const BIN: &str = env!("CARGO_BIN_EXE_wavetrace");
 const SMALL: [&str; 4] = ["--set", "render.width=24", "--set", "render.height=16"];
@@ -24,12 +24,13 @@ fn json_has_every_set_and_kernel() {
     let mut seen = Vec::new();
     for s in sets {
         let (set, kernel) = (s["set"].as_str().unwrap(), s["kernel"].as_str().unwrap());
-        assert!(["primary", "shadow", "secondary"].contains(&set) && ["scalar", "packet"].contains(&kernel));
+        assert!(["primary", "shadow", "secondary"].contains(&set));
+        assert!(["scalar", "packet", "wide", "hybrid"].contains(&kernel), "{kernel}");
         assert!(s["rays"].as_u64().unwrap() > 0, "{s}");
         assert!(s["mrays_per_s"].as_f64().unwrap() > 0.0, "{s}");
         seen.push((set.to_string(), kernel.to_string()));
     }
-    assert_eq!(seen.len(), 6);
+    assert_eq!(seen.len(), 12);
     // The default scene at 24×16 with 16 AA samples: every camera ray is in the set.
     assert_eq!(sets[0]["rays"], 24 * 16 * 16);
 }
@@ -41,7 +42,7 @@ fn text_table_lists_each_set() {
     let out = bench(&args);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
-    for word in ["BVH build", "primary", "shadow", "secondary", "ratio"] {
+    for word in ["BVH build", "primary", "shadow", "secondary", "wide/scalar"] {
         assert!(text.contains(word), "{text}");
     }
 }
@@ -57,6 +58,14 @@ fn bad_flags_exit_2_with_a_message() {
         (&["--split-mixed", "maybe"], "maybe"),
         (&["no/such/scene.toml"], "no/such/scene.toml"),
         (&["--set", "render.width=0"], "render.width"),
+        (&["--mesh", "no/such/mesh.obj"], "no/such/mesh.obj"),
+        (&["--sphere", "11"], "--sphere"),
+        (&["--leaf", "0"], "--leaf"),
+        (
+            &["--export-rays", "target/no-such-export-dir", "--set", "render.width=8", "--set", "render.height=8"],
+            "spheres or parallelograms",
+        ),
+        (&["--mesh", "a.obj", "scene.toml"], "--mesh"),
     ] {
         let out = bench(args);
         let err = String::from_utf8_lossy(&out.stderr);
@@ -64,6 +73,7 @@ fn bad_flags_exit_2_with_a_message() {
         assert!(err.contains(needle), "{args:?}: {err}");
         assert!(out.stdout.is_empty(), "{args:?}");
     }
+    assert!(!std::path::Path::new("target/no-such-export-dir").exists(), "a refused export leaves nothing");
 }
 
 #[test]
@@ -84,7 +94,47 @@ fn ray_sets_are_the_renderers_rays_and_thin_uniformly() {
     let capped = ray_sets(&scene, 1000);
     assert!(capped.iter().all(|s| s.1.len() < 2000 && !s.1.is_empty()));
     assert!(scene.settings.packets);
-    // Scalar and packet kernels agree on every set (run() checks the hit checksums).
-    let report = run(&scene, &BenchOptions { reps: 1, ..BenchOptions::default() }).expect("bench");
-    assert_eq!(report.sets.len(), 6);
+    // Scalar, packet, wide and hybrid kernels agree on every set (run() checks the hit
+    // checksums).
+    let report = run_scene(&scene, &BenchOptions { reps: 1, ..BenchOptions::default() }).expect("bench");
+    assert_eq!(report.sets.len(), 12);
+}
+
+#[test]
+fn mesh_sets_export_npy_files_that_match_the_json() {
+    let dir = std::env::temp_dir().join(format!("wavetrace-bench-export-{}", std::process::id()));
+    let out = bench(&[
+        "--sphere",
+        "2",
+        "--max-rays",
+        "4096",
+        "--reps",
+        "1",
+        "--threads",
+        "1",
+        "--cpu-time",
+        "--json",
+        "--export-rays",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    assert_eq!(v["primitives"], 320);
+    assert_eq!(v["clock"], "cpu");
+    let list = std::fs::read_to_string(dir.join("sets.txt")).unwrap();
+    let names: Vec<&str> = list.lines().map(|l| l.split(' ').next().unwrap()).collect();
+    assert_eq!(names, ["camera", "shadow", "bounce", "random", "bounce-shadow"]);
+    for s in v["sets"].as_array().unwrap() {
+        let name = s["set"].as_str().unwrap();
+        // n×3 f32 after a header padded to 64 bytes: the file size gives n.
+        let bytes = std::fs::read(dir.join(format!("{name}.origins.npy"))).unwrap();
+        let header = 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        assert_eq!(((bytes.len() - header) / 12) as u64, s["rays"].as_u64().unwrap(), "{name}");
+    }
+    // The camera looks at the sphere from outside: some rays hit (t finite), some miss.
+    let t = std::fs::read(dir.join("camera.t.npy")).unwrap();
+    let header = 10 + u16::from_le_bytes([t[8], t[9]]) as usize;
+    let ts: Vec<f32> = t[header..].chunks(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    assert!(ts.iter().any(|t| t.is_finite()) && ts.iter().any(|t| t.is_infinite()));
+    std::fs::remove_dir_all(&dir).unwrap();
 }

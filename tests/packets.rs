@@ -136,10 +136,49 @@ fn check_width<S: Simd>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig
     );
 }
 
+/// The wide BVH's single-ray kernel against the binary one: the same closest distance
+/// bit for bit, the same primitive or one at exactly that distance, the same any-hit
+/// answer for segments ending before, around and after the closest hit.
+fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
+    let mut rng = Rng(5);
+    let mut wrong = Vec::new();
+    let (mut cw, mut cs) = (Traversal::default(), Traversal::default());
+    for (i, (&o, &d)) in o.iter().zip(d).enumerate() {
+        let single = accel.closest::<true>(o, d, 0.0, f32::INFINITY, &mut cs);
+        let wide = accel.closest_wide::<true>(o, d, 0.0, f32::INFINITY, &mut cw);
+        let same = match (single, wide) {
+            (Some((t, p)), Some((tw, q))) => {
+                tw.to_bits() == t.to_bits()
+                    && (q == p || accel.prims[q as usize].shape.intersect(o, d, 0.0, f32::INFINITY) == t)
+            }
+            (None, None) => true,
+            _ => false,
+        };
+        if !same {
+            wrong.push(format!("ray {i}: wide {wide:?} scalar {single:?}"));
+        }
+        let tmax = single.map_or(1e3, |(t, _)| t * (0.5 + rng.next()));
+        let (a, b) =
+            (accel.occluded::<false>(o, d, 0.0, tmax, &mut cs), accel.occluded_wide::<false>(o, d, 0.0, tmax, &mut cw));
+        if a != b {
+            wrong.push(format!("ray {i}: any-hit wide {b} scalar {a}"));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "{label}, wide: {} of {} rays differ: {:?}",
+        wrong.len(),
+        o.len(),
+        &wrong[..wrong.len().min(5)]
+    );
+    assert!(o.is_empty() || cw.nodes > 0, "{label}: the wide kernel ran");
+}
+
 fn check_accel(accel: &Accel, n: usize, label: &str) {
     for coherent in [true, false] {
         let (o, d) = rays(accel, n, coherent, 7);
         let label = format!("{label}, {}", if coherent { "coherent" } else { "incoherent" });
+        check_wide(accel, &o, &d, &label);
         for cfg in [PacketConfig::RENDER, PacketConfig { min_active: 0, ..PacketConfig::RENDER }] {
             check_width::<f32x4>(accel, &o, &d, cfg, &label);
             check_width::<f32x8>(accel, &o, &d, cfg, &label);
@@ -254,7 +293,7 @@ fn icosphere(levels: u32, c: Vec3, r: f32) -> (Vec<Vec3>, Vec<[usize; 3]>) {
 }
 
 #[test]
-fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_kernel() {
+fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_or_wide_kernel() {
     let (c, r) = (Vec3::new(0.3, -0.2, 0.1), 1.7);
     let (v, f) = icosphere(4, c, r);
     let accel = Accel::build(
@@ -299,4 +338,11 @@ fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_kernel() {
     }
     assert_eq!((escaped, unblocked), (0, 0), "of {n} rays from inside a closed mesh of {} triangles", f.len());
     assert!(work.steps > 0);
+    // The wide BVH's single-ray kernel, on the same rays.
+    let mut c = Traversal::default();
+    let escaped =
+        (0..n).filter(|&i| accel.closest_wide::<true>(o[i], d[i], 0.0, f32::INFINITY, &mut c).is_none()).count();
+    let unblocked = (0..n).filter(|&i| !accel.occluded_wide::<true>(o[i], d[i], 0.0, 4.0 * r, &mut c)).count();
+    assert_eq!((escaped, unblocked), (0, 0), "wide kernel: of {n} rays from inside a closed mesh");
+    assert!(c.nodes > 0);
 }

@@ -1,5 +1,6 @@
-//! `wavetrace bench`: traversal throughput of the scalar and the packet kernel on fixed
-//! ray sets, as a table or JSON.
+//! `wavetrace bench`: traversal throughput of the scalar, packet, wide and hybrid kernels
+//! on fixed ray sets (a scene's, or the issue-13 sets around a bare mesh), as a table or
+//! JSON; optionally exports the rays for `benches/embree.py`.
 
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -8,6 +9,7 @@ use wavetrace::geometry::order::Order;
 use wavetrace::geometry::packet::{PacketConfig, LANES};
 use wavetrace::scene::load;
 use wavetrace::tools::bench::{self, BenchOptions};
+use wavetrace::tools::bench_mesh;
 use wavetrace::{Error, Result};
 
 use super::{at_least_one, say, scene_source, Switch};
@@ -16,6 +18,21 @@ use super::{at_least_one, say, scene_source, Switch};
 pub struct BenchArgs {
     /// Scene file (TOML). Omitted: the embedded default scene.
     scene: Option<PathBuf>,
+    /// Instead of a scene: a bare triangle mesh (OBJ), with the camera, shadow, bounce,
+    /// random and bounce-shadow ray sets around it (√max-rays² camera rays).
+    #[arg(long, value_name = "OBJ", conflicts_with_all = ["scene", "sets", "sphere"])]
+    mesh: Option<PathBuf>,
+    /// Instead of a scene: a generated displaced icosphere of 20·4^LEVEL triangles
+    /// (8: 1,310,720), with the same ray sets as --mesh.
+    #[arg(long, value_name = "LEVEL", conflicts_with_all = ["scene", "sets"], value_parser = clap::value_parser!(u32).range(0..=10))]
+    sphere: Option<u32>,
+    /// With --mesh or --sphere: most primitives per BVH leaf (1 to 64).
+    #[arg(long, default_value_t = wavetrace::geometry::bvh::LEAF, value_parser = clap::value_parser!(u32).range(1..=64))]
+    leaf: u32,
+    /// Write the triangles, the ray sets and the wide kernel's answers as NumPy files to
+    /// DIR (for benches/embree.py); triangle-only scenes.
+    #[arg(long, value_name = "DIR")]
+    export_rays: Option<PathBuf>,
     /// Override a scene value by its dotted path (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
@@ -44,7 +61,15 @@ pub struct BenchArgs {
     /// Packet kernel: trace packets that mix direction octants one ray at a time (on|off).
     #[arg(long, value_enum, hide_possible_values = true, default_value_t = Switch::of(PacketConfig::RENDER.split_mixed))]
     split_mixed: Switch,
-    /// Print JSON: {"bvh_build_seconds", "threads", "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
+    /// Hybrid kernel: a bounce or shadow queue whose first packets keep fewer than this
+    /// percentage of their lanes active goes on one ray at a time over the wide BVH.
+    #[arg(long, default_value_t = bench::RENDER_MIN_LANES)]
+    min_lanes: u32,
+    /// Time by the process's CPU time, not the wall clock (for a shared, loaded machine).
+    #[arg(long)]
+    cpu_time: bool,
+    /// Print JSON: {"bvh_build_seconds", "primitives", "bytes_per_primitive", "threads", "clock",
+    /// "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
     #[arg(long)]
     json: bool,
 }
@@ -116,16 +141,41 @@ impl From<PacketOrder> for Order {
 /// Runs the benchmark and prints the table or the JSON.
 pub fn run(args: BenchArgs) -> Result<()> {
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let source = scene_source(args.scene.as_ref())?;
-    let scene = load(&source, &args.sets)?;
     let packet = PacketConfig {
         min_active: args.min_active,
         bounce_order: args.bounce_order.into(),
         shadow_order: args.shadow_order.into(),
         split_mixed: args.split_mixed.is_on(),
     };
-    let opts = BenchOptions { threads, reps: args.reps, max_rays: args.max_rays, lanes: args.lanes.count(), packet };
-    let report = bench::run(&scene, &opts)?;
+    let opts = BenchOptions {
+        threads,
+        reps: args.reps,
+        max_rays: args.max_rays,
+        lanes: args.lanes.count(),
+        packet,
+        min_lanes: args.min_lanes,
+        cpu_time: args.cpu_time,
+    };
+    opts.check()?;
+    let side = (opts.max_rays as f64).sqrt() as usize;
+    let (accel, sets) = if let Some(path) = &args.mesh {
+        let accel = bench_mesh::mesh_accel(wavetrace::scene::mesh::load_obj(path).map_err(Error::input)?, args.leaf);
+        let sets = bench_mesh::mesh_ray_sets(&accel, side.max(1));
+        (accel, sets)
+    } else if let Some(levels) = args.sphere {
+        let accel = bench_mesh::mesh_accel(bench_mesh::displaced_sphere(levels), args.leaf);
+        let sets = bench_mesh::mesh_ray_sets(&accel, side.max(1));
+        (accel, sets)
+    } else {
+        let source = scene_source(args.scene.as_ref())?;
+        let scene = load(&source, &args.sets)?;
+        let sets = bench::ray_sets(&scene, opts.max_rays).into_iter().collect();
+        (scene.accel, sets)
+    };
+    if let Some(dir) = &args.export_rays {
+        bench_mesh::export(dir, &accel, &sets)?;
+    }
+    let report = bench::run(&accel, &sets, &opts)?;
     if args.json {
         say(&serde_json::to_string(&report).map_err(|e| Error::Internal(e.to_string()))?);
     } else {

@@ -10,6 +10,7 @@ use obvhs::BvhBuildParams;
 use std::time::{Duration, Instant};
 
 use super::shapes::{Primitive, NO_LIGHT};
+use super::wbvh::{Wide, WideBvh};
 
 /// Traversal work counters: what one or more traversals cost.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -26,6 +27,10 @@ pub struct Traversal {
     /// Rays traced in packets (the rest went one at a time).
     pub packet_rays: u64,
 }
+
+/// Most primitives per leaf (obvhs's collapse may make leaves smaller; measured:
+/// docs/performance.md).
+pub const LEAF: u32 = 8;
 
 /// Deepest tree the fixed-size traversal stack handles; deeper trees (never seen from
 /// obvhs's builders on real meshes) fall back to obvhs's own traversal.
@@ -147,6 +152,9 @@ pub struct Accel {
     /// Primitives, in BVH order: a traversal's primitive id indexes this directly.
     pub prims: Vec<Primitive>,
     pub(crate) bvh: Option<Bvh2>,
+    /// The same tree collapsed to [`Wide`] children per node, for single rays (`None`
+    /// when empty or not encodable: the binary traversal then serves).
+    pub(crate) wide: Option<WideBvh<Wide>>,
     /// Depth of the tree (root = 1), which bounds the traversal stack.
     pub(crate) depth: usize,
     /// Absolute culling slack (see [`CULL`]).
@@ -156,21 +164,66 @@ pub struct Accel {
 }
 
 impl Accel {
-    /// Builds the BVH over `prims` (which may be empty).
+    /// Builds the BVH over `prims` (which may be empty) with leaves of at most [`LEAF`]
+    /// primitives.
     pub fn build(prims: Vec<Primitive>) -> Accel {
+        Accel::build_with(prims, LEAF)
+    }
+
+    /// [`Accel::build`] with leaves of at most `max_leaf` primitives (1 to 64; obvhs's
+    /// collapse decides by its cost model below that), for measuring the leaf size.
+    pub fn build_with(prims: Vec<Primitive>, max_leaf: u32) -> Accel {
         let start = Instant::now();
         if prims.is_empty() {
-            return Accel { prims, bvh: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
+            return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
         }
         let mut core = Duration::default();
-        let bvh = obvhs::bvh2::builder::build_bvh2(&prims, BvhBuildParams::medium_build(), &mut core);
+        let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), ..BvhBuildParams::medium_build() };
+        let bvh = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut core);
         // Reorder once so traversal needs no primitive_indices indirection.
         let prims: Vec<Primitive> = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
         let depth = bvh.depth(0);
         let root = bvh.nodes[0].aabb();
         let scale = Vec3::from(root.min).abs().max(Vec3::from(root.max).abs()).max_element();
         let slack = if scale.is_finite() { scale / 65536.0 } else { 0.0 };
-        Accel { prims, bvh: Some(bvh), depth, slack, build_seconds: start.elapsed().as_secs_f64() }
+        let wide = WideBvh::build(&bvh, &prims);
+        Accel { prims, bvh: Some(bvh), wide, depth, slack, build_seconds: start.elapsed().as_secs_f64() }
+    }
+
+    /// Bytes of the acceleration structure beside the primitives: the binary nodes, the
+    /// wide nodes and the primitives themselves, in that order.
+    pub fn bytes(&self) -> [usize; 3] {
+        [
+            self.bvh.as_ref().map_or(0, |b| b.nodes.len() * std::mem::size_of::<Bvh2Node>()),
+            self.wide.as_ref().map_or(0, WideBvh::bytes),
+            self.prims.len() * std::mem::size_of::<Primitive>(),
+        ]
+    }
+
+    /// [`Accel::closest`] through the wide BVH (one ray, all of a node's children in one
+    /// SIMD test): the same distance bit for bit.
+    #[inline]
+    pub fn closest_wide<const COUNT: bool>(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+        c: &mut Traversal,
+    ) -> Option<(f32, u32)> {
+        match &self.wide {
+            Some(w) => w.closest::<COUNT>(&self.prims, self.slack, o, d, tmin, tmax, c),
+            None => self.closest::<COUNT>(o, d, tmin, tmax, c),
+        }
+    }
+
+    /// [`Accel::occluded`] through the wide BVH: the same answer.
+    #[inline]
+    pub fn occluded_wide<const COUNT: bool>(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, c: &mut Traversal) -> bool {
+        match &self.wide {
+            Some(w) => w.occluded::<COUNT>(&self.prims, self.slack, o, d, tmin, tmax, c),
+            None => self.occluded::<COUNT>(o, d, tmin, tmax, c),
+        }
     }
 
     /// Stack-based traversal of the obvhs `Bvh2` nodes (children adjacent, nearer child

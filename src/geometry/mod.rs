@@ -6,6 +6,7 @@ pub mod order;
 pub mod packet;
 pub mod shapes;
 pub mod tracer;
+pub mod wbvh;
 
 pub use bvh::{Accel, Traversal};
 pub use shapes::{Primitive, Shape, NO_LIGHT};

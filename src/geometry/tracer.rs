@@ -1,5 +1,6 @@
 //! The tracer context: the acceleration structure, the kernel that traverses it (one
-//! ray at a time, or packets of 4, 8 or 16 lanes formed in a chosen order), the
+//! ray at a time over the binary or the wide BVH, packets of 4, 8 or 16 lanes formed in
+//! a chosen order, or the hybrid that picks per queue by coherence), the
 //! traversal counters and the scratch space, as one value. The stages that trace rays
 //! (intersect, shadow, shadow corners, focus) take it as one `&mut`; the renderer builds
 //! one per worker from the scene's settings, `wavetrace bench` one per kernel it measures.
@@ -26,23 +27,61 @@ pub enum Width {
 /// Which traversal kernel a tracer runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
-    /// One ray at a time.
+    /// One ray at a time over the binary BVH.
     Scalar,
-    /// Packets of `width` lanes, formed and traced as `cfg` says.
+    /// One ray at a time over the wide BVH (all of a node's children in one SIMD test).
+    Wide,
+    /// Packets of `width` lanes, formed and traced as `cfg` says (their lone rays over the
+    /// binary BVH).
     Packet(Width, PacketConfig),
+    /// Chosen per queue by measured coherence: camera rays in packets; bounce and shadow
+    /// queues start in packets, and when their first [`PROBE`] packets keep fewer than
+    /// `min_lanes` percent of their lanes active on average, the rest of the queue goes
+    /// one ray at a time over the wide BVH. Lone rays (and packets that mix octants) take
+    /// the wide BVH too.
+    Hybrid {
+        /// Lanes per packet.
+        width: Width,
+        /// How packets are formed and traced.
+        cfg: PacketConfig,
+        /// Lane utilisation (percent) below which a queue leaves packets (0: never;
+        /// above 100: after the probe always).
+        min_lanes: u32,
+    },
 }
 
 impl Kernel {
-    /// The renderer's kernel: its packets (`render.packets = true`, chosen by
-    /// measurement: docs/performance.md), or one ray at a time.
+    /// The renderer's kernel: the hybrid (`render.packets = true`, chosen by measurement:
+    /// docs/performance.md), or one ray at a time over the binary BVH.
     pub fn render(packets: bool) -> Kernel {
         if packets {
-            Kernel::Packet(Width::X16, PacketConfig::RENDER)
+            Kernel::HYBRID
         } else {
             Kernel::Scalar
         }
     }
+
+    /// The renderer's hybrid settings (measured: docs/performance.md).
+    pub const HYBRID: Kernel = Kernel::Hybrid { width: Width::X16, cfg: PacketConfig::RENDER, min_lanes: 50 };
+
+    /// The lane utilisation (percent) below which a queue of rays from `coherence` leaves
+    /// packets; `None`: it never does.
+    fn leave_packets(self, coherence: Coherence) -> Option<u32> {
+        match self {
+            Kernel::Hybrid { min_lanes, .. } if coherence != Coherence::Camera => Some(min_lanes),
+            _ => None,
+        }
+    }
+
+    /// Whether single rays (alone, or falling out of packets) take the wide BVH.
+    fn wide_singles(self) -> bool {
+        matches!(self, Kernel::Wide | Kernel::Hybrid { .. })
+    }
 }
+
+/// Packets a hybrid kernel traces of a bounce or shadow queue before it judges their lane
+/// utilisation.
+pub const PROBE: usize = 8;
 
 /// Where a queue's rays come from, which decides how they are ordered into packets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -86,12 +125,16 @@ impl<'a> Tracer<'a> {
 
     /// Finds the closest hit of every ray in `rays`, in order, into `hits` (cleared first).
     pub fn closest(&mut self, rays: &RayQueue, coherence: Coherence, hits: &mut HitQueue) {
-        match self.kernel {
-            Kernel::Scalar if self.count => self.closest_single::<true>(rays, hits),
-            Kernel::Scalar => self.closest_single::<false>(rays, hits),
-            Kernel::Packet(Width::X4, cfg) => self.closest_packets::<f32x4>(rays, coherence, cfg, hits),
-            Kernel::Packet(Width::X8, cfg) => self.closest_packets::<f32x8>(rays, coherence, cfg, hits),
-            Kernel::Packet(Width::X16, cfg) => self.closest_packets::<f32x16>(rays, coherence, cfg, hits),
+        let packets = match self.kernel {
+            Kernel::Scalar | Kernel::Wide => None,
+            Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
+        };
+        match packets {
+            None if self.count => self.closest_single::<true>(rays, hits),
+            None => self.closest_single::<false>(rays, hits),
+            Some((Width::X4, cfg)) => self.closest_packets::<f32x4>(rays, coherence, cfg, hits),
+            Some((Width::X8, cfg)) => self.closest_packets::<f32x8>(rays, coherence, cfg, hits),
+            Some((Width::X16, cfg)) => self.closest_packets::<f32x16>(rays, coherence, cfg, hits),
         }
     }
 
@@ -99,12 +142,16 @@ impl<'a> Tracer<'a> {
     /// flag per ray, in queue order (true: blocked).
     pub fn occluded(&mut self, shadow: &ShadowQueue) -> &[bool] {
         self.blocked.clear();
-        match self.kernel {
-            Kernel::Scalar if self.count => self.occluded_single::<true>(shadow),
-            Kernel::Scalar => self.occluded_single::<false>(shadow),
-            Kernel::Packet(Width::X4, cfg) => self.occluded_packets::<f32x4>(shadow, cfg),
-            Kernel::Packet(Width::X8, cfg) => self.occluded_packets::<f32x8>(shadow, cfg),
-            Kernel::Packet(Width::X16, cfg) => self.occluded_packets::<f32x16>(shadow, cfg),
+        let packets = match self.kernel {
+            Kernel::Scalar | Kernel::Wide => None,
+            Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
+        };
+        match packets {
+            None if self.count => self.occluded_single::<true>(shadow),
+            None => self.occluded_single::<false>(shadow),
+            Some((Width::X4, cfg)) => self.occluded_packets::<f32x4>(shadow, cfg),
+            Some((Width::X8, cfg)) => self.occluded_packets::<f32x8>(shadow, cfg),
+            Some((Width::X16, cfg)) => self.occluded_packets::<f32x16>(shadow, cfg),
         }
         &self.blocked
     }
@@ -125,19 +172,24 @@ impl<'a> Tracer<'a> {
     /// about a point's other probes only after tracing them, and they are few).
     pub fn occluded_one(&mut self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         if self.count {
-            self.accel.occluded::<true>(o, d, 0.0, tmax, &mut self.work)
+            self.one_occluded::<true>(o, d, tmax)
         } else {
-            self.accel.occluded::<false>(o, d, 0.0, tmax, &mut self.work)
+            self.one_occluded::<false>(o, d, tmax)
         }
+    }
+
+    /// One shadow segment `(0, tmax)` through the kernel's single-ray traversal.
+    #[inline(always)]
+    fn one_occluded<const COUNT: bool>(&mut self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        single_occluded::<COUNT>(self.accel, self.kernel, o, d, tmax, &mut self.work)
     }
 
     fn closest_single<const COUNT: bool>(&mut self, rays: &RayQueue, hits: &mut HitQueue) {
         hits.clear();
         for i in 0..rays.len() {
-            match self.accel.closest::<COUNT>(rays.origin(i), rays.dir(i), 0.0, f32::INFINITY, &mut self.work) {
-                Some((t, prim)) => hits.push(t, prim),
-                None => hits.push(f32::INFINITY, MISS),
-            }
+            let (t, prim) =
+                single_closest::<COUNT>(self.accel, self.kernel, rays.origin(i), rays.dir(i), &mut self.work);
+            hits.push(t, prim);
         }
     }
 
@@ -157,22 +209,30 @@ impl<'a> Tracer<'a> {
         packet_order(self.accel, n, |i| rays.origin(i), |i| rays.dir(i), how, &mut self.order);
         let mut pw = PacketWork::default();
         let (mut o, mut d, mut out) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [(0.0f32, 0u32); MAX]);
-        for group in self.order.chunks(S::LANES) {
+        let leave = self.kernel.leave_packets(coherence);
+        let mut alone = false;
+        for (p, group) in self.order.chunks(S::LANES).enumerate() {
             for (l, &(_, i)) in group.iter().enumerate() {
                 o[l] = rays.origin(i as usize);
                 d[l] = rays.dir(i as usize);
             }
             let k = group.len();
-            if shares_octant(&d[..k], cfg) {
+            alone = alone || sparse(p, leave, &pw, S::LANES);
+            if alone {
+                for l in 0..k {
+                    out[l] = if self.count {
+                        single_closest::<true>(self.accel, self.kernel, o[l], d[l], &mut self.work)
+                    } else {
+                        single_closest::<false>(self.accel, self.kernel, o[l], d[l], &mut self.work)
+                    };
+                }
+            } else if shares_octant(&d[..k], cfg) {
                 self.accel.closest_packet::<S>(&o[..k], &d[..k], 0.0, cfg.min_active, &mut out, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
                 // Lanes traced alone here are not counted (as before the tracer existed).
                 for l in 0..k {
-                    out[l] = self
-                        .accel
-                        .closest::<false>(o[l], d[l], 0.0, f32::INFINITY, &mut self.work)
-                        .unwrap_or((f32::INFINITY, MISS));
+                    out[l] = single_closest::<false>(self.accel, self.kernel, o[l], d[l], &mut self.work);
                 }
             }
             for (l, &(_, i)) in group.iter().enumerate() {
@@ -185,8 +245,7 @@ impl<'a> Tracer<'a> {
 
     fn occluded_single<const COUNT: bool>(&mut self, shadow: &ShadowQueue) {
         for i in 0..shadow.len() {
-            let blocked =
-                self.accel.occluded::<COUNT>(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i], &mut self.work);
+            let blocked = self.one_occluded::<COUNT>(shadow.origin(i), shadow.dir(i), shadow.tmax[i]);
             self.blocked.push(blocked);
         }
     }
@@ -198,18 +257,29 @@ impl<'a> Tracer<'a> {
         let mut pw = PacketWork::default();
         let (mut o, mut d, mut t) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [0.0f32; MAX]);
         let mut blocked = [false; MAX];
-        for group in self.order.chunks(S::LANES) {
+        let leave = self.kernel.leave_packets(Coherence::Bounce);
+        let mut alone = false;
+        for (p, group) in self.order.chunks(S::LANES).enumerate() {
             let k = group.len();
             for (l, &(_, i)) in group.iter().enumerate() {
                 let i = i as usize;
                 (o[l], d[l], t[l]) = (shadow.origin(i), shadow.dir(i), shadow.tmax[i]);
             }
-            if shares_octant(&d[..k], cfg) {
+            alone = alone || sparse(p, leave, &pw, S::LANES);
+            if alone {
+                for l in 0..k {
+                    blocked[l] = if self.count {
+                        single_occluded::<true>(accel, self.kernel, o[l], d[l], t[l], &mut self.work)
+                    } else {
+                        single_occluded::<false>(accel, self.kernel, o[l], d[l], t[l], &mut self.work)
+                    };
+                }
+            } else if shares_octant(&d[..k], cfg) {
                 accel.occluded_packet::<S>(&o[..k], &d[..k], &t[..k], cfg.min_active, &mut blocked, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
                 for l in 0..k {
-                    blocked[l] = accel.occluded::<false>(o[l], d[l], 0.0, t[l], &mut self.work);
+                    blocked[l] = single_occluded::<false>(accel, self.kernel, o[l], d[l], t[l], &mut self.work);
                 }
             }
             for (l, &(_, i)) in group.iter().enumerate() {
@@ -229,10 +299,54 @@ impl<'a> Tracer<'a> {
     }
 }
 
+/// Whether a queue leaves packets before its packet `p`: once [`PROBE`] packets are done,
+/// when the lanes they kept active (`pw`) average below `leave` percent of `lanes`.
+#[inline]
+fn sparse(p: usize, leave: Option<u32>, pw: &PacketWork, lanes: usize) -> bool {
+    match leave {
+        Some(min) if p == PROBE => pw.lanes * 100 < min as u64 * lanes as u64 * pw.steps,
+        _ => false,
+    }
+}
+
 /// Whether a group of directions goes through the packet kernel: more than one ray, and
 /// (when the config splits mixed packets) all in one octant.
 #[inline]
 fn shares_octant(d: &[Vec3], cfg: PacketConfig) -> bool {
     let oct = octant(d[0]);
     d.len() > 1 && !(cfg.split_mixed && d.iter().any(|&x| octant(x) != oct))
+}
+
+/// One closest-hit ray through `kernel`'s single-ray traversal (wide or binary BVH).
+#[inline(always)]
+fn single_closest<const COUNT: bool>(
+    accel: &Accel,
+    kernel: Kernel,
+    o: Vec3,
+    d: Vec3,
+    work: &mut Traversal,
+) -> (f32, u32) {
+    let hit = if kernel.wide_singles() {
+        accel.closest_wide::<COUNT>(o, d, 0.0, f32::INFINITY, work)
+    } else {
+        accel.closest::<COUNT>(o, d, 0.0, f32::INFINITY, work)
+    };
+    hit.unwrap_or((f32::INFINITY, MISS))
+}
+
+/// One shadow segment `(0, tmax)` through `kernel`'s single-ray traversal.
+#[inline(always)]
+fn single_occluded<const COUNT: bool>(
+    accel: &Accel,
+    kernel: Kernel,
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+    work: &mut Traversal,
+) -> bool {
+    if kernel.wide_singles() {
+        accel.occluded_wide::<COUNT>(o, d, 0.0, tmax, work)
+    } else {
+        accel.occluded::<COUNT>(o, d, 0.0, tmax, work)
+    }
 }

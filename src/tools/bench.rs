@@ -1,7 +1,8 @@
-//! `wavetrace bench`: fixed ray sets taken from a scene, traced by each traversal kernel
+//! `wavetrace bench`: fixed ray sets taken from a scene (or, with `--mesh`/`--sphere`,
+//! around a bare mesh: [`bench_mesh`](super::bench_mesh)), traced by each traversal kernel
 //! through the renderer's own intersect and shadow stages, timed over repetitions.
 //!
-//! The sets (all deterministic for a scene and seed):
+//! The scene sets (all deterministic for a scene and seed):
 //! - `primary`: the scene's uniform-mode camera rays, in the renderer's order (16×16
 //!   tiles, a pixel's samples together);
 //! - `shadow`: the shade stage's uniform-mode shadow rays from those rays' hits (every
@@ -22,6 +23,7 @@ use crate::error::{Error, Result};
 use crate::film::tiles;
 use crate::geometry::packet::{PacketConfig, LANES};
 use crate::geometry::tracer::{Coherence, Kernel as TracerKernel, Tracer, Width};
+use crate::geometry::Accel;
 use crate::light::uniform_shadow_rays;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, to_unit};
@@ -45,20 +47,66 @@ pub struct BenchOptions {
     pub lanes: usize,
     /// How packets are formed and traced.
     pub packet: PacketConfig,
+    /// Hybrid kernel: lane utilisation (percent) below which a queue leaves packets.
+    pub min_lanes: u32,
+    /// Time by the process's CPU time instead of the wall clock (on a shared machine the
+    /// wall clock also counts the time other processes held the cores).
+    pub cpu_time: bool,
 }
 
 impl Default for BenchOptions {
     fn default() -> Self {
-        BenchOptions { threads: 1, reps: 5, max_rays: 1 << 20, lanes: LANES, packet: PacketConfig::RENDER }
+        BenchOptions {
+            threads: 1,
+            reps: 5,
+            max_rays: 1 << 20,
+            lanes: LANES,
+            packet: PacketConfig::RENDER,
+            min_lanes: RENDER_MIN_LANES,
+            cpu_time: false,
+        }
+    }
+}
+
+/// The renderer's hybrid threshold ([`TracerKernel::HYBRID`]'s `min_lanes`).
+pub const RENDER_MIN_LANES: u32 = match TracerKernel::HYBRID {
+    TracerKernel::Hybrid { min_lanes, .. } => min_lanes,
+    _ => 0,
+};
+
+/// CPU seconds this process has used, all threads (the wall clock where unavailable).
+fn cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: clock_gettime only writes the timespec it is given.
+        let ok = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } == 0;
+        ok.then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+    }
+    #[cfg(not(unix))]
+    None
+}
+
+impl BenchOptions {
+    /// Refuses options that measure nothing.
+    pub fn check(&self) -> Result<()> {
+        if self.threads == 0 || self.reps == 0 || self.max_rays == 0 {
+            return Err(Error::input("--threads, --reps and --max-rays must be at least 1"));
+        }
+        if ![4, 8, 16].contains(&self.lanes) {
+            return Err(Error::input(format!("--lanes {}: expected 4, 8 or 16", self.lanes)));
+        }
+        Ok(())
     }
 }
 
 /// One ray set traced with one kernel.
 #[derive(Clone, Debug, Serialize)]
 pub struct SetResult {
-    /// `primary`, `shadow` or `secondary`.
+    /// The set's name (`primary`, `shadow`, `secondary`; with a mesh `camera`, `shadow`,
+    /// `bounce`, `random`, `bounce-shadow`).
     pub set: &'static str,
-    /// `scalar` or `packet`.
+    /// `scalar`, `packet`, `wide` or `hybrid`.
     pub kernel: &'static str,
     /// Rays in the set.
     pub rays: usize,
@@ -69,10 +117,17 @@ pub struct SetResult {
 /// Everything `wavetrace bench` prints.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
-    /// Seconds the BVH build took when the scene was loaded.
+    /// Seconds the BVH build took when the scene was loaded (binary tree and its wide
+    /// collapse).
     pub bvh_build_seconds: f64,
+    /// Primitives in the tree.
+    pub primitives: usize,
+    /// Bytes per primitive of the binary nodes, the wide nodes and the primitives.
+    pub bytes_per_primitive: [f64; 3],
     /// Worker threads.
     pub threads: usize,
+    /// `"wall"` or `"cpu"`: which clock the Mrays/s figures divide by.
+    pub clock: &'static str,
     /// One entry per set and kernel.
     pub sets: Vec<SetResult>,
 }
@@ -99,6 +154,42 @@ impl RaySet {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// Every ray as (origin, direction, tmax), in order (tmax infinite for closest-hit sets).
+    pub fn rays(&self) -> Vec<(Vec3, Vec3, f32)> {
+        match self {
+            RaySet::Closest(c, _) => {
+                c.iter().flat_map(|q| (0..q.len()).map(move |i| (q.origin(i), q.dir(i), f32::INFINITY))).collect()
+            }
+            RaySet::AnyHit(c) => {
+                c.iter().flat_map(|q| (0..q.len()).map(move |i| (q.origin(i), q.dir(i), q.tmax[i]))).collect()
+            }
+        }
+    }
+}
+
+/// A closest-hit set of `items` (origin, direction) in chunks of [`CHUNK`].
+pub(crate) fn closest_set(items: &[(Vec3, Vec3)], coherence: Coherence) -> RaySet {
+    let chunk = |c: &[(Vec3, Vec3)]| {
+        let mut q = RayQueue::default();
+        for (k, &(o, d)) in c.iter().enumerate() {
+            q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0);
+        }
+        q
+    };
+    RaySet::Closest(items.chunks(CHUNK).map(chunk).collect(), coherence)
+}
+
+/// An any-hit set of `items` (origin, direction, tmax) in chunks of [`CHUNK`].
+pub(crate) fn any_hit_set(items: &[(Vec3, Vec3, f32)]) -> RaySet {
+    let chunk = |c: &[(Vec3, Vec3, f32)]| {
+        let mut q = ShadowQueue::default();
+        for (k, &(o, d, t)) in c.iter().enumerate() {
+            q.push(o, d, t, k as u32, Vec3::ONE);
+        }
+        q
+    };
+    RaySet::AnyHit(items.chunks(CHUNK).map(chunk).collect())
 }
 
 /// Keeps every k-th pushed item, doubling k (and dropping every other kept item) whenever
@@ -132,7 +223,7 @@ impl<T> Thinned<T> {
 }
 
 /// A unit direction around `n` with density cos θ / π.
-fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
+pub(crate) fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     let (t, b) = n.any_orthonormal_pair();
     let r = u1.sqrt();
     let phi = std::f32::consts::TAU * u2;
@@ -165,33 +256,10 @@ pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
         }
         shadow.iter().for_each(|&r| shadows.push(r));
     }
-    let closest = |items: Vec<(Vec3, Vec3)>, coherence: Coherence| {
-        let chunk = |c: &[(Vec3, Vec3)]| {
-            let mut q = RayQueue::default();
-            for (k, &(o, d)) in c.iter().enumerate() {
-                q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0);
-            }
-            q
-        };
-        RaySet::Closest(items.chunks(CHUNK).map(chunk).collect(), coherence)
-    };
-    let any_hit = RaySet::AnyHit(
-        shadows
-            .items
-            .chunks(CHUNK)
-            .map(|c| {
-                let mut q = ShadowQueue::default();
-                for (k, &(o, d, t)) in c.iter().enumerate() {
-                    q.push(o, d, t, k as u32, Vec3::ONE);
-                }
-                q
-            })
-            .collect(),
-    );
     [
-        ("primary", closest(primary.items, Coherence::Camera)),
-        ("shadow", any_hit),
-        ("secondary", closest(bounces.items, Coherence::Bounce)),
+        ("primary", closest_set(&primary.items, Coherence::Camera)),
+        ("shadow", any_hit_set(&shadows.items)),
+        ("secondary", closest_set(&bounces.items, Coherence::Bounce)),
     ]
 }
 
@@ -201,10 +269,24 @@ pub enum Kernel {
     /// obvhs's own single-ray traversal (`Bvh2::ray_traverse`, `ray_traverse_miss`), with
     /// our primitive kernels: the baseline to compare with.
     Obvhs,
-    /// One ray at a time.
+    /// One ray at a time over the binary BVH.
     Scalar,
     /// Packets of this many lanes (4, 8 or 16), formed and traced as configured.
     Packet(usize, PacketConfig),
+    /// One ray at a time over the wide BVH.
+    Wide,
+    /// The renderer's hybrid with packets of this many lanes, leaving packets for a
+    /// bounce or shadow queue below this lane utilisation (percent).
+    Hybrid(usize, PacketConfig, u32),
+}
+
+/// SIMD width of a packet kernel of `n` lanes (4, 8, else 16).
+fn width(n: usize) -> Width {
+    match n {
+        4 => Width::X4,
+        8 => Width::X8,
+        _ => Width::X16,
+    }
 }
 
 impl Kernel {
@@ -213,19 +295,29 @@ impl Kernel {
         match self {
             Kernel::Obvhs => None,
             Kernel::Scalar => Some(TracerKernel::Scalar),
-            Kernel::Packet(4, c) => Some(TracerKernel::Packet(Width::X4, c)),
-            Kernel::Packet(16, c) => Some(TracerKernel::Packet(Width::X16, c)),
-            Kernel::Packet(_, c) => Some(TracerKernel::Packet(Width::X8, c)),
+            Kernel::Wide => Some(TracerKernel::Wide),
+            Kernel::Packet(n, c) => Some(TracerKernel::Packet(width(n), c)),
+            Kernel::Hybrid(n, cfg, min_lanes) => Some(TracerKernel::Hybrid { width: width(n), cfg, min_lanes }),
         }
     }
 }
 
-/// Traces `set` once on `pool` with `kernel`; returns the seconds and a checksum of the
+/// Seconds one trace took by each clock.
+#[derive(Clone, Copy, Debug)]
+pub struct Seconds {
+    /// Wall-clock seconds.
+    pub wall: f64,
+    /// CPU seconds of the whole process (the wall time where the platform has no CPU clock).
+    pub cpu: f64,
+}
+
+/// Traces `set` once on `pool` with `kernel`; returns the time and a checksum of the
 /// results (hits with their distances, or unblocked rays) so kernels can be compared.
-pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kernel) -> (f64, u64) {
+pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kernel) -> (Seconds, u64) {
     let start = Instant::now();
+    let cpu0 = cpu_seconds();
     // Each thread builds its own tracer (its scratch is per thread); no counters.
-    let tracer = || kernel.tracer().map(|k| Tracer::new(&scene.accel, k, false));
+    let tracer = || kernel.tracer().map(|k| Tracer::new(accel, k, false));
     let sum: u64 = pool.install(|| match set {
         RaySet::Closest(chunks, coherence) => chunks
             .par_iter()
@@ -237,8 +329,7 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                         None => {
                             hits.clear();
                             for i in 0..q.len() {
-                                let (t, p) = scene
-                                    .accel
+                                let (t, p) = accel
                                     .closest_obvhs(q.origin(i), q.dir(i), 0.0, f32::INFINITY)
                                     .unwrap_or((f32::INFINITY, crate::queue::MISS));
                                 hits.push(t, p);
@@ -258,73 +349,107 @@ pub fn trace(scene: &Scene, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                     (match tracer {
                         Some(tracer) => shadow::occlusion(tracer, q, film),
                         None => (0..q.len())
-                            .filter(|&i| !scene.accel.occluded_obvhs(q.origin(i), q.dir(i), 0.0, q.tmax[i]))
+                            .filter(|&i| !accel.occluded_obvhs(q.origin(i), q.dir(i), 0.0, q.tmax[i]))
                             .count(),
                     }) as u64
                 },
             )
             .sum(),
     });
-    (start.elapsed().as_secs_f64(), sum)
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu0.zip(cpu_seconds()).map_or(wall, |(a, b)| b - a);
+    (Seconds { wall, cpu }, sum)
 }
 
-/// Measures every set with the scalar and the packet kernel.
-pub fn run(scene: &Scene, opts: &BenchOptions) -> Result<BenchReport> {
-    if opts.threads == 0 || opts.reps == 0 || opts.max_rays == 0 {
-        return Err(Error::input("--threads, --reps and --max-rays must be at least 1"));
-    }
-    if ![4, 8, 16].contains(&opts.lanes) {
-        return Err(Error::input(format!("--lanes {}: expected 4, 8 or 16", opts.lanes)));
-    }
+/// The kernels `wavetrace bench` measures, with their column names.
+fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 4] {
+    [
+        ("scalar", Kernel::Scalar),
+        ("packet", Kernel::Packet(opts.lanes, opts.packet)),
+        ("wide", Kernel::Wide),
+        ("hybrid", Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
+    ]
+}
+
+/// Measures every set of `sets` with every kernel, interleaved: each repetition traces
+/// the set once with each kernel in turn (after one untimed pass each), so drifting load
+/// on the machine touches every kernel alike.
+pub fn run(accel: &Accel, sets: &[(&'static str, RaySet)], opts: &BenchOptions) -> Result<BenchReport> {
+    opts.check()?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
         .map_err(|e| Error::Internal(format!("cannot start {} threads: {e}", opts.threads)))?;
-    let sets = ray_sets(scene, opts.max_rays);
+    let kernels = kernels(opts);
     let mut out = Vec::new();
-    for (name, set) in &sets {
-        let mut checksums = Vec::new();
-        for (label, kernel) in [("scalar", Kernel::Scalar), ("packet", Kernel::Packet(opts.lanes, opts.packet))] {
-            // One untimed pass warms caches and the thread pool.
-            let (_, check) = trace(scene, set, &pool, kernel);
-            checksums.push(check);
-            let mut secs: Vec<f64> = (0..opts.reps).map(|_| trace(scene, set, &pool, kernel).0).collect();
+    for (name, set) in sets {
+        let checks: Vec<u64> = kernels.iter().map(|&(_, k)| trace(accel, set, &pool, k).1).collect();
+        if let Some(k) = (1..kernels.len()).find(|&k| checks[k] != checks[0]) {
+            return Err(Error::Internal(format!(
+                "{name} set: the {} kernel found {} where the scalar kernel found {}",
+                kernels[k].0, checks[k], checks[0]
+            )));
+        }
+        let mut secs = vec![Vec::new(); kernels.len()];
+        for _ in 0..opts.reps {
+            for (k, &(_, kernel)) in kernels.iter().enumerate() {
+                let t = trace(accel, set, &pool, kernel).0;
+                secs[k].push(if opts.cpu_time { t.cpu } else { t.wall });
+            }
+        }
+        for (k, secs) in secs.iter_mut().enumerate() {
             secs.sort_by(f64::total_cmp);
             let median = secs[secs.len() / 2];
             let mrays = if median > 0.0 { set.len() as f64 / median / 1e6 } else { 0.0 };
-            out.push(SetResult { set: name, kernel: label, rays: set.len(), mrays_per_s: mrays });
-        }
-        if checksums[0] != checksums[1] {
-            return Err(Error::Internal(format!(
-                "{name} set: the packet kernel found {} where the scalar kernel found {}",
-                checksums[1], checksums[0]
-            )));
+            out.push(SetResult { set: name, kernel: kernels[k].0, rays: set.len(), mrays_per_s: mrays });
         }
     }
-    Ok(BenchReport { bvh_build_seconds: scene.accel.build_seconds, threads: opts.threads, sets: out })
+    let n = accel.prims.len().max(1) as f64;
+    Ok(BenchReport {
+        bvh_build_seconds: accel.build_seconds,
+        primitives: accel.prims.len(),
+        bytes_per_primitive: accel.bytes().map(|b| b as f64 / n),
+        threads: opts.threads,
+        clock: if opts.cpu_time { "cpu" } else { "wall" },
+        sets: out,
+    })
+}
+
+/// [`run`] on the scene's own ray sets ([`ray_sets`]).
+pub fn run_scene(scene: &Scene, opts: &BenchOptions) -> Result<BenchReport> {
+    opts.check()?;
+    run(&scene.accel, &ray_sets(scene, opts.max_rays), opts)
 }
 
 impl BenchReport {
-    /// The human-readable table.
+    /// The human-readable table: Mrays/s per set and kernel, and the wide kernel's and
+    /// the hybrid's speed-up over the scalar one.
     pub fn table(&self) -> String {
+        let [b2, bw, bp] = self.bytes_per_primitive;
         let mut t = format!(
-            "BVH build {:.3} s, {} thread{}\n{:<10} {:>10} {:>14} {:>14} {:>7}\n",
+            "BVH build {:.3} s, {} primitives, bytes/primitive: binary nodes {:.0}, wide nodes and leaf blocks {:.0}, primitives {:.0}; {} thread{}, {} clock\n",
             self.bvh_build_seconds,
+            self.primitives,
+            b2,
+            bw,
+            bp,
             self.threads,
             if self.threads == 1 { "" } else { "s" },
-            "set",
-            "rays",
-            "scalar Mray/s",
-            "packet Mray/s",
-            "ratio"
+            self.clock,
         );
-        for pair in self.sets.chunks(2) {
-            let (a, b) = (&pair[0], pair.get(1).unwrap_or(&pair[0]));
-            let ratio = if a.mrays_per_s > 0.0 { b.mrays_per_s / a.mrays_per_s } else { 0.0 };
-            t += &format!(
-                "{:<10} {:>10} {:>14.2} {:>14.2} {:>7.2}\n",
-                a.set, a.rays, a.mrays_per_s, b.mrays_per_s, ratio
-            );
+        t += &format!("{:<14} {:>9}  Mrays/s:", "set", "rays");
+        let per = 4;
+        for r in self.sets.iter().take(per) {
+            t += &format!(" {:>8}", r.kernel);
+        }
+        t += "  wide/scalar hybrid/scalar\n";
+        for row in self.sets.chunks(per) {
+            t += &format!("{:<14} {:>9}          ", row[0].set, row[0].rays);
+            for r in row {
+                t += &format!(" {:>8.2}", r.mrays_per_s);
+            }
+            let ratio = |k: usize| if row[0].mrays_per_s > 0.0 { row[k].mrays_per_s / row[0].mrays_per_s } else { 0.0 };
+            t += &format!("  {:>11.2} {:>13.2}\n", ratio(2), ratio(3));
         }
         t
     }

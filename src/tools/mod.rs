@@ -11,8 +11,10 @@
 //! - `plot`: the sweep's scatter plots (feature `plot`);
 //! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets;
 //! - [`merge`]: tile headers, and the exact merge of a render's tiles.
+//! - [`bench_mesh`]: the ray sets around a bare mesh, a generated sphere, `.npy` export.
 
 pub mod bench;
+pub mod bench_mesh;
 pub mod compare;
 #[cfg(feature = "flip")]
 pub mod flip;

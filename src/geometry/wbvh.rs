@@ -1,0 +1,456 @@
+//! The wide BVH for single rays: obvhs's `Bvh2` collapsed into nodes of up to `W` children
+//! (`W` = lanes of the `wide` vector, 8 in the renderer: [`Wide`]) whose boxes are stored
+//! structure-of-arrays, so one ray tests all of a node's children with one SIMD slab test
+//! and visits the hit ones nearest first (Embree's single-ray layout; Wald et al.,
+//! "Getting Rid of Packets", 2008). obvhs stays the builder: the collapse only regroups
+//! its nodes, and the leaves are its leaves, over the same primitive order.
+//!
+//! A leaf's triangles are stored structure-of-arrays too, in blocks of [`TRIS`] lanes (a
+//! leaf of more takes consecutive blocks), and tested at once, one lane per triangle.
+//!
+//! Exactness: each child box is tested with the scalar traversal's arithmetic
+//! (`(bound − origin) · inv`, far distance widened by 1 + 2γ₃, culled past
+//! `tmax · CULL + slack`); each triangle lane performs [`intersect_triangle`]'s operations
+//! in the same order (a lane whose edge function rounds to zero takes the scalar kernel,
+//! which recomputes in f64), the nearest lane wins and the lowest lane on a tie, as the
+//! scalar loop's strict `t < tmax` would; blocks holding another shape run the scalar
+//! kernels. Skipping the
+//! binary tree's intermediate boxes loses no hit: a parent's computed entry distance is
+//! never later than its child's (subtraction and multiplication round monotonically), so
+//! a primitive reachable here is reachable there. The closest distance is the same bit
+//! for bit; only on an exact tie in t may the primitive differ.
+
+use glam::Vec3;
+use obvhs::bvh2::Bvh2;
+use obvhs::ray::Ray;
+use wide::{f32x4, f32x8};
+
+use super::bvh::{Traversal, CULL};
+use super::packet::{Simd, MAX};
+use super::shapes::{intersect_triangle, shear_axes, Primitive, Shape, NO_LIGHT};
+
+/// The node width the renderer uses (chosen by measurement: docs/performance.md).
+pub type Wide = f32x8;
+
+/// The SIMD type of a leaf block (lanes = triangles; measured: docs/performance.md).
+type Tris = f32x4;
+/// Triangles per leaf block.
+const TRIS: usize = <Tris as Simd>::LANES;
+
+/// Child slot flag: the child is a leaf.
+const LEAF: u32 = 1 << 31;
+/// Bits of a leaf's first block; the bits above (below [`LEAF`]) hold its block count − 1.
+const FIRST_BITS: u32 = 27;
+/// Most blocks per leaf the encoding holds.
+const MAX_BLOCKS: usize = 1 << (31 - FIRST_BITS);
+/// Most children per node (the width of [`Node::child`]).
+const MAX_W: usize = 8;
+thread_local! {
+    /// The traversal stack, kept per thread so a ray neither allocates nor zeroes one.
+    static STACK: std::cell::RefCell<Vec<(u32, f32)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// One node: up to `S::LANES` children, their boxes by axis with one lane per child.
+#[derive(Clone, Copy)]
+#[repr(C)]
+struct Node<S> {
+    /// `bounds[0]`: box minima per axis (x, y, z), one lane per child; `bounds[1]`: maxima.
+    /// Empty slots hold +∞ in both (a box no ray enters).
+    bounds: [[S; 3]; 2],
+    /// Per child: an inner node's index, or [`LEAF`] | (blocks − 1) << [`FIRST_BITS`] | first block.
+    child: [u32; MAX_W],
+    /// One bit per occupied child slot.
+    valid: u32,
+}
+
+/// Up to [`TRIS`] consecutive primitives of a leaf; their vertices by lane when all are
+/// triangles.
+#[derive(Clone, Copy)]
+#[repr(C)]
+struct Block {
+    /// `v[j][axis]`: vertex j's coordinate on `axis`, one lane per triangle.
+    v: [[Tris; 3]; 3],
+    /// The first primitive's index (lane l is primitive `first + l`).
+    first: u32,
+    /// Primitives in the block.
+    count: u32,
+    /// Lanes that block shadow rays (not emitters).
+    blockers: u32,
+    /// All primitives are triangles (else the scalar kernels test them).
+    triangles: bool,
+}
+
+/// The collapsed tree (see the module docs).
+pub struct WideBvh<S> {
+    nodes: Vec<Node<S>>,
+    blocks: Vec<Block>,
+    /// Depth in wide nodes (root = 1).
+    depth: usize,
+}
+
+/// A ray set up for the SIMD triangle test: [`intersect_triangle`]'s shear frame, once.
+struct Sheared {
+    axes: [usize; 3],
+    /// d[kx]/d[kz], d[ky]/d[kz], 1/d[kz].
+    shear: [f32; 3],
+    /// The origin's components, permuted to the frame.
+    origin: [f32; 3],
+}
+
+impl Sheared {
+    fn new(o: Vec3, d: Vec3) -> Sheared {
+        let [kx, ky, kz] = shear_axes(d);
+        Sheared {
+            axes: [kx, ky, kz],
+            shear: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
+            origin: [o[kx], o[ky], o[kz]],
+        }
+    }
+
+    /// Each lane's distance to its triangle exactly as [`intersect_triangle`] computes it
+    /// (infinity for a miss); `lanes` says which lanes matter.
+    #[inline(always)]
+    fn triangles(&self, b: &Block, lanes: u32, o: Vec3, d: Vec3) -> Tris {
+        let rel = |j: usize| {
+            let v = &b.v[j];
+            [0, 1, 2].map(|k| v[self.axes[k]] - Tris::splat(self.origin[k]))
+        };
+        let (a, bb, c) = (rel(0), rel(1), rel(2));
+        let (sx, sy, sz) = (Tris::splat(self.shear[0]), Tris::splat(self.shear[1]), Tris::splat(self.shear[2]));
+        let (ax, ay) = (a[0] - sx * a[2], a[1] - sy * a[2]);
+        let (bx, by) = (bb[0] - sx * bb[2], bb[1] - sy * bb[2]);
+        let (cx, cy) = (c[0] - sx * c[2], c[1] - sy * c[2]);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        let (zero, inf) = (Tris::splat(0.0), Tris::splat(f32::INFINITY));
+        let outside = (u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero));
+        let det = u + v + w;
+        let dist = (u * sz * a[2] + v * sz * bb[2] + w * sz * c[2]) / det;
+        let t = Tris::select(outside | det.eq(zero), inf, Tris::select(det.finite() & dist.finite(), dist, inf));
+        // An edge function that rounds to zero is recomputed in f64 by the scalar kernel;
+        // those (rare) lanes take it whole.
+        let mut edge = lanes & (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
+        if edge == 0 {
+            return t;
+        }
+        let mut out = [0.0; MAX];
+        t.store(&mut out);
+        while edge != 0 {
+            let l = edge.trailing_zeros() as usize;
+            edge &= edge - 1;
+            let at = |j: usize| Vec3::new(b.v[j][0].to_array()[l], b.v[j][1].to_array()[l], b.v[j][2].to_array()[l]);
+            out[l] = intersect_triangle(at(0), at(1), at(2), o, d);
+        }
+        Tris::load(&out)
+    }
+}
+
+/// What [`WideBvh::walk`]'s leaf callback tells it.
+enum Leaf {
+    /// Keep walking; the ray's `tmax` may have shrunk.
+    Go,
+    /// Stop: the answer is known (any-hit).
+    Stop,
+}
+
+impl<S: Simd> WideBvh<S> {
+    /// Collapses `bvh` (whose leaves index `prims`); `None` when the tree cannot be
+    /// encoded (more than 2²⁷ leaf blocks, a leaf over 64 primitives): the binary
+    /// traversal then serves.
+    pub fn build(bvh: &Bvh2, prims: &[Primitive]) -> Option<WideBvh<S>> {
+        assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
+        let root = bvh.nodes.first()?;
+        let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), depth: 0 };
+        let top = if root.is_leaf() { vec![0] } else { tree.collect(bvh, 0) };
+        tree.emit(bvh, prims, &top, 1)?;
+        Some(tree)
+    }
+
+    /// The Bvh2 nodes that become the children of the wide node replacing inner node
+    /// `n`: its two children, then repeatedly the inner one of largest surface area
+    /// replaced by its two children, until `W` are found or all are leaves.
+    fn collect(&self, bvh: &Bvh2, n: usize) -> Vec<usize> {
+        let first = bvh.nodes[n].first_index as usize;
+        let mut kids = vec![first, first + 1];
+        while kids.len() < S::LANES {
+            let widest = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| !bvh.nodes[k].is_leaf())
+                .max_by(|a, b| bvh.nodes[*a.1].aabb().half_area().total_cmp(&bvh.nodes[*b.1].aabb().half_area()));
+            let Some((i, &k)) = widest else { break };
+            let f = bvh.nodes[k].first_index as usize;
+            kids[i] = f;
+            kids.insert(i + 1, f + 1);
+        }
+        kids
+    }
+
+    /// Appends the wide node holding the Bvh2 nodes `kids` (and, depth first, the nodes
+    /// below it); returns its index.
+    fn emit(&mut self, bvh: &Bvh2, prims: &[Primitive], kids: &[usize], depth: usize) -> Option<u32> {
+        self.depth = self.depth.max(depth);
+        let index = self.nodes.len();
+        let mut lo = [[f32::INFINITY; MAX]; 3];
+        let mut hi = [[f32::INFINITY; MAX]; 3];
+        let mut child = [u32::MAX; MAX_W];
+        self.nodes.push(Node { bounds: [[S::splat(0.0); 3]; 2], child, valid: 0 });
+        for (slot, &k) in kids.iter().enumerate() {
+            let node = &bvh.nodes[k];
+            let b = node.aabb();
+            for axis in 0..3 {
+                lo[axis][slot] = b.min[axis];
+                hi[axis][slot] = b.max[axis];
+            }
+            child[slot] = if node.is_leaf() {
+                self.leaf(prims, node.first_index as usize, node.prim_count as usize)?
+            } else {
+                let below = self.collect(bvh, k);
+                self.emit(bvh, prims, &below, depth + 1)?
+            };
+        }
+        let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
+        self.nodes[index] = Node { bounds: [load3(&lo), load3(&hi)], child, valid: (1 << kids.len()) - 1 };
+        Some(index as u32)
+    }
+
+    /// Appends the blocks of the leaf holding `prims[first..first + count]`; returns its
+    /// child reference.
+    fn leaf(&mut self, prims: &[Primitive], first: usize, count: usize) -> Option<u32> {
+        let (start, n) = (self.blocks.len(), count.div_ceil(TRIS));
+        if start + n > 1 << FIRST_BITS || n > MAX_BLOCKS || n == 0 {
+            return None;
+        }
+        for b in 0..n {
+            let lo = first + b * TRIS;
+            let here = &prims[lo..(lo + TRIS).min(first + count)];
+            let mut v = [[[0.0f32; MAX]; 3]; 3];
+            let mut blockers = 0;
+            for (l, p) in here.iter().enumerate() {
+                if let Shape::Triangle { v0, v1, v2 } = p.shape {
+                    for (j, vert) in [v0, v1, v2].iter().enumerate() {
+                        for axis in 0..3 {
+                            v[j][axis][l] = vert[axis];
+                        }
+                    }
+                }
+                blockers |= ((p.light == NO_LIGHT) as u32) << l;
+            }
+            let triangles = here.iter().all(|p| matches!(p.shape, Shape::Triangle { .. }));
+            let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
+            self.blocks.push(Block { v, first: lo as u32, count: here.len() as u32, blockers, triangles });
+        }
+        Some(LEAF | ((n - 1) as u32) << FIRST_BITS | start as u32)
+    }
+
+    /// Bytes of the node and leaf-block arrays.
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node<S>>() + self.blocks.len() * std::mem::size_of::<Block>()
+    }
+
+    /// Depth of the tree in wide nodes (root = 1).
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
+    /// Wide nodes in the tree.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// True when the tree has no nodes (never, for a built one).
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// Walks the tree for one ray, nearest child first: `leaf(ray, block)` tests a leaf
+    /// block, may lower `ray.tmax`, and says whether to go on. `slack` is the tree's
+    /// absolute culling slack (see [`CULL`]).
+    #[inline(always)]
+    fn walk<const COUNT: bool>(
+        &self,
+        slack: f32,
+        ray: Ray,
+        c: &mut Traversal,
+        leaf: impl FnMut(&mut Ray, &Block) -> Leaf,
+    ) {
+        STACK.with_borrow_mut(|stack| {
+            stack.clear();
+            self.walk_with::<COUNT>(slack, ray, c, stack, leaf)
+        })
+    }
+
+    /// [`WideBvh::walk`] with its stack.
+    #[inline(always)]
+    fn walk_with<const COUNT: bool>(
+        &self,
+        slack: f32,
+        mut ray: Ray,
+        c: &mut Traversal,
+        stack: &mut Vec<(u32, f32)>,
+        mut leaf: impl FnMut(&mut Ray, &Block) -> Leaf,
+    ) {
+        const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+        let o = [S::splat(ray.origin.x), S::splat(ray.origin.y), S::splat(ray.origin.z)];
+        let inv = [S::splat(ray.inv_direction.x), S::splat(ray.inv_direction.y), S::splat(ray.inv_direction.z)];
+        // Per axis, which bound the ray meets first: the minimum when inv > 0 (inv is never
+        // 0 or NaN: obvhs's safe inverse). `(bound − o) · inv` is monotone in the bound, so
+        // this is exactly min(t1, t2) of the scalar slab test, without the min and max.
+        let first = [0, 1, 2].map(|k| (ray.inv_direction[k] < 0.0) as usize);
+        let mut cull = ray.tmax * CULL + slack;
+        let mut current = 0u32;
+        loop {
+            if current & LEAF != 0 {
+                let first = (current & ((1 << FIRST_BITS) - 1)) as usize;
+                let count = ((current & !LEAF) >> FIRST_BITS) as usize + 1;
+                for block in &self.blocks[first..first + count] {
+                    if COUNT {
+                        c.prims += block.count as u64;
+                    }
+                    if let Leaf::Stop = leaf(&mut ray, block) {
+                        return;
+                    }
+                }
+                cull = ray.tmax * CULL + slack;
+            } else {
+                let node = &self.nodes[current as usize];
+                let t = |k: usize, side: usize| (node.bounds[side][k] - o[k]) * inv[k];
+                let near = t(0, first[0]).max(t(1, first[1])).max(t(2, first[2]));
+                let far = t(0, 1 - first[0]).min(t(1, 1 - first[1])).min(t(2, 1 - first[2])) * S::splat(WIDEN);
+                let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(S::splat(cull));
+                let mut bits = hit.bits() & node.valid;
+                if COUNT {
+                    c.nodes += node.valid.count_ones() as u64;
+                }
+                if bits & (bits.wrapping_sub(1)) == 0 {
+                    if bits != 0 {
+                        current = node.child[bits.trailing_zeros() as usize];
+                        continue;
+                    }
+                } else {
+                    let mut t = [0.0f32; MAX];
+                    near.store(&mut t);
+                    // Push every hit child, insertion-sorting the pushed ones farthest
+                    // first, so the nearest is on top (ties keep slot order: deterministic).
+                    let base = stack.len();
+                    while bits != 0 {
+                        let i = bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        let e = (node.child[i], t[i]);
+                        stack.push(e);
+                        let mut j = stack.len() - 1;
+                        while j > base && stack[j - 1].1 < e.1 {
+                            stack[j] = stack[j - 1];
+                            j -= 1;
+                        }
+                        stack[j] = e;
+                    }
+                    current = stack.pop().map_or(0, |e| e.0);
+                    continue;
+                }
+            }
+            // Next: the most recently saved child that the ray, as it stands, still enters
+            // before its tmax (the same culling rule as the box test).
+            loop {
+                let Some((next, t)) = stack.pop() else { return };
+                if t < cull {
+                    current = next;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Closest hit within `(tmin, tmax)` among `prims` (the primitives the Bvh2's leaves
+    /// index): `(t, primitive index)`, or `None`. The same distance as
+    /// [`Accel::closest`](super::Accel::closest), bit for bit.
+    #[inline]
+    #[allow(clippy::too_many_arguments)] // the ray's four values, as Accel::closest takes them
+    pub fn closest<const COUNT: bool>(
+        &self,
+        prims: &[Primitive],
+        slack: f32,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+        c: &mut Traversal,
+    ) -> Option<(f32, u32)> {
+        let mut best = (f32::INFINITY, u32::MAX);
+        let sheared = Sheared::new(o, d);
+        self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
+            if !b.triangles {
+                let first = b.first as usize;
+                for (id, p) in prims[first..first + b.count as usize].iter().enumerate() {
+                    let t = p.shape.intersect(o, d, r.tmin, r.tmax);
+                    if t < r.tmax {
+                        r.tmax = t;
+                        best = (t, (first + id) as u32);
+                    }
+                }
+                return Leaf::Go;
+            }
+            let lanes = (1 << b.count) - 1;
+            let t = sheared.triangles(b, lanes, o, d);
+            let ok = (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(r.tmax))).bits() & lanes;
+            if ok != 0 {
+                // The nearest lane, the lowest on a tie: what the scalar loop's strict
+                // `t < tmax` keeps.
+                let mut a = [0.0; MAX];
+                t.store(&mut a);
+                let mut m = ok;
+                let mut l = m.trailing_zeros() as usize;
+                m &= m - 1;
+                while m != 0 {
+                    let k = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if a[k] < a[l] {
+                        l = k;
+                    }
+                }
+                r.tmax = a[l];
+                best = (a[l], b.first + l as u32);
+            }
+            Leaf::Go
+        });
+        (best.1 != u32::MAX).then_some(best)
+    }
+
+    /// True when a non-emitting primitive of `prims` blocks `(tmin, tmax)` along the ray;
+    /// stops at the first blocker. The same answer as [`Accel::occluded`](super::Accel::occluded).
+    #[inline]
+    #[allow(clippy::too_many_arguments)] // the ray's four values, as Accel::occluded takes them
+    pub fn occluded<const COUNT: bool>(
+        &self,
+        prims: &[Primitive],
+        slack: f32,
+        o: Vec3,
+        d: Vec3,
+        tmin: f32,
+        tmax: f32,
+        c: &mut Traversal,
+    ) -> bool {
+        let mut blocked = false;
+        let sheared = Sheared::new(o, d);
+        self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
+            if !b.triangles {
+                let first = b.first as usize;
+                for p in &prims[first..first + b.count as usize] {
+                    if p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax {
+                        blocked = true;
+                        return Leaf::Stop;
+                    }
+                }
+                return Leaf::Go;
+            }
+            let t = sheared.triangles(b, b.blockers, o, d);
+            if (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(r.tmax))).bits() & b.blockers != 0 {
+                blocked = true;
+                return Leaf::Stop;
+            }
+            Leaf::Go
+        });
+        blocked
+    }
+}
