@@ -364,6 +364,36 @@ pub fn words(v: u32x16) -> [u32; LANES] {
     v.to_array()
 }
 
+/// Lanes of `v` at `ids` (a loop the compiler keeps inline, unlike `array::from_fn`).
+#[inline(always)]
+pub fn gather(v: &[f32], ids: &[usize; LANES]) -> f32x16 {
+    let mut a = [0.0; LANES];
+    for (x, &i) in a.iter_mut().zip(ids) {
+        *x = v[i];
+    }
+    f32x16::from(a)
+}
+
+/// [`gather`] of words.
+#[inline(always)]
+pub fn gather_words(v: &[u32], ids: &[usize; LANES]) -> u32x16 {
+    let mut a = [0; LANES];
+    for (x, &i) in a.iter_mut().zip(ids) {
+        *x = v[i];
+    }
+    u32x16::from(a)
+}
+
+/// `ids` (1 to 16 entries) as 16 lane indices, the last repeated.
+#[inline(always)]
+pub fn lane_ids(ids: &[u32]) -> [usize; LANES] {
+    let mut a = [ids[ids.len() - 1] as usize; LANES];
+    for (x, &i) in a.iter_mut().zip(ids) {
+        *x = i as usize;
+    }
+    a
+}
+
 /// The lanes `first, first + 1, …, first + 15`.
 #[inline(always)]
 pub fn iota(first: u32) -> u32x16 {

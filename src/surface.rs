@@ -11,7 +11,7 @@ use crate::geometry::shapes::{quad_point, sphere_point, triangle_point, Shape};
 use crate::geometry::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
 use crate::scene::{Material, Scene};
-use crate::simd::{LANES, V3};
+use crate::simd::{gather, lane_ids, LANES, V3};
 
 /// Lambert plus normalised Phong: `color/π + specular·(n+2)/(2π)·max(0, r·wo)^n`,
 /// with `r` the mirror direction of `wi` about `n`.
@@ -132,9 +132,9 @@ pub struct HitLanes {
 /// The hits of rays `ids` (1 to 16; lanes past the last repeat it): every lane runs the
 /// sphere, parallelogram and triangle formulas and keeps its own shape's.
 pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -> HitLanes {
-    let last = ids[ids.len() - 1];
-    let id = |k: usize| ids.get(k).copied().unwrap_or(last) as usize;
-    let ray = |v: &[f32]| f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| v[id(k)]));
+    let idx = lane_ids(ids);
+    let id = |k: usize| idx[k];
+    let ray = |v: &[f32]| gather(v, &idx);
     let o = V3 { x: ray(&rays.ox), y: ray(&rays.oy), z: ray(&rays.oz) };
     let d = V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) };
     // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
@@ -175,8 +175,8 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
         return;
     }
     let HitLanes { d, p, err, ng } = hit_lanes(scene, rays, hits, ids);
-    let id = |k: usize| ids.get(k).copied().unwrap_or(ids[ids.len() - 1]) as usize;
-    let ray = |v: &[f32]| f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| v[id(k)]));
+    let idx = lane_ids(ids);
+    let ray = |v: &[f32]| gather(v, &idx);
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = V3::if_negative(ng.dot(d), ng, -ng);
     // Whole columns at once: one capacity check per column, not per value.
@@ -191,11 +191,18 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     put3(&mut out.nx, &mut out.ny, &mut out.nz, shading_lanes(scene, hits, ids, p, n));
     put3(&mut out.wox, &mut out.woy, &mut out.woz, -d);
     put3(&mut out.wr, &mut out.wg, &mut out.wb, V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) });
-    let materials: [_; LANES] = std::array::from_fn(|k| diffuse_material(scene, hits.prim[id(k)]).unwrap_or_default());
-    let m = |f: &dyn Fn(&(Vec3, Vec3, f32)) -> f32| f32x16::from(materials.map(|m| f(&m)));
-    put3(&mut out.cr, &mut out.cg, &mut out.cb, V3 { x: m(&|m| m.0.x), y: m(&|m| m.0.y), z: m(&|m| m.0.z) });
-    put3(&mut out.sr, &mut out.sg, &mut out.sb, V3 { x: m(&|m| m.1.x), y: m(&|m| m.1.y), z: m(&|m| m.1.z) });
-    put(&mut out.shininess, m(&|m| m.2));
+    // Albedo, Phong reflectance and exponent: seven columns filled in one pass.
+    let mut mat = [[0.0f32; LANES]; 7];
+    for (k, &i) in idx.iter().enumerate() {
+        let (c, sp, shininess) = diffuse_material(scene, hits.prim[i]).unwrap_or_default();
+        for (col, x) in mat.iter_mut().zip([c.x, c.y, c.z, sp.x, sp.y, sp.z, shininess]) {
+            col[k] = x;
+        }
+    }
+    let m = |j: usize| f32x16::from(mat[j]);
+    put3(&mut out.cr, &mut out.cg, &mut out.cb, V3 { x: m(0), y: m(1), z: m(2) });
+    put3(&mut out.sr, &mut out.sg, &mut out.sb, V3 { x: m(3), y: m(4), z: m(5) });
+    put(&mut out.shininess, m(6));
     out.slot.extend(ids.iter().map(|&i| rays.slot[i as usize]));
     out.key.extend(ids.iter().map(|&i| rays.key[i as usize]));
     out.sample.extend(ids.iter().map(|&i| rays.sample[i as usize]));

@@ -15,7 +15,7 @@ use crate::light::{
 };
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use crate::scene::{Light, Scene, ShadowMode};
-use crate::simd::{Word, LANES, V3};
+use crate::simd::{gather, gather_words, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, diffuse_material, diffuse_surfaces, queued_surface};
 
 /// Shades every ray of `rays` at its hit in `hits`: fills `shadow`, `points` and
@@ -103,6 +103,8 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
     let lit = |li: usize| matches!(scene.lights[li], Light::Quad { radiance, .. } if radiance != Vec3::ZERO);
     let next_lit = |from: usize| (from..scene.lights.len()).find(|&li| lit(li));
     let Some(first) = next_lit(0) else { return };
+    // The usual scene has one lit light: no search per point then.
+    let single = next_lit(first + 1).is_none();
     let (mut s, mut li, mut j) = (0, first, 0);
     let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
     while s < surfaces.len() {
@@ -113,10 +115,14 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
             j += 1;
             if j == n {
                 j = 0;
-                li = next_lit(li + 1).unwrap_or_else(|| {
+                if single {
                     s += 1;
-                    first
-                });
+                } else {
+                    li = next_lit(li + 1).unwrap_or_else(|| {
+                        s += 1;
+                        first
+                    });
+                }
             }
         }
         // Lanes past the last triple repeat it and are not written.
@@ -176,14 +182,15 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
     let si = triples.point;
     // A run of consecutive points (one sample, one light) loads straight from the queue.
     let run = (si[LANES - 1] == si[0] + LANES as u32 - 1).then_some(si[0] as usize);
+    let idx = si.map(|i| i as usize);
     let f = |v: &[f32]| match run {
         Some(a) => f32x16::from(&v[a..a + LANES]),
-        None => f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| v[si[k] as usize])),
+        None => gather(v, &idx),
     };
     let v3 = |x: &[f32], y: &[f32], z: &[f32]| V3 { x: f(x), y: f(y), z: f(z) };
     let u = |v: &[u32]| match run {
         Some(a) => u32x16::from(&v[a..a + LANES]),
-        None => u32x16::from(std::array::from_fn::<u32, LANES, _>(|k| v[si[k] as usize])),
+        None => gather_words(v, &idx),
     };
     let lights = LightLanes::new(scene, &triples.light);
     let (o, normal) = (v3(&q.ox, &q.oy, &q.oz), v3(&q.nx, &q.ny, &q.nz));
