@@ -43,8 +43,9 @@ enum Command {
     /// Render the cross product of parameter values and measure each against a reference:
     /// DIR/sweep.csv, DIR/sweep.json and error-vs-rays / error-vs-seconds plots.
     Sweep(sweep::SweepArgs),
-    /// Trace fixed ray sets from a scene (primary, shadow, secondary) with the scalar and
-    /// the packet kernel; print Mrays/s per set and kernel (median of --reps runs).
+    /// Trace fixed ray sets from a scene (primary, shadow, secondary) or a bare mesh with
+    /// the scalar, packet, wide and hybrid kernels; print Mrays/s per set and kernel
+    /// (median of --reps runs).
     Bench(bench::BenchArgs),
     /// Merge the tiles of one render (EXRs from render --crop/--tile) into the full
     /// image, after checking they come from one render and cover it exactly once.
