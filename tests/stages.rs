@@ -156,9 +156,12 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
     let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
     let mut rng = support::Lcg(3);
     let mut shapes = [0usize; 3];
-    for name in ["default", "cornell", "bunny", "penumbra"] {
+    let smooth = ["objects.0.smooth=true"];
+    for (name, sets) in [("default", &[][..]), ("cornell", &[]), ("bunny", &[]), ("penumbra", &[]), ("bunny", &smooth)]
+    {
         let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
-        let scene = support::scene_in(dir, &text, &[]);
+        let scene = support::scene_in(dir, &text, sets);
+        assert_eq!(scene.normals.is_empty(), sets.is_empty(), "{name} {sets:?}");
         let mut rays = RayQueue::default();
         let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 16, y1: 12 };
         let small = support::scene_in(dir, &text, &["render.width=16", "render.height=12", "render.aa.samples=4"]);
@@ -232,22 +235,25 @@ fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32
         let ng = prim.shape.normal(x).normalize();
         let (slot, depth, key, sample) = (rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
         let (k1, k2) = (wavetrace::sampling::hash(&[key, 1]), wavetrace::sampling::hash(&[key, 2]));
+        // Directions use the shading normal (smooth meshes), origins the geometric one.
+        let shading = |n: Vec3| wavetrace::surface::shading_normal(scene, hits.prim[i] as usize, x, n);
         match scene.materials[prim.material as usize] {
             Material::Mirror { color } => {
                 let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-                next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * color, depth, k1, sample);
+                next.push(offset_ray_origin(x, err, n), reflect(d, shading(n)), slot, w * color, depth, k1, sample);
             }
             Material::Dielectric { ior, ratio, tint } => {
                 let side = interface(d, ng, ior);
                 let n = side.normal;
-                let refracted = refract(d, n, side.eta);
+                let ns = shading(n);
+                let refracted = refract(d, ns, side.eta);
                 let c = match (refracted, ratio) {
                     (None, _) => 1.0,
                     (Some(_), ReflectRatio::Fixed(c)) => c,
-                    (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(n), side.eta),
+                    (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(ns), side.eta),
                 };
                 if c > 0.0 {
-                    next.push(offset_ray_origin(x, err, n), reflect(d, n), slot, w * c, depth, k1, sample);
+                    next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, w * c, depth, k1, sample);
                 }
                 if let Some(t) = refracted.filter(|_| c < 1.0) {
                     next.push(offset_ray_origin(x, err, -n), t, slot, w * tint * (1.0 - c), depth, k2, sample);
@@ -266,9 +272,14 @@ fn scatter_on_lanes_gives_the_scalar_functions_rays_bit_for_bit() {
     let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
     let mut rng = support::Lcg(11);
     let mut spawned = 0;
-    for (name, sets) in
-        [("default", vec![]), ("cornell", vec![]), ("default", vec!["materials.glass.reflect_ratio=0.3"])]
-    {
+    // The bunny as a smooth mirror: reflections about interpolated vertex normals.
+    let smooth_mirror = vec!["objects.0.smooth=true", "objects.0.material=mirror"];
+    for (name, sets) in [
+        ("default", vec![]),
+        ("cornell", vec![]),
+        ("default", vec!["materials.glass.reflect_ratio=0.3"]),
+        ("bunny", smooth_mirror),
+    ] {
         let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
         let scene = support::scene_in(dir, &text, &sets);
         let specular = |p: u32| {
