@@ -366,6 +366,9 @@ pub struct SceneReport {
     pub load_seconds: f64,
     /// Mesh files outside the scene's folder (reached through `..` or a symlink).
     pub outside_paths: Vec<String>,
+    /// What an imported scene asks for that is ignored or rendered differently (Mitsuba
+    /// XML: the integrator read for `max_depth` only, a one-sided BSDF, …), one line each.
+    pub notes: Vec<String>,
 }
 
 /// One thread's share.
@@ -564,6 +567,9 @@ impl Report {
             self.scene.bvh_seconds,
             self.scene.load_seconds
         );
+        for note in &self.scene.notes {
+            s += &format!("\nnote: {note}");
+        }
         s
     }
 }

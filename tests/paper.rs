@@ -231,6 +231,7 @@ fn scene_report() -> SceneReport {
         bvh_seconds: 0.0,
         load_seconds: 0.0,
         outside_paths: Vec::new(),
+        notes: Vec::new(),
     }
 }
 

@@ -255,6 +255,7 @@ pub fn run(args: RenderArgs) -> Result<i32> {
             bvh_seconds: info.bvh_seconds,
             load_seconds,
             outside_paths: info.outside_paths.clone(),
+            notes: info.notes.clone(),
         },
     );
     let report = Report { partial: out.partial, ..report };

@@ -25,6 +25,18 @@ fn xml_renders_with_defines_and_notes() {
     let (code, err) = run(&f, &["render", "s.xml", "-o", "out2.png"]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("note: integrator `path` is read for max_depth only"), "{err}");
+    // The notes are part of the stats too: the table and the JSON.
+    let o = Command::new(BIN)
+        .args(["render", "s.xml", "-o", "out3.png", "--stats", "--stats-json", "s.json"])
+        .current_dir(f.dir())
+        .output()
+        .expect("run wavetrace");
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("note: integrator `path` is read for max_depth only"), "{table}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(f.dir().join("s.json")).unwrap()).unwrap();
+    let notes = json["scene"]["notes"].as_array().expect("scene.notes");
+    assert!(notes.iter().any(|n| n.as_str().unwrap().contains("integrator `path`")), "{notes:?}");
 }
 
 #[test]
