@@ -201,7 +201,7 @@ pub fn tiles(width: u32, height: u32) -> Vec<Tile> {
 pub fn copy_tile<T: Copy>(dst: &mut [T], width: u32, tile: &Tile, src: &[T]) {
     let tw = (tile.x1 - tile.x0) as usize;
     for (row, y) in (tile.y0..tile.y1).enumerate() {
-        let at = (y * width + tile.x0) as usize;
+        let at = y as usize * width as usize + tile.x0 as usize;
         dst[at..at + tw].copy_from_slice(&src[row * tw..(row + 1) * tw]);
     }
 }
@@ -210,7 +210,8 @@ pub fn copy_tile<T: Copy>(dst: &mut [T], width: u32, tile: &Tile, src: &[T]) {
 fn crop_rows<T: Copy>(src: &[T], width: u32, t: &Tile) -> Vec<T> {
     let mut out = Vec::with_capacity(t.pixels());
     for y in t.y0..t.y1 {
-        out.extend_from_slice(&src[(y * width + t.x0) as usize..(y * width + t.x1) as usize]);
+        let row = y as usize * width as usize;
+        out.extend_from_slice(&src[row + t.x0 as usize..row + t.x1 as usize]);
     }
     out
 }

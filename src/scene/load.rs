@@ -57,8 +57,7 @@ impl SceneSource {
             let name = path.display().to_string();
             return Ok(SceneSource { name, text: String::new(), dir, xml: Some(path.into()), defines: Vec::new() });
         }
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| Error::input(format!("scene `{}`: cannot read: {e}", path.display())))?;
+        let text = read_text(path)?;
         Ok(SceneSource { name: path.display().to_string(), text, dir, xml: None, defines: Vec::new() })
     }
 
@@ -183,6 +182,19 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, col)
 }
 
+/// Reads a text file (a scene, an include). Bytes that are not UTF-8 are an error that
+/// says where: `FILE:LINE:COL: not UTF-8 text (byte N)`.
+pub fn read_text(path: &Path) -> Result<String> {
+    let name = path.display();
+    let bytes = std::fs::read(path).map_err(|e| Error::input(format!("`{name}`: cannot read: {e}")))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let good = std::str::from_utf8(&e.as_bytes()[..at]).unwrap_or_default();
+        let (line, col) = line_col(good, at);
+        Error::input(format!("{name}:{line}:{col}: not UTF-8 text (byte {at})"))
+    })
+}
+
 /// Parses, overrides, validates and builds a scene. `sets` are `KEY=VALUE` overrides
 /// with dotted keys (array elements by index: `objects.0.radius=2`).
 pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
@@ -209,7 +221,7 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
     let mut file: SceneFile = toml::from_str(&src.text).map_err(toml_err)?;
     // Apply overrides one at a time so an error names the --set that caused it.
     for set in sets {
-        apply_set(&mut value, set)?;
+        apply_set(&mut value, set, &src.name)?;
         check_finite(&value, "", &ctx)?;
         // The file alone deserialized, so the error is this override's: name its key.
         let key = set.split_once('=').map_or(set.as_str(), |(k, _)| k).trim();
@@ -228,7 +240,7 @@ fn load_xml(src: &SceneSource, path: &Path, sets: &[String]) -> Result<Scene> {
     if !sets.is_empty() {
         let mut value = toml::Value::try_from(&file).map_err(|e| Error::Internal(format!("imported scene: {e}")))?;
         for set in sets {
-            apply_set(&mut value, set)?;
+            apply_set(&mut value, set, &src.name)?;
             check_finite(&value, "", &ctx)?;
             let key = set.split_once('=').map_or(set.as_str(), |(k, _)| k).trim();
             file = SceneFile::deserialize(value.clone()).map_err(|e| {
@@ -241,8 +253,9 @@ fn load_xml(src: &SceneSource, path: &Path, sets: &[String]) -> Result<Scene> {
     Ok(scene)
 }
 
-fn apply_set(root: &mut toml::Value, set: &str) -> Result<()> {
-    let bad = |msg: &str| Error::input(format!("--set `{set}`: {msg}"));
+/// Applies one `--set`; an error names the scene it was given with and the string.
+fn apply_set(root: &mut toml::Value, set: &str, scene: &str) -> Result<()> {
+    let bad = |msg: &str| Error::input(format!("{scene} (--set `{set}`): {msg}"));
     let (key, raw) = set.split_once('=').ok_or_else(|| bad("expected KEY=VALUE"))?;
     let segs: Vec<&str> = key.trim().split('.').collect();
     if segs.iter().any(|s| s.is_empty()) {
@@ -330,17 +343,40 @@ pub(super) fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(
     Ok((u, v))
 }
 
-/// Bytes of memory available to this process: MemAvailable, or a conservative guess.
-pub(super) fn available_memory() -> u64 {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("MemAvailable:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<u64>().ok())
+/// Bytes of memory this process may use: the least of the system's MemAvailable, what
+/// the process's cgroup allows beyond what it holds (`memory.max` − `memory.current`: a
+/// SLURM job or a container has its own limit, not the host's), and `WAVETRACE_MEMORY`
+/// (bytes) when set; 8 GiB when none can be read. Every "must fit in memory" check asks it.
+pub fn available_memory() -> u64 {
+    let read = |path: &str| std::fs::read_to_string(path).ok();
+    let system = read("/proc/meminfo").and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("MemAvailable:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<u64>().ok())
+            .map(|kb| kb * 1024)
+    });
+    // cgroup v2 (`0::PATH`), else v1's memory controller (`N:memory:PATH`); a limit of
+    // "max" (v2) or near 2^63 (v1) does not parse or does not bind.
+    let cgroup = read("/proc/self/cgroup").and_then(|s| {
+        let num = |f: String| read(&f)?.trim().parse::<u64>().ok();
+        s.lines().find_map(|l| {
+            let (v2, dir) = match l.split_once(":memory:") {
+                Some((_, dir)) => (false, dir),
+                None => (true, l.strip_prefix("0::")?),
+            };
+            let (root, max, current) = if v2 {
+                ("/sys/fs/cgroup", "memory.max", "memory.current")
+            } else {
+                ("/sys/fs/cgroup/memory", "memory.limit_in_bytes", "memory.usage_in_bytes")
+            };
+            let dir = format!("{root}{}", dir.trim().trim_end_matches('/'));
+            let limit = num(format!("{dir}/{max}"))?;
+            Some(limit.saturating_sub(num(format!("{dir}/{current}")).unwrap_or(0)))
         })
-        .map_or(8 << 30, |kb| kb * 1024)
+    });
+    let user = std::env::var("WAVETRACE_MEMORY").ok().and_then(|v| v.trim().parse::<u64>().ok());
+    [system, cgroup, user].into_iter().flatten().min().unwrap_or(8 << 30)
 }
 
 fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {

@@ -4,7 +4,6 @@
 
 use glam::Vec3;
 use std::collections::HashMap;
-use std::io::BufReader;
 use std::path::Path;
 
 /// An indexed triangle mesh in object space.
@@ -88,10 +87,12 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
         Ok(m) if !m.is_file() => return Err(format!("mesh `{}` is not a regular file", path.display())),
         _ => {}
     }
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot open mesh `{}`: {e}", path.display()))?;
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot open mesh `{}`: {e}", path.display()))?;
+    check_face_indices(&bytes)
+        .map_err(|(line, msg)| format!("malformed OBJ `{}`: line {line}: {msg}", path.display()))?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     // Materials are not used: never let tobj open .mtl files next to the mesh.
-    let (models, _) = tobj::load_obj_buf(&mut BufReader::new(file), &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+    let (models, _) = tobj::load_obj_buf(&mut &bytes[..], &opts, |_| Err(tobj::LoadError::OpenFileFailed))
         .map_err(|e| format!("malformed OBJ `{}`: {}", path.display(), describe(&e)))?;
     let mut out = MeshData::default();
     let mut with_normals = true;
@@ -148,6 +149,42 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
         return Err(format!("OBJ `{}` contains no triangles", path.display()));
     }
     Ok(out)
+}
+
+/// Refuses a face index beyond the file's whole count of its kind (positions, texture
+/// coordinates, normals), with its line. tobj 4.0.5 multiplies such an index before its
+/// own bounds check (`vt * 2 + 1`): a huge or far-negative one overflows, a panic with
+/// overflow checks on and a wrapped, wrong bounds check without. Any index tobj accepts
+/// is within these counts, so no valid file is refused here.
+fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
+    let text = String::from_utf8_lossy(bytes);
+    let first = |l: &str| l.split_whitespace().next().map(str::to_owned);
+    let mut total = [0u64; 3];
+    for line in text.lines() {
+        match first(line).as_deref() {
+            Some("v") => total[0] += 1,
+            Some("vt") => total[1] += 1,
+            Some("vn") => total[2] += 1,
+            _ => {}
+        }
+    }
+    const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    for (n, line) in text.lines().enumerate() {
+        if first(line).as_deref() != Some("f") {
+            continue;
+        }
+        for corner in line.split_whitespace().skip(1) {
+            for (k, index) in corner.split('/').take(3).enumerate() {
+                // Not a number: tobj's own error.
+                let Ok(i) = index.parse::<i64>() else { continue };
+                if i.unsigned_abs() > total[k] {
+                    let msg = format!("face refers to {} {i}, but the file has {}", KINDS[k], total[k]);
+                    return Err((n + 1, msg));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn describe(e: &tobj::LoadError) -> &'static str {

@@ -27,9 +27,36 @@ pub fn load_linear(path: &Path) -> Result<Image> {
     }
 }
 
+/// Refuses an EXR whose pixels would not fit in half the available memory, from its
+/// headers alone: a few bytes of header can declare a 2^31-pixel window, and decoding
+/// allocates the window before it reads a pixel. `frame_bytes` is what the caller holds
+/// per pixel of the display window besides the decoded layer (a merge's frame).
+#[cfg(feature = "exr")]
+pub fn check_exr_fits(path: &Path, frame_bytes: u64) -> std::result::Result<(), String> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| format!("not a readable EXR: {e}"))?;
+    let have = crate::scene::load::available_memory() / 2;
+    for h in meta.headers.iter() {
+        let (layer, frame) = (h.layer_size, h.shared_attributes.display_window.size);
+        let need = (layer.area() as u64)
+            .saturating_mul(std::mem::size_of::<Vec3>() as u64)
+            .saturating_add((frame.area() as u64).saturating_mul(frame_bytes));
+        if need > have {
+            return Err(format!(
+                "its {}×{} pixels (display window {}×{}) need {need} bytes, more than half the available memory ({have} bytes)",
+                layer.width(),
+                layer.height(),
+                frame.width(),
+                frame.height()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Reads an EXR's first RGBA layer as linear RGB.
 #[cfg(feature = "exr")]
 fn read_exr(path: &Path) -> std::result::Result<Image, String> {
+    check_exr_fits(path, 0)?;
     let read = exr::prelude::read_first_rgba_layer_from_file(
         path,
         |res, _| (res.width(), vec![Vec3::ZERO; res.width() * res.height()]),

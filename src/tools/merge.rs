@@ -207,9 +207,13 @@ pub fn read_tile(path: &Path) -> Result<TileFile> {
 /// (pixels, display size, data window, text attributes) of an EXR.
 type ExrTile = (Image, (u32, u32), Tile, HashMap<String, String>);
 
+/// Bytes a merge holds per frame pixel: the frame's colour and the coverage flag.
+const FRAME_BYTES: u64 = 12 + 1;
+
 #[cfg(feature = "exr")]
 fn read_exr_tile(path: &Path) -> std::result::Result<ExrTile, String> {
     use exr::prelude::*;
+    crate::tools::compare::check_exr_fits(path, FRAME_BYTES)?;
     let read = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -330,7 +334,7 @@ pub fn coverage(tiles: &[TileFile]) -> Result<Coverage> {
         }
     }
     let (w, h) = (tiles[0].header.width, tiles[0].header.height);
-    let mut covered = vec![false; (w * h) as usize];
+    let mut covered = vec![false; w as usize * h as usize];
     for t in tiles {
         let c = &t.header.crop;
         copy_tile(&mut covered, w, c, &vec![true; c.pixels()]);
@@ -368,7 +372,7 @@ impl Coverage {
 /// The full frame from the tiles; pixels no tile holds are black.
 pub fn assemble(tiles: &[TileFile]) -> Image {
     let (w, h) = (tiles[0].header.width, tiles[0].header.height);
-    let mut pixels = vec![Vec3::ZERO; (w * h) as usize];
+    let mut pixels = vec![Vec3::ZERO; w as usize * h as usize];
     for t in tiles {
         copy_tile(&mut pixels, w, &t.header.crop, &t.image.pixels);
     }

@@ -2,6 +2,7 @@
 //! watchdog for hangs, the rules a loaded scene must keep ([`check_scene`]), and the
 //! property runner that counts verdicts ([`run_property`]).
 
+use crate::promise;
 use proptest::prelude::*;
 use proptest::test_runner::{TestCaseError, TestRunner};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -9,8 +10,7 @@ use std::cell::{Cell, RefCell};
 use std::path::Path;
 use std::sync::{mpsc, Mutex, Once};
 use std::time::{Duration, Instant};
-use wavetrace::scene::{load, AaMode, SceneSource};
-use wavetrace::{render, Error, RenderOptions};
+use wavetrace::scene::SceneSource;
 
 /// A case that takes longer than this is a hang.
 pub(crate) const HANG_LIMIT: Duration = Duration::from_secs(30);
@@ -113,12 +113,7 @@ pub(crate) enum Verdict {
 /// Known failures, found by this fuzzing and not yet fixed in src/: a problem whose text
 /// contains both strings is one of them. Each has a test in `regressions` with a minimal input,
 /// ignored where it fails. Remove an entry, and the test's `ignore`, once its fix lands.
-pub(crate) const KNOWN: &[(&str, &str, &str)] = &[(
-    "tobj-4.0.5/src/lib.rs",
-    "overflow",
-    "tobj 4.0.5 index arithmetic overflows (debug builds only) on vt/vn indices far out of range \
-         (obj_attribute_index_overflow_in_debug)",
-)];
+pub(crate) const KNOWN: &[(&str, &str, &str)] = &[];
 
 /// Which [`KNOWN`] failure `problem` is, unless `WAVETRACE_FUZZ_STRICT` is set.
 fn known(problem: &str) -> Option<usize> {
@@ -199,60 +194,43 @@ pub(crate) fn check_scene(text: &str, dir: &Path, sets: &[String]) -> Result<Ver
     check_source(SceneSource::from_text("<fuzz>", text, dir), sets)
 }
 
-/// [`check_scene`] for any scene source (a Mitsuba XML file).
+/// [`check_scene`] for any scene source (a Mitsuba XML file): the promise's rules
+/// ([`promise::check_source`]; a refusal must name the scene or a file in its folder),
+/// under the guards, holding at most [`LOAD_MEMORY`] at once (load and 4×4 render).
 pub(crate) fn check_source(src: SceneSource, sets: &[String]) -> Result<Verdict, String> {
     let sets = sets.to_vec();
     let out = guarded(move || -> Result<Verdict, String> {
         let before = LIVE.with(Cell::get);
         PEAK.with(|p| p.set(before));
-        let loaded = load(&src, &sets);
+        let dir = src.dir.display().to_string();
+        let files = [src.name.as_str(), dir.as_str()];
+        let verdict = promise::check_source(&src, &sets, &files);
         let peak = PEAK.with(Cell::get) - before;
         if peak > LOAD_MEMORY {
-            return Err(format!("load held {peak} bytes at once (limit {LOAD_MEMORY})"));
+            return Err(format!("load and render held {peak} bytes at once (limit {LOAD_MEMORY})"));
         }
-        let scene = match loaded {
-            Err(Error::Input(msg)) if msg.trim().is_empty() => return Err("Error::Input with an empty message".into()),
-            Err(e @ Error::Input(_)) if e.exit_code() == 2 => return Ok(Verdict::Rejected),
-            Err(e) => return Err(format!("not an input error (exit code {}): {e}", e.exit_code())),
-            Ok(scene) => scene,
-        };
-        let c = &scene.camera;
-        let finite = [c.position, c.forward, c.right, c.up].iter().all(|v| v.is_finite())
-            && c.tan_half_fov.is_finite()
-            && c.focus_distance.is_finite();
-        if !finite {
-            return Err(format!("camera basis is not finite: {c:?}"));
-        }
-        let s = &scene.settings;
-        let per_pixel = match s.aa_mode {
-            AaMode::Uniform => s.aa_samples as u64,
-            AaMode::Adaptive { max_level, .. } => 1 << max_level.min(63),
-        };
-        let small = s.width as u64 * s.height as u64 <= 16
-            && per_pixel <= 16
-            && s.dof_samples <= 4
-            && s.shadow_samples <= 4
-            && s.max_depth <= 8
-            && scene.lights.len() <= 16
-            && scene.info.primitives <= 20_000;
-        if !small {
-            return Ok(Verdict::Loaded);
-        }
-        let out = render(&scene, &RenderOptions { threads: Some(1), ..Default::default() })
-            .map_err(|e| format!("a loaded scene does not render: {e}"))?;
-        let n = (s.width * s.height) as usize;
-        if out.image.pixels.len() != n {
-            return Err(format!("{} pixels, expected {n}", out.image.pixels.len()));
-        }
-        if let Some(p) = out.image.pixels.iter().find(|p| !p.is_finite()) {
-            return Err(format!("non-finite pixel {p}"));
-        }
-        Ok(Verdict::Rendered)
+        Ok(match verdict? {
+            promise::Verdict::Rejected => Verdict::Rejected,
+            promise::Verdict::Loaded | promise::Verdict::Read => Verdict::Loaded,
+            promise::Verdict::Rendered => Verdict::Rendered,
+        })
     });
     match out {
         Err(problem) => known(&problem).map(Verdict::Known).ok_or(problem),
         Ok(Err(problem)) => known(&problem).map(Verdict::Known).ok_or(problem),
         Ok(Ok(verdict)) => Ok(verdict),
+    }
+}
+
+/// One input of a coverage-guided fuzz target (`fuzz/`) through the same promise, under
+/// the guards: what the corpus replay runs.
+pub(crate) fn check_bytes(target: promise::Target, data: Vec<u8>) -> Result<Verdict, String> {
+    let out = guarded(move || target(&data));
+    match out {
+        Err(problem) | Ok(Err(problem)) => known(&problem).map(Verdict::Known).ok_or(problem),
+        Ok(Ok(promise::Verdict::Rejected)) => Ok(Verdict::Rejected),
+        Ok(Ok(promise::Verdict::Loaded | promise::Verdict::Read)) => Ok(Verdict::Loaded),
+        Ok(Ok(promise::Verdict::Rendered)) => Ok(Verdict::Rendered),
     }
 }
 

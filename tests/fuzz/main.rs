@@ -1,5 +1,7 @@
 //! Hostile input (issue 6): property tests over generated scene TOML and OBJ text, and
-//! the fixed regression cases they found.
+//! the fixed regression cases they found; and (issue 16) the replay of the coverage-guided
+//! fuzzers' corpus and findings ([`corpus`]) through their own checks ([`promise`], which
+//! is fuzz/src/lib.rs).
 //!
 //! Five generators feed `wavetrace::scene::load`:
 //! - `mutated_default_scene` ([`mutated`]): scenes/default.toml with random line and
@@ -20,9 +22,10 @@
 //!
 //! Every case runs on its own thread under a watchdog and an allocation guard
 //! ([`harness`]) and must end, within [`harness::HANG_LIMIT`], in a scene or an
-//! `Error::Input`: no panic, no hang, no more than [`harness::LOAD_MEMORY`] bytes
-//! allocated at once. A scene that loads must have a finite camera; when it is small it
-//! is rendered at 4×4 and its pixels must be finite.
+//! `Error::Input` whose message names the file and a place in it: no panic, no hang, no
+//! more than [`harness::LOAD_MEMORY`] bytes allocated at once. A scene that loads must
+//! have a finite camera; when it is small it is rendered at 4×4 and its pixels must be
+//! finite. These rules are [`promise::check_source`], the fuzz targets' own.
 //!
 //! Failures this fuzzing found that src/ does not fix yet are listed in
 //! [`harness::KNOWN`]: a case that hits one is counted and reported, not failed
@@ -35,6 +38,12 @@
 
 mod harness;
 mod values;
+
+mod corpus;
+/// The promise each input is checked against, shared with the libFuzzer targets.
+#[path = "../../fuzz/src/lib.rs"]
+#[allow(dead_code)]
+mod promise;
 
 mod grammar;
 mod mutated;

@@ -67,18 +67,15 @@ fn camera_view_vector_that_overflows() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Known failures: a minimal input for each entry of `KNOWN`. All three are debug-only
-// (overflow checks and debug assertions); release builds pass them.
+// Debug-only failures (overflow checks and debug assertions), fixed; release builds
+// passed them before too.
 
 /// tobj 4.0.5 computes `vt * 2 + 1` and `vn * 3 + 2` on indices that a relative (negative)
 /// index below the start, or a huge one, makes close to `usize::MAX`: with overflow checks
-/// on that is a panic inside tobj; in release the wrapped index is out of range (an error).
+/// on that was a panic inside tobj (found again by the `obj` fuzz target); in release the
+/// wrapped bounds check could pass. src/scene/mesh.rs now refuses such an index, with its
+/// line, before tobj sees it.
 #[test]
-#[cfg_attr(
-    debug_assertions,
-    ignore = "tobj 4.0.5 overflows on vt/vn indices far out of range when overflow checks are on: \
-              src/scene/mesh.rs load_obj should drop vt/vn data before tobj sees it"
-)]
 fn obj_attribute_index_overflow_in_debug() {
     let dir = tempfile::tempdir().unwrap();
     for obj in [

@@ -157,7 +157,12 @@ impl Reader {
         if self.stack.len() >= MAX_INCLUDE_DEPTH {
             return Err(fail(format!("includes nest deeper than {MAX_INCLUDE_DEPTH} files")));
         }
-        let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read `{name}`: {e}")))?;
+        let text = match crate::scene::load::read_text(path) {
+            Ok(text) => text,
+            // Not UTF-8: the error says where in the file; an include also says who named it.
+            Err(Error::Input(msg)) => return Err(at.map_or(Error::Input(msg.clone()), |l| l.err(msg))),
+            Err(e) => return Err(e),
+        };
         let opts =
             roxmltree::ParsingOptions { allow_dtd: false, nodes_limit: MAX_ELEMENTS as u32, ..Default::default() };
         let doc = roxmltree::Document::parse_with_options(&text, opts).map_err(|e| {
