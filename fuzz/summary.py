@@ -9,8 +9,19 @@ input, peak memory, and the findings (crash / timeout / oom / leak) with their f
 import pathlib
 import re
 import sys
+from datetime import datetime
 
 LOGS = pathlib.Path(__file__).resolve().parent / "logs"
+
+
+def started_to_end(log):
+    """Seconds of a run that stopped on a finding (no "Done" line): from the start time
+    in the log's name (fuzz/run.sh) to the log's last write."""
+    try:
+        start = datetime.strptime("-".join(log.stem.split("-")[-2:]), "%Y%m%d-%H%M%S")
+    except ValueError:
+        return None
+    return max(0, int(log.stat().st_mtime - start.timestamp()))
 
 
 def runs(target):
@@ -27,7 +38,7 @@ def runs(target):
         yield {
             "log": log.name,
             "execs": int(execs.group(1)) if execs else (int(last[0]) if last else 0),
-            "seconds": int(seconds.group(1)) if seconds else None,
+            "seconds": int(seconds.group(1)) if seconds else started_to_end(log),
             "cov": int(last[1]) if last else 0,
             "ft": int(last[2]) if last else 0,
             "corpus": f"{last[3]} ({last[4]})" if last else "-",

@@ -179,7 +179,11 @@ impl Accel {
         }
         let mut core = Duration::default();
         let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), ..BvhBuildParams::medium_build() };
-        let bvh = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut core);
+        let mut bvh = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut core);
+        // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
+        // mesh (found by fuzzing) builds deeper trees, which take obvhs's traversal (see
+        // `STACK`), so give it a stack that holds them, as obvhs's own insertion does.
+        bvh.max_depth = (bvh.depth(0) + 1).max(bvh.max_depth);
         // Reorder once so traversal needs no primitive_indices indirection.
         let prims: Vec<Primitive> = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
         let depth = bvh.depth(0);

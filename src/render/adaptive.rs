@@ -206,7 +206,9 @@ impl Worker<'_> {
         self.pipe.run(scene, lens.total(4 * np), Kind::Corner, |ks, rays| {
             camera::generate_pixel_corners(scene, tile, lens, ks, rays)
         });
-        aa.corner_mean.extend(self.pipe.acc.sums.chunks_exact(4).map(|c| (c[0] + c[1] + c[2] + c[3]) * 0.25));
+        // Saturating, as the film's sums are (stages::film::accumulate).
+        let max = Vec3::splat(f32::MAX);
+        aa.corner_mean.extend(self.pipe.acc.sums.chunks_exact(4).map(|c| (c[0] + c[1] + c[2] + c[3]).min(max) * 0.25));
         self.tile.collect_heat(&self.pipe.acc.heat, 4);
     }
 

@@ -554,6 +554,20 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
     if focus_distance <= 0.0 {
         return Err(ctx.fail("camera.focus_distance", "must be > 0"));
     }
+    // A lens ray aims from the lens at position + forward × focus_distance; a focus
+    // distance that rounds away against the position (or underflows) leaves it no
+    // direction (NaN), found by fuzzing (tests/fuzz/found/scene_values/).
+    let min_focus = (position.abs().max_element() * 1e-5).max(1e-12);
+    if c.aperture > 0.0 && focus_distance < min_focus {
+        let field = if c.focus_distance.is_some() { "camera.focus_distance" } else { "camera.look_at" };
+        return Err(ctx.fail(
+            field,
+            format!(
+                "a focus distance of {focus_distance:e} is too small for a lens camera at {position}: at least {min_focus:e} \
+                 (1e-5 of its largest coordinate, and 1e-12), or the focus point rounds onto the lens"
+            ),
+        ));
+    }
     Ok(Camera {
         position,
         forward,

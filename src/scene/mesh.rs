@@ -151,25 +151,35 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
     Ok(out)
 }
 
-/// Refuses a face index beyond the file's whole count of its kind (positions, texture
-/// coordinates, normals), with its line. tobj 4.0.5 multiplies such an index before its
-/// own bounds check (`vt * 2 + 1`): a huge or far-negative one overflows, a panic with
-/// overflow checks on and a wrapped, wrong bounds check without. Any index tobj accepts
-/// is within these counts, so no valid file is refused here.
+/// Refuses, with its line, a face index that tobj 4.0.5 would overflow on: it multiplies
+/// an index before its own bounds check (`vt * 2 + 1`), and a relative index reaching
+/// before the first element of its kind (positions, texture coordinates, normals) or a
+/// huge one becomes close to `usize::MAX`: a panic with overflow checks on, a wrapped,
+/// wrong bounds check without. A relative index must stay within the elements declared
+/// above its face, an absolute one within the file's count; every index of a valid file
+/// does, so no valid file is refused here.
 fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
     let text = String::from_utf8_lossy(bytes);
     let first = |l: &str| l.split_whitespace().next().map(str::to_owned);
+    let kind = |l: &str| match first(l).as_deref() {
+        Some("v") => Some(0),
+        Some("vt") => Some(1),
+        Some("vn") => Some(2),
+        _ => None,
+    };
     let mut total = [0u64; 3];
     for line in text.lines() {
-        match first(line).as_deref() {
-            Some("v") => total[0] += 1,
-            Some("vt") => total[1] += 1,
-            Some("vn") => total[2] += 1,
-            _ => {}
+        if let Some(k) = kind(line) {
+            total[k] += 1;
         }
     }
     const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    let mut above = [0u64; 3];
     for (n, line) in text.lines().enumerate() {
+        if let Some(k) = kind(line) {
+            above[k] += 1;
+            continue;
+        }
         if first(line).as_deref() != Some("f") {
             continue;
         }
@@ -177,9 +187,9 @@ fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
             for (k, index) in corner.split('/').take(3).enumerate() {
                 // Not a number: tobj's own error.
                 let Ok(i) = index.parse::<i64>() else { continue };
-                if i.unsigned_abs() > total[k] {
-                    let msg = format!("face refers to {} {i}, but the file has {}", KINDS[k], total[k]);
-                    return Err((n + 1, msg));
+                let (limit, whose) = if i < 0 { (above[k], "above this face") } else { (total[k], "in the file") };
+                if i.unsigned_abs() > limit {
+                    return Err((n + 1, format!("face refers to {} {i}, but there are {limit} {whose}", KINDS[k])));
                 }
             }
         }

@@ -5,13 +5,16 @@ use glam::Vec3;
 use crate::queue::FilmQueue;
 
 /// Adds every contribution of `film` to `sums[slot]`. A non-finite contribution (NaN or
-/// infinity, which would poison the pixel) is dropped instead; returns how many were.
+/// infinity, which would poison the pixel) is dropped instead; returns how many were. A
+/// sum of finite contributions saturates at f32::MAX rather than overflowing to infinity
+/// (radiance near f32::MAX, found by fuzzing); below that the `min` changes no bit.
 pub fn accumulate(film: &FilmQueue, sums: &mut [Vec3]) -> usize {
     let mut dropped = 0;
     for i in 0..film.len() {
         let l = Vec3::new(film.r[i], film.g[i], film.b[i]);
         if l.is_finite() {
-            sums[film.slot[i] as usize] += l;
+            let s = &mut sums[film.slot[i] as usize];
+            *s = (*s + l).min(Vec3::splat(f32::MAX));
         } else {
             dropped += 1;
         }

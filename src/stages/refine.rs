@@ -66,7 +66,8 @@ pub fn step(
     queue.index.retain(|&p| {
         let p = p as usize;
         let e = estimates[p];
-        state.sum[p] += e * n as f32;
+        // Saturating, as the film's sums are (stages::film::accumulate).
+        state.sum[p] = (state.sum[p] + e * n as f32).min(Vec3::splat(f32::MAX));
         state.count[p] += n;
         state.level[p] = level as u8;
         out[p] = state.sum[p] / state.count[p] as f32;
