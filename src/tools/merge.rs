@@ -208,6 +208,7 @@ pub fn read_tile(path: &Path) -> Result<TileFile> {
 type ExrTile = (Image, (u32, u32), Tile, HashMap<String, String>);
 
 /// Bytes a merge holds per frame pixel: the frame's colour and the coverage flag.
+#[cfg(feature = "exr")]
 const FRAME_BYTES: u64 = 12 + 1;
 
 #[cfg(feature = "exr")]
