@@ -8,8 +8,9 @@
 # assertions and overflow checks (`-a`). Starts from the committed corpus
 # (fuzz/corpus/TARGET, where new inputs are added) and the seeds (fuzz/seeds/TARGET, from
 # fuzz/seeds.py). The promise's time and memory bounds are the libFuzzer options below:
-# an input slower than 10 s is a hang, one that allocates over 1 GiB at once or grows the
-# process past 2 GiB is an out-of-memory finding; inputs slower than 1 s are reported.
+# an input slower than 10 s is a hang, one that grows the process past 2 GiB is an
+# out-of-memory finding (-malloc_limit_mb, one allocation over 1 GiB, is enforced only with
+# a sanitizer's malloc hooks: docs/robustness.md); inputs slower than 1 s are reported.
 # The same budget is set by the corpus replay (tests/fuzz/corpus.rs). The log goes to
 # fuzz/logs/TARGET-DATE-TIME.log (fuzz/summary.py sums them); a finding to fuzz/artifacts/TARGET/.
 set -euo pipefail

@@ -8,7 +8,7 @@
 //! accepted scene has a finite camera and renders at 4×4 to finite pixels; an accepted
 //! image has as many finite-or-not pixels as its size says and compares with itself. No
 //! panic anywhere; time and memory per input are bounded by the fuzzer's `-timeout`,
-//! `-rss_limit_mb` and `-malloc_limit_mb` (fuzz/run.sh) and, in the replay, by the test
+//! `-rss_limit_mb` (fuzz/run.sh; `-malloc_limit_mb` needs a sanitizer) and, in the replay, by the test
 //! harness's watchdog and allocation guard.
 //!
 //! Inputs with several files (a scene and its meshes or includes) are written to a fresh
@@ -42,8 +42,16 @@ pub type Broken = String;
 pub type Outcome = Result<Verdict, Broken>;
 
 /// Overrides that make a loaded scene a 4×4 render.
-pub const TINY: [&str; 5] =
-    ["render.width=4", "render.height=4", "render.aa.samples=1", "render.shadows.samples=1", "render.dof.samples=1"];
+pub const TINY: [&str; 8] = [
+    "render.width=4",
+    "render.height=4",
+    "render.aa.samples=1",
+    "render.aa.min_level=2",
+    "render.aa.max_level=4",
+    "render.shadows.samples=1",
+    "render.dof.samples=1",
+    "render.max_depth=8",
+];
 
 /// Largest scene a check renders: primitives (a BVH build per input) and lights.
 const MAX_RENDER_PRIMITIVES: u64 = 20_000;
@@ -185,10 +193,10 @@ impl Bundle {
     /// Writes the files (not the main one) into `sandbox`.
     fn write_files(&self, sandbox: &Sandbox) {
         for (name, body) in &self.files {
-            // A name that is also a folder of another name is skipped (the file system
-            // refuses it, not the renderer).
+            // A name already written, or under a file, is skipped (the file system refuses
+            // it, not the renderer).
             let path = sandbox.dir().join(name);
-            if path.is_dir() || path.ancestors().skip(1).any(|a| a.is_file()) {
+            if path.exists() || path.ancestors().skip(1).any(|a| a.is_file()) {
                 continue;
             }
             sandbox.write(name, body);
@@ -230,13 +238,24 @@ fn refusal(e: &Error, files: &[&str]) -> Outcome {
     if msg.trim().is_empty() {
         return Err("Error::Input with an empty message".into());
     }
-    if !files.iter().any(|f| msg.contains(f)) {
+    if !files.iter().any(|f| names_file(msg, f)) {
         return Err(format!("the message names none of the files {files:?}: {msg}"));
     }
     if !has_place(msg) {
         return Err(format!("the message does not say where: {msg}"));
     }
     Ok(Verdict::Rejected)
+}
+
+/// True when `msg` names the file `name` as a whole path component (not a one-letter
+/// name found inside another word).
+fn names_file(msg: &str, name: &str) -> bool {
+    msg.match_indices(name).any(|(i, _)| {
+        let before = msg[..i].chars().next_back();
+        let after = msg[i + name.len()..].chars().next();
+        let edge = |c: Option<char>| c.is_none_or(|c| !(c.is_ascii_alphanumeric() || "._-".contains(c)));
+        edge(before) && edge(after)
+    })
 }
 
 /// True when `msg` says where the problem is: `file:LINE`, a field, a `--set`/`-D`
@@ -323,8 +342,9 @@ pub fn mitsuba_xml(data: &[u8]) -> Outcome {
 fn scene_file(data: &[u8], main: &str) -> Outcome {
     let bundle = Bundle::parse(data);
     let sandbox = Sandbox::new();
-    bundle.write_files(&sandbox);
+    // The main file first: a bundle file named like it, or under it, is skipped.
     let path = sandbox.write(main, &bundle.main);
+    bundle.write_files(&sandbox);
     let files = bundle.names(main);
     let mut src = match SceneSource::from_file(&path) {
         Ok(src) => src,
@@ -371,7 +391,32 @@ fn mesh(data: &[u8], file: &str) -> Outcome {
     sandbox.write(file, body);
     let text = mesh_scene(file, first & 1 == 1);
     let src = SceneSource::from_text("scene.toml", &text, sandbox.dir());
-    check_source(&src, &[], &["scene.toml", file])
+    match load(&src, &[]) {
+        Err(e) => refusal(&e, &["scene.toml", file]).and_then(|v| mesh_place(&e, file).map(|()| v)),
+        Ok(scene) => loaded(scene, &src, &[]),
+    }
+}
+
+/// A mesh refusal says where in the mesh: the scene's own place (the `file` field that
+/// names it) comes first in the message, so the text after the mesh's name must give a
+/// line, an element, a vertex, a face, a byte or the header; or the whole file is at
+/// fault (empty, too big, no triangles), which has no place to give.
+fn mesh_place(e: &Error, file: &str) -> Result<(), Broken> {
+    let msg = e.to_string();
+    let Some(i) = msg.rfind(file) else { return Ok(()) };
+    let rest = &msg[i + file.len()..];
+    let numbered =
+        |w: &str| rest.match_indices(w).any(|(j, _)| rest[j + w.len()..].starts_with(|c: char| c.is_ascii_digit()));
+    let places = ["element", "header", "byte", "property", "first line"];
+    let whole = ["no triangles", "no faces", "empty", "too big", "bytes, more than"];
+    let numbers = ["line ", "vertex ", "normal ", "face "];
+    if numbers.iter().any(|w| numbered(w)) || places.iter().any(|w| rest.contains(w)) {
+        return Ok(());
+    }
+    if whole.iter().any(|w| rest.contains(w)) {
+        return Ok(());
+    }
+    Err(format!("a mesh refusal does not say where in {file}: {msg}"))
 }
 
 /// What the first byte of an [`image`] input picks.
@@ -452,7 +497,9 @@ pub fn image(data: &[u8]) -> Outcome {
 /// An image refusal names the file; a decoder rarely knows a line, so no place is asked.
 fn image_refusal(e: &Error, files: &[&str]) -> Outcome {
     match e {
-        Error::Input(msg) if !msg.trim().is_empty() && files.iter().any(|f| msg.contains(f)) => Ok(Verdict::Rejected),
+        Error::Input(msg) if !msg.trim().is_empty() && files.iter().any(|f| names_file(msg, f)) => {
+            Ok(Verdict::Rejected)
+        }
         _ => Err(format!("not an input error naming {files:?} (exit code {}): {e}", e.exit_code())),
     }
 }
@@ -917,11 +964,14 @@ pub fn scene_values(values: &SceneValues) -> Outcome {
     }
 }
 
-/// [`scene_values`] from raw fuzzer bytes (`arbitrary`'s decoding); bytes too short for
-/// a value are no input.
+/// [`scene_values`] from raw fuzzer bytes, decoded as libfuzzer-sys decodes a typed
+/// target's input (`arbitrary_take_rest` after its size check), so the replay checks the
+/// scenes the fuzzer checked; bytes too short for a value are no input.
 pub fn scene_values_bytes(data: &[u8]) -> Outcome {
-    let mut u = arbitrary::Unstructured::new(data);
-    match SceneValues::arbitrary(&mut u) {
+    if data.len() < SceneValues::size_hint(0).0 {
+        return Ok(Verdict::Rejected);
+    }
+    match SceneValues::arbitrary_take_rest(arbitrary::Unstructured::new(data)) {
         Ok(values) => scene_values(&values),
         Err(_) => Ok(Verdict::Rejected),
     }

@@ -7,7 +7,7 @@ use obvhs::bvh2::node::Bvh2Node;
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::BvhBuildParams;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use super::shapes::{Primitive, NO_LIGHT};
 use super::wbvh::{Wide, WideBvh};
@@ -163,6 +163,30 @@ pub struct Accel {
     pub build_seconds: f64,
 }
 
+/// obvhs's `build_bvh2` without its closing debug self-check, which asserts the tree is
+/// shallower than the default traversal stack before [`Accel::build_with`] can size the
+/// stack to the tree; the same steps in the same order, so the same tree.
+fn build_bvh2(prims: &[Primitive], params: &BvhBuildParams) -> Bvh2 {
+    let indices = (0..prims.len() as u32).collect();
+    let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(prims.len()).build(
+        params.ploc_search_distance,
+        prims,
+        indices,
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    let mut reinsertion = obvhs::bvh2::reinsertion::ReinsertionOptimizer::default();
+    reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None);
+    obvhs::bvh2::leaf_collapser::collapse(
+        &mut bvh,
+        params.max_prims_per_leaf.clamp(1, 255),
+        params.collapse_traversal_cost,
+    );
+    let ratio = params.reinsertion_batch_ratio * params.post_collapse_reinsertion_batch_ratio_multiplier;
+    reinsertion.run(&mut bvh, ratio, None);
+    bvh
+}
+
 impl Accel {
     /// Builds the BVH over `prims` (which may be empty) with leaves of at most [`LEAF`]
     /// primitives.
@@ -177,13 +201,14 @@ impl Accel {
         if prims.is_empty() {
             return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
         }
-        let mut core = Duration::default();
         let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), ..BvhBuildParams::medium_build() };
-        let mut bvh = obvhs::bvh2::builder::build_bvh2(&prims, params, &mut core);
+        let mut bvh = build_bvh2(&prims, &params);
         // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
         // mesh (found by fuzzing) builds deeper trees, which take obvhs's traversal (see
         // `STACK`), so give it a stack that holds them, as obvhs's own insertion does.
         bvh.max_depth = (bvh.depth(0) + 1).max(bvh.max_depth);
+        #[cfg(debug_assertions)]
+        bvh.validate(&prims, false, params.pre_split);
         // Reorder once so traversal needs no primitive_indices indirection.
         let prims: Vec<Primitive> = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
         let depth = bvh.depth(0);

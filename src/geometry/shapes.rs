@@ -217,7 +217,18 @@ pub fn gamma(n: u32) -> f32 {
 #[inline(always)]
 pub fn sphere_point<R: Real>(center: V3<R>, radius: R, x: V3<R>) -> (V3<R>, V3<R>) {
     let v = x - center;
-    let r = v.scale(radius / v.dot(v).sqrt());
+    let len = v.dot(v).sqrt();
+    // A point that rounds onto the centre (a sphere below the hit point's rounding error,
+    // found by fuzzing: a far lens camera and a tiny sphere) has no direction from it, and
+    // radius / 0 made a NaN point; it goes to the sphere's +z pole instead. Where the
+    // length is positive (`-len < 0`) this is the plain projection, bit for bit.
+    let (zero, one) = (R::splat(0.0), R::splat(1.0));
+    let v = V3 {
+        x: R::if_negative(-len, v.x, zero),
+        y: R::if_negative(-len, v.y, zero),
+        z: R::if_negative(-len, v.z, one),
+    };
+    let r = v.scale(radius / R::if_negative(-len, len, one));
     let p = center + r;
     (p, p.abs().scale(R::splat(gamma(1))) + r.abs().scale(R::splat(gamma(5))))
 }

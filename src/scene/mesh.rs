@@ -34,12 +34,12 @@ pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
     for t in triangles {
         let v = t.map(|i| positions[i as usize]);
         let n = (v[1] - v[0]).cross(v[2] - v[0]);
-        let len2 = n.length_squared();
+        let len = cross_length(n);
         // Zero-area (or NaN) faces have no normal.
-        if len2.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        if len.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
-        let n = n / len2.sqrt();
+        let n = n / len;
         for j in 0..3 {
             let a = (v[(j + 1) % 3] - v[j]).normalize_or_zero();
             let b = (v[(j + 2) % 3] - v[j]).normalize_or_zero();
@@ -47,6 +47,19 @@ pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
         }
     }
     sum.into_iter().map(|n| if n.length() != 0.0 { n / n.length() } else { Vec3::X }).collect()
+}
+
+/// The length of a triangle's edge cross product `n`. Within the scene's coordinate bound
+/// a cross product is finite but its square can overflow f32 (edges near 10^10 give
+/// components near 10^20); then the length is taken in f64 (found by fuzzing). Below
+/// that it is glam's `length`, bit for bit.
+pub(super) fn cross_length(n: Vec3) -> f32 {
+    let len = n.length();
+    if len.is_finite() {
+        len
+    } else {
+        n.as_dvec3().length() as f32
+    }
 }
 
 /// The angle between unit vectors, accurate near 0 and π (Mitsuba's `unit_angle`).
@@ -92,8 +105,14 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
         .map_err(|(line, msg)| format!("malformed OBJ `{}`: line {line}: {msg}", path.display()))?;
     let opts = tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     // Materials are not used: never let tobj open .mtl files next to the mesh.
-    let (models, _) = tobj::load_obj_buf(&mut &bytes[..], &opts, |_| Err(tobj::LoadError::OpenFileFailed))
-        .map_err(|e| format!("malformed OBJ `{}`: {}", path.display(), describe(&e)))?;
+    let load = |bytes: &[u8]| tobj::load_obj_buf(&mut &bytes[..], &opts, |_| Err(tobj::LoadError::OpenFileFailed));
+    let (models, _) = load(&bytes).map_err(|e| {
+        let (line, what) = match std::str::from_utf8(&bytes) {
+            Err(u) => (line_of(&bytes, u.valid_up_to()), format!("not UTF-8 text (byte {})", u.valid_up_to() + 1)),
+            Ok(_) => (failing_line(&bytes, e, |b| load(b).err()), describe(&e).to_owned()),
+        };
+        format!("malformed OBJ `{}`: line {line}: {what}", path.display())
+    })?;
     let mut out = MeshData::default();
     let mut with_normals = true;
     for model in &models {
@@ -180,21 +199,54 @@ fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
             above[k] += 1;
             continue;
         }
-        if first(line).as_deref() != Some("f") {
-            continue;
-        }
+        // tobj reads `l` (polyline) corners as it reads faces: a polyline of three or more
+        // corners becomes triangles, so its indices need the same check.
+        let what = match first(line).as_deref() {
+            Some("f") => "face",
+            Some("l") => "line element",
+            _ => continue,
+        };
         for corner in line.split_whitespace().skip(1) {
             for (k, index) in corner.split('/').take(3).enumerate() {
                 // Not a number: tobj's own error.
                 let Ok(i) = index.parse::<i64>() else { continue };
-                let (limit, whose) = if i < 0 { (above[k], "above this face") } else { (total[k], "in the file") };
+                if i == 0 {
+                    // tobj refuses a vertex 0 without a line and ignores texture
+                    // coordinate or normal 0; OBJ indices start at 1.
+                    return Err((n + 1, format!("{what} refers to {} 0; OBJ indices start at 1", KINDS[k])));
+                }
+                let (limit, whose) = if i < 0 { (above[k], "above it") } else { (total[k], "in the file") };
                 if i.unsigned_abs() > limit {
-                    return Err((n + 1, format!("face refers to {} {i}, but there are {limit} {whose}", KINDS[k])));
+                    return Err((n + 1, format!("{what} refers to {} {i}, but there are {limit} {whose}", KINDS[k])));
                 }
             }
         }
     }
     Ok(())
+}
+
+/// The line holding byte `at` (1-based).
+fn line_of(bytes: &[u8], at: usize) -> usize {
+    bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+/// Where tobj's `error` (which carries no line) arises: the first line whose prefix of the
+/// file fails with the same error, found by bisection over line ends, so an error costs a
+/// few more loads of the file and a valid file none.
+fn failing_line(bytes: &[u8], error: tobj::LoadError, load: impl Fn(&[u8]) -> Option<tobj::LoadError>) -> usize {
+    let ends: Vec<usize> =
+        bytes.iter().enumerate().filter(|(_, &b)| b == b'\n').map(|(i, _)| i + 1).chain([bytes.len()]).collect();
+    // Invariant: the first `lo` lines load (or fail otherwise); the first `hi` fail with `error`.
+    let (mut lo, mut hi) = (0, ends.len());
+    while hi - lo > 1 {
+        let mid = lo + (hi - lo) / 2;
+        if load(&bytes[..ends[mid - 1]]) == Some(error) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
 }
 
 fn describe(e: &tobj::LoadError) -> &'static str {

@@ -100,6 +100,19 @@ pub(super) fn objects(
                     c = coord(ctx, &tp, t.point(c))?;
                     r = coord(ctx, &tp, Vec3::splat(r * s))?.x;
                 }
+                // A sphere below its centre's rounding step has no point but the centre in
+                // f32: every hit point rounds onto it and has no normal (found by fuzzing:
+                // NaN rays). 2^-20 of the centre's largest coordinate is 8 of its ulps.
+                let least = c.abs().max_element() / (1u32 << 20) as f32;
+                if r <= least {
+                    let field = if transform.is_some() { "transform" } else { "radius" };
+                    return Err(ctx.fail(
+                        &format!("{path}.{field}"),
+                        format!(
+                            "radius {r:e} is below the precision of the centre {c}: it must exceed 2^-20 of the centre's largest coordinate ({least:e})"
+                        ),
+                    ));
+                }
                 let material = lookup(material)?;
                 prims.push(Primitive { shape: Shape::Sphere { center: c, radius: r }, material, light: NO_LIGHT });
             }
@@ -257,7 +270,7 @@ fn outside_folder(dir: &Path, path: &Path) -> bool {
 fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
     let (e1, e2) = (v1 - v0, v2 - v0);
     let n = e1.cross(e2);
-    let len = n.length();
+    let len = super::mesh::cross_length(n);
     (len > 0.0 && len.is_finite()).then(|| Light::Triangle { v0, e1, e2, normal: n / len, area: 0.5 * len, radiance })
 }
 

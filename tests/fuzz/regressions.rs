@@ -111,6 +111,18 @@ fn huge_geometry_in_debug() {
     }
 }
 
+/// An emissive mesh triangle inside MAX_COORD (4e9) whose edge cross product squares past
+/// f32::MAX: its light's area and normal came out infinite and zero, and the loader hit an
+/// `unreachable!` (found by the `scene_values` target). The length is now taken in f64
+/// there; the scene loads and renders finite pixels.
+#[test]
+fn emissive_triangle_with_huge_area() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("mesh.obj"), "v -1 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n").unwrap();
+    let text = scene_with_mesh(Path::new("mesh.obj")) + "scale = 3.9e9\nemission = [1, 1, 1]\n";
+    assert_eq!(check_scene(&text, dir.path(), &TINY.map(String::from)), Ok(Verdict::Rendered), "{text}");
+}
+
 /// width × height × BYTES_PER_PIXEL computed in u64 before the 2^32-pixel check: with
 /// overflow checks on, a multiplication overflow panic in `settings()`.
 #[test]
