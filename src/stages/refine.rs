@@ -43,7 +43,9 @@ pub fn start(
         if display_diff(centre[p], corner_mean[p]) > eps[p] {
             queue.push(p as u32);
         } else {
-            out[p] = centre[p] * (2.0 / 3.0) + corner_mean[p] * (1.0 / 3.0);
+            // Saturating: the two rounded weights sum to just above 1, so two values
+            // at f32::MAX would overflow.
+            out[p] = (centre[p] * (2.0 / 3.0) + corner_mean[p] * (1.0 / 3.0)).min(Vec3::splat(f32::MAX));
         }
     }
 }
@@ -67,7 +69,9 @@ pub fn step(
         let p = p as usize;
         let e = estimates[p];
         // Saturating, as the film's sums are (stages::film::accumulate).
-        state.sum[p] = (state.sum[p] + e * n as f32).min(Vec3::splat(f32::MAX));
+        // The product saturates too: a mean near f32::MAX times 2^level overflows alone.
+        let max = Vec3::splat(f32::MAX);
+        state.sum[p] = (state.sum[p] + (e * n as f32).min(max)).min(max);
         state.count[p] += n;
         state.level[p] = level as u8;
         out[p] = state.sum[p] / state.count[p] as f32;
