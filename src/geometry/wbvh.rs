@@ -126,11 +126,16 @@ impl Sheared {
         let (zero, inf) = (Tris::splat(0.0), Tris::splat(f32::INFINITY));
         let outside = (u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero));
         let det = u + v + w;
-        let dist = (u * sz * a[2] + v * sz * bb[2] + w * sz * c[2]) / det;
-        let t = Tris::select(outside | det.eq(zero), inf, Tris::select(det.finite() & dist.finite(), dist, inf));
         // An edge function that rounds to zero is recomputed in f64 by the scalar kernel;
         // those (rare) lanes take it whole.
         let mut edge = lanes & (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();
+        let missed = outside | det.eq(zero);
+        if edge == 0 && lanes & !missed.bits() == 0 {
+            // Most blocks an incoherent ray reaches miss in every lane: skip the distance.
+            return inf;
+        }
+        let dist = (u * sz * a[2] + v * sz * bb[2] + w * sz * c[2]) / det;
+        let t = Tris::select(missed, inf, Tris::select(det.finite() & dist.finite(), dist, inf));
         if edge == 0 {
             return t;
         }
@@ -264,11 +269,12 @@ impl<S: Simd> WideBvh<S> {
         self.nodes.is_empty()
     }
 
-    /// Walks the tree for one ray, nearest child first: `leaf(ray, block)` tests a leaf
-    /// block, may lower `ray.tmax`, and says whether to go on. `slack` is the tree's
-    /// absolute culling slack (see [`CULL`]).
+    /// Walks the tree for one ray, nearest child first when `ORDER` (closest hit; any-hit
+    /// visits them in slot order): `leaf(ray, block)` tests a leaf block, may lower
+    /// `ray.tmax`, and says whether to go on. `slack` is the tree's absolute culling slack
+    /// (see [`CULL`]).
     #[inline(always)]
-    fn walk<const COUNT: bool>(
+    fn walk<const COUNT: bool, const ORDER: bool>(
         &self,
         slack: f32,
         ray: Ray,
@@ -276,30 +282,33 @@ impl<S: Simd> WideBvh<S> {
         leaf: impl FnMut(&mut Ray, &Block) -> Leaf,
     ) {
         STACK.with_borrow_mut(|stack| {
-            stack.clear();
-            self.walk_with::<COUNT>(slack, ray, c, stack, leaf)
+            // A node at depth k leaves at most W − 1 siblings on the stack for each of the
+            // k − 1 nodes above it, plus its own W: depth · (W − 1) + 1 bounds the stack.
+            let need = self.depth * (S::LANES - 1) + 1;
+            if stack.len() < need {
+                stack.resize(need, (0, 0.0));
+            }
+            self.walk_with::<COUNT, ORDER>(slack, ray, c, stack, leaf)
         })
     }
 
-    /// [`WideBvh::walk`] with its stack.
+    /// [`WideBvh::walk`] with its stack (long enough for the tree's depth; the top is kept
+    /// in a local index, so pushes and pops stay in registers).
     #[inline(always)]
-    fn walk_with<const COUNT: bool>(
+    fn walk_with<const COUNT: bool, const ORDER: bool>(
         &self,
         slack: f32,
         mut ray: Ray,
         c: &mut Traversal,
-        stack: &mut Vec<(u32, f32)>,
+        stack: &mut [(u32, f32)],
         mut leaf: impl FnMut(&mut Ray, &Block) -> Leaf,
     ) {
         const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let o = [S::splat(ray.origin.x), S::splat(ray.origin.y), S::splat(ray.origin.z)];
         let inv = [S::splat(ray.inv_direction.x), S::splat(ray.inv_direction.y), S::splat(ray.inv_direction.z)];
-        // Per axis, which bound the ray meets first: the minimum when inv > 0 (inv is never
-        // 0 or NaN: obvhs's safe inverse). `(bound − o) · inv` is monotone in the bound, so
-        // this is exactly min(t1, t2) of the scalar slab test, without the min and max.
-        let first = [0, 1, 2].map(|k| (ray.inv_direction[k] < 0.0) as usize);
         let mut cull = ray.tmax * CULL + slack;
         let mut current = 0u32;
+        let mut top = 0usize;
         loop {
             if current & LEAF != 0 {
                 let first = (current & ((1 << FIRST_BITS) - 1)) as usize;
@@ -315,9 +324,12 @@ impl<S: Simd> WideBvh<S> {
                 cull = ray.tmax * CULL + slack;
             } else {
                 let node = &self.nodes[current as usize];
-                let t = |k: usize, side: usize| (node.bounds[side][k] - o[k]) * inv[k];
-                let near = t(0, first[0]).max(t(1, first[1])).max(t(2, first[2]));
-                let far = t(0, 1 - first[0]).min(t(1, 1 - first[1])).min(t(2, 1 - first[2])) * S::splat(WIDEN);
+                // The scalar slab test's min(t1, t2) and max(t1, t2): `(bound − o) · inv`
+                // is monotone in the bound, so these are its values bit for bit.
+                let t1 = [0, 1, 2].map(|k| (node.bounds[0][k] - o[k]) * inv[k]);
+                let t2 = [0, 1, 2].map(|k| (node.bounds[1][k] - o[k]) * inv[k]);
+                let near = t1[0].min(t2[0]).max(t1[1].min(t2[1])).max(t1[2].min(t2[2]));
+                let far = t1[0].max(t2[0]).min(t1[1].max(t2[1])).min(t1[2].max(t2[2])) * S::splat(WIDEN);
                 let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(S::splat(cull));
                 let mut bits = hit.bits() & node.valid;
                 if COUNT {
@@ -328,32 +340,49 @@ impl<S: Simd> WideBvh<S> {
                         current = node.child[bits.trailing_zeros() as usize];
                         continue;
                     }
+                } else if !ORDER {
+                    // Any-hit: the order does not change the answer, so skip the sort
+                    // (as Embree's occlusion traversal does).
+                    while bits != 0 {
+                        let i = bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        stack[top] = (node.child[i], f32::NEG_INFINITY);
+                        top += 1;
+                    }
+                    top -= 1;
+                    current = stack[top].0;
+                    continue;
                 } else {
                     let mut t = [0.0f32; MAX];
                     near.store(&mut t);
                     // Push every hit child, insertion-sorting the pushed ones farthest
                     // first, so the nearest is on top (ties keep slot order: deterministic).
-                    let base = stack.len();
+                    let base = top;
                     while bits != 0 {
                         let i = bits.trailing_zeros() as usize;
                         bits &= bits - 1;
                         let e = (node.child[i], t[i]);
-                        stack.push(e);
-                        let mut j = stack.len() - 1;
+                        let mut j = top;
                         while j > base && stack[j - 1].1 < e.1 {
                             stack[j] = stack[j - 1];
                             j -= 1;
                         }
                         stack[j] = e;
+                        top += 1;
                     }
-                    current = stack.pop().map_or(0, |e| e.0);
+                    top -= 1;
+                    current = stack[top].0;
                     continue;
                 }
             }
             // Next: the most recently saved child that the ray, as it stands, still enters
             // before its tmax (the same culling rule as the box test).
             loop {
-                let Some((next, t)) = stack.pop() else { return };
+                if top == 0 {
+                    return;
+                }
+                top -= 1;
+                let (next, t) = stack[top];
                 if t < cull {
                     current = next;
                     break;
@@ -379,7 +408,7 @@ impl<S: Simd> WideBvh<S> {
     ) -> Option<(f32, u32)> {
         let mut best = (f32::INFINITY, u32::MAX);
         let sheared = Sheared::new(o, d);
-        self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
+        self.walk::<COUNT, true>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
             if !b.triangles {
                 let first = b.first as usize;
                 for (id, p) in prims[first..first + b.count as usize].iter().enumerate() {
@@ -433,7 +462,7 @@ impl<S: Simd> WideBvh<S> {
     ) -> bool {
         let mut blocked = false;
         let sheared = Sheared::new(o, d);
-        self.walk::<COUNT>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
+        self.walk::<COUNT, false>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
             if !b.triangles {
                 let first = b.first as usize;
                 for p in &prims[first..first + b.count as usize] {
