@@ -394,6 +394,17 @@ pub fn lane_ids(ids: &[u32]) -> [usize; LANES] {
     a
 }
 
+/// Appends the first `count` lanes of `v` to the column `col`. A full vector (the usual
+/// case) is one fixed-size copy the compiler inlines, not a call to `memmove`.
+#[inline(always)]
+pub fn push_lanes<T: Copy>(col: &mut Vec<T>, v: [T; LANES], count: usize) {
+    if count == LANES {
+        col.extend_from_slice(&v);
+    } else {
+        col.extend_from_slice(&v[..count]);
+    }
+}
+
 /// The lanes `first, first + 1, …, first + 15`.
 #[inline(always)]
 pub fn iota(first: u32) -> u32x16 {

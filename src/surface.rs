@@ -11,7 +11,7 @@ use crate::geometry::shapes::{quad_point, sphere_point, triangle_point, Shape};
 use crate::geometry::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
 use crate::scene::{Material, Scene};
-use crate::simd::{gather, lane_ids, LANES, V3};
+use crate::simd::{gather, lane_ids, push_lanes, LANES, V3};
 
 /// Lambert plus normalised Phong: `color/π + specular·(n+2)/(2π)·max(0, r·wo)^n`,
 /// with `r` the mirror direction of `wi` about `n`.
@@ -139,7 +139,7 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
     let d = V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) };
     // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
     // and edges, a triangle's vertices.
-    let (mut abc, mut kind) = ([[0.0f32; LANES]; 9], [0u32; LANES]);
+    let (mut abc, mut kind, mut kinds) = ([[0.0f32; LANES]; 9], [0u32; LANES], 0u32);
     for k in 0..LANES {
         let (a, b, c, what) = match scene.accel.prims[hits.prim[id(k)] as usize].shape {
             Shape::Sphere { center, radius } => (center, Vec3::splat(radius), Vec3::ZERO, 0),
@@ -150,11 +150,17 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
             abc[j][k] = x;
         }
         kind[k] = what;
+        kinds |= 1 << what;
     }
     let v3 = |j: usize| V3 { x: f32x16::from(abc[j]), y: f32x16::from(abc[j + 1]), z: f32x16::from(abc[j + 2]) };
     let (a, b, c) = (v3(0), v3(3), v3(6));
     let x = o + d.scale(ray(&hits.t));
-    let (sphere, quad, triangle) = (sphere_point(a, b.x, x), quad_point(a, b, c, x), triangle_point(a, b, c, x));
+    // Only the formulas of the shapes present (an all-triangle mesh group skips two of
+    // three); an absent shape's lanes are never picked, so zeros stand in.
+    let none = (V3::splat(Vec3::ZERO), V3::splat(Vec3::ZERO));
+    let sphere = if kinds & 1 != 0 { sphere_point(a, b.x, x) } else { none };
+    let quad = if kinds & 2 != 0 { quad_point(a, b, c, x) } else { none };
+    let triangle = if kinds & 4 != 0 { triangle_point(a, b, c, x) } else { none };
     let is = |what: u32| f32x16::from(kind.map(|k| if k == what { f32::from_bits(!0) } else { 0.0 }));
     let (is_sphere, is_quad) = (is(0), is(1));
     let pick = |s: V3<f32x16>, q: V3<f32x16>, t: V3<f32x16>| V3 {
@@ -163,7 +169,12 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
         z: is_sphere.select(s.z, is_quad.select(q.z, t.z)),
     };
     let (p, err) = (pick(sphere.0, quad.0, triangle.0), pick(sphere.1, quad.1, triangle.1));
-    let ng = pick(sphere.0 - a, b.cross(c), (b - a).cross(c - a)).normalize();
+    let ng = match kinds {
+        4 => (b - a).cross(c - a),
+        2 => b.cross(c),
+        _ => pick(sphere.0 - a, b.cross(c), (b - a).cross(c - a)),
+    }
+    .normalize();
     HitLanes { d, p, err, ng }
 }
 
@@ -181,7 +192,7 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     let n = V3::if_negative(ng.dot(d), ng, -ng);
     // Whole columns at once: one capacity check per column, not per value.
     let count = ids.len();
-    let put = |col: &mut Vec<f32>, v: f32x16| col.extend_from_slice(&v.to_array()[..count]);
+    let put = |col: &mut Vec<f32>, v: f32x16| push_lanes(col, v.to_array(), count);
     let put3 = |x: &mut Vec<f32>, y: &mut Vec<f32>, z: &mut Vec<f32>, v: V3<f32x16>| {
         put(x, v.x);
         put(y, v.y);

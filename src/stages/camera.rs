@@ -13,7 +13,7 @@ use super::Tile;
 use crate::queue::RayQueue;
 use crate::sampling::{cmj, cmj_lanes, concentric_disk, dim, hash, sobol_owen, CMJ_LANES_MAX};
 use crate::scene::Scene;
-use crate::simd::{iota, words, Real, Word, LANES, V3};
+use crate::simd::{iota, push_lanes, words, Real, Word, LANES, V3};
 
 /// How many lens rays each point of a pass gets, and how a flattened ray index splits
 /// into (point, ray of the point).
@@ -200,10 +200,10 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
             }
             let (o, d) = thin_lens_lanes(scene, d, f32x16::from(disk[0]), f32x16::from(disk[1]));
             for (col, v) in [(&mut rays.ox, o.x), (&mut rays.oy, o.y), (&mut rays.oz, o.z)] {
-                col.extend_from_slice(&v.to_array()[..count]);
+                push_lanes(col, v.to_array(), count);
             }
             for (col, v) in [(&mut rays.dx, d.x), (&mut rays.dy, d.y), (&mut rays.dz, d.z)] {
-                col.extend_from_slice(&v.to_array()[..count]);
+                push_lanes(col, v.to_array(), count);
             }
         } else {
             for (col, x) in
@@ -211,9 +211,9 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
             {
                 col.resize(n, x);
             }
-            rays.dx.extend_from_slice(&dx[..count]);
-            rays.dy.extend_from_slice(&dy[..count]);
-            rays.dz.extend_from_slice(&dz[..count]);
+            push_lanes(&mut rays.dx, dx, count);
+            push_lanes(&mut rays.dy, dy, count);
+            push_lanes(&mut rays.dz, dz, count);
         }
         let fill = |v: &mut Vec<f32>, x: f32| v.resize(n, x);
         rays.slot.resize(n, slot);
@@ -222,7 +222,7 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
         fill(&mut rays.wb, w.z);
         rays.depth.resize(n, 0);
         rays.key.resize(n, key);
-        rays.sample.extend_from_slice(&jw[..count]);
+        push_lanes(&mut rays.sample, jw, count);
     }
 }
 

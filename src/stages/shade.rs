@@ -15,7 +15,7 @@ use crate::light::{
 };
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use crate::scene::{Light, Scene, ShadowMode};
-use crate::simd::{gather, gather_words, Word, LANES, V3};
+use crate::simd::{gather, gather_words, push_lanes, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, diffuse_material, diffuse_surfaces, queued_surface};
 
 /// Shades every ray of `rays` at its hit in `hits`: fills `shadow`, `points` and
@@ -220,7 +220,14 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
         }
     }
     let keep = &keep[..m];
-    let put = |col: &mut Vec<f32>, v: &[f32; LANES]| col.extend(keep.iter().map(|&k| v[k]));
+    // Every lane kept (the usual group): whole vectors, no per-value push.
+    let put = |col: &mut Vec<f32>, v: &[f32; LANES]| {
+        if m == LANES {
+            push_lanes(col, *v, LANES);
+        } else {
+            col.extend(keep.iter().map(|&k| v[k]));
+        }
+    };
     let (ox, oy, oz) = (o.x.to_array(), o.y.to_array(), o.z.to_array());
     put(&mut shadow.ox, &ox);
     put(&mut shadow.oy, &oy);
