@@ -87,12 +87,19 @@ impl<'a> Pipeline<'a> {
         self.cursors[0] = 0;
         while let Some(d) = (0..self.levels.len()).rev().find(|&d| self.cursors[d] < self.levels[d].len()) {
             let (start, end) = (self.cursors[d], (self.cursors[d] + wave).min(self.levels[d].len()));
-            self.q.rays.clear();
-            self.q.rays.append_range(&self.levels[d], start..end);
-            self.cursors[d] = end;
-            if end == self.levels[d].len() {
+            if start == 0 && end == self.levels[d].len() {
+                // The whole level is one wave (the usual camera batch): take its buffers
+                // instead of copying its rays.
+                std::mem::swap(&mut self.q.rays, &mut self.levels[d]);
                 self.levels[d].clear();
-                self.cursors[d] = 0;
+            } else {
+                self.q.rays.clear();
+                self.q.rays.append_range(&self.levels[d], start..end);
+                self.cursors[d] = end;
+                if end == self.levels[d].len() {
+                    self.levels[d].clear();
+                    self.cursors[d] = 0;
+                }
             }
             self.wave(scene, if d == 0 { Coherence::Camera } else { Coherence::Bounce });
             // The wave's scattered rays are the next level, empty until now.

@@ -33,67 +33,62 @@ pub(super) struct Lanes<'a, S> {
 
 impl<'a, S: Simd> Lanes<'a, S> {
     pub(super) fn new(o: &'a [Vec3], d: &'a [Vec3], slack: f32) -> Self {
-        // Scalar work is only copying and choosing axes; every division runs on lanes
-        // (correctly rounded, so the same bits as the scalar rays' divisions).
+        // Scalar work is only the transpose; the shear axes (as masks), the permuted
+        // components and every division run on lanes. Selects copy bits and the
+        // divisions are correctly rounded, so the lanes hold the scalar rays' values.
         let mut oa = [[0.0f32; MAX]; 3];
         let mut da = [[0.0f32; MAX]; 3];
-        let mut so = [[0.0f32; MAX]; 3];
-        // d[kx], d[ky], d[kz]: unused lanes divide 1 by 1.
-        let mut dk = [[1.0f32; MAX]; 3];
-        let first = d.first().map_or([0, 1, 2], |&d| shear_axes(d));
-        let mut same = true;
-        let mut axes = [[0usize; 3]; MAX];
-        // Axes compared as one small integer: comparing the [usize; 3] arrays made the
-        // compiler reload them with one wide load right after three narrow stores, a
-        // store-forwarding stall per ray that was 44% of this function's time.
-        let code = |k: [usize; 3]| k[0] | k[1] << 2 | k[2] << 4;
-        let first_code = code(first);
         for (l, (o, d)) in o.iter().zip(d).enumerate() {
-            let k = shear_axes(*d);
-            same &= code(k) == first_code;
-            axes[l] = k;
             for j in 0..3 {
                 oa[j][l] = o[j];
                 da[j][l] = d[j];
-                so[j][l] = o[k[j]];
-                dk[j][l] = d[k[j]];
             }
         }
         let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
-        let axes = if same {
-            Axes::Same(first)
-        } else {
-            let on = f32::from_bits(u32::MAX);
-            let mut is = [[[0.0f32; MAX]; 3]; 2];
-            for (l, k) in axes.iter().enumerate().take(d.len()) {
-                for j in 0..3 {
-                    is[0][j][l] = if k[j] == 0 { on } else { 0.0 };
-                    is[1][j][l] = if k[j] == 1 { on } else { 0.0 };
-                }
-            }
-            Axes::Mixed(load3(&is[0]), load3(&is[1]))
+        let (origin, dir) = (load3(&oa), load3(&da));
+        let (zero, one, on) = (S::splat(0.0), S::splat(1.0), S::splat(f32::from_bits(u32::MAX)));
+        let mut used = [0.0f32; MAX];
+        used[..d.len()].fill(f32::from_bits(u32::MAX));
+        let used = S::load(&used);
+        // `shear_axes` on lanes: kz is the axis of largest |d| (x over y over z on ties as
+        // its comparisons decide); kx, ky follow it cyclically, swapped when d[kz] < 0.
+        let ad = dir.map(|x| S::max(x, -x));
+        let x_over_y = ad[0].gt(ad[1]);
+        let kz_x = x_over_y & ad[0].gt(ad[2]);
+        let kz_y = S::select(x_over_y, zero, ad[1].gt(ad[2]));
+        let kz_z = S::select(kz_x | kz_y, zero, on);
+        let pick = |is_x: S, is_y: S, v: &[S; 3]| S::select(is_x, v[0], S::select(is_y, v[1], v[2]));
+        let flip = pick(kz_x, kz_y, &dir).lt(zero);
+        // Per frame axis j: "is x" and "is y" (else z), only on used lanes.
+        let is_x = [S::select(flip, kz_y, kz_z), S::select(flip, kz_z, kz_y), kz_x].map(|m| m & used);
+        let is_y = [S::select(flip, kz_z, kz_x), S::select(flip, kz_x, kz_z), kz_y].map(|m| m & used);
+        let sheared_origin = [0, 1, 2].map(|j| pick(is_x[j], is_y[j], &origin));
+        // d[kx], d[ky], d[kz]: unused lanes divide 1 by 1.
+        let [dx, dy, dz] = [0, 1, 2].map(|j| S::select(used, pick(is_x[j], is_y[j], &dir), one));
+        let mask = (1u32 << d.len()) - 1;
+        let uniform = |m: S| {
+            let b = m.bits() & mask;
+            b == 0 || b == mask
         };
-        let dir = load3(&da);
-        let [dx, dy, dz] = load3(&dk);
-        let one = S::splat(1.0);
+        let axes = if is_x.iter().chain(&is_y).all(|&m| uniform(m)) {
+            Axes::Same(d.first().map_or([0, 1, 2], |&d| shear_axes(d)))
+        } else {
+            Axes::Mixed(is_x, is_y)
+        };
         // obvhs's safe_inverse on lanes: ±1/ε where |x| ≤ ε (the sign of x, zeros
         // included), else 1/x. Unused lanes get 1.
         let inv = dir.map(|x| {
             let tiny = S::le(S::max(x, -x), S::splat(f32::EPSILON));
             let signed = S::select(S::negative(x), S::splat(-1.0 / f32::EPSILON), S::splat(1.0 / f32::EPSILON));
-            S::select(tiny, signed, one / x)
+            S::select(used, S::select(tiny, signed, one / x), one)
         });
-        let mut used = [0.0f32; MAX];
-        used[..d.len()].fill(f32::from_bits(u32::MAX));
-        let used = S::load(&used);
-        let inv = inv.map(|x| S::select(used, x, one));
         Lanes {
             o,
             d,
-            origin: load3(&oa),
+            origin,
             dir,
             inv,
-            sheared_origin: load3(&so),
+            sheared_origin,
             shear: [dx / dz, dy / dz, one / dz],
             axes,
             slack: S::splat(slack),
