@@ -364,34 +364,54 @@ pub fn words(v: u32x16) -> [u32; LANES] {
     v.to_array()
 }
 
-/// Lanes of `v` at `ids` (a loop the compiler keeps inline, unlike `array::from_fn`).
-#[inline(always)]
-pub fn gather(v: &[f32], ids: &[usize; LANES]) -> f32x16 {
-    let mut a = [0.0; LANES];
-    for (x, &i) in a.iter_mut().zip(ids) {
-        *x = v[i];
-    }
-    f32x16::from(a)
+/// Where 16 lanes read their values in a queue's columns: 16 entries (from 1 to 16
+/// ids, the last repeated), and whether they are 16 consecutive ones, which load
+/// straight from the column instead of entry by entry.
+pub struct LaneIds {
+    /// The entries, one per lane.
+    pub idx: [usize; LANES],
+    /// The first entry, when the lanes read entries `first..first + 16`.
+    run: Option<usize>,
 }
 
-/// [`gather`] of words.
-#[inline(always)]
-pub fn gather_words(v: &[u32], ids: &[usize; LANES]) -> u32x16 {
-    let mut a = [0; LANES];
-    for (x, &i) in a.iter_mut().zip(ids) {
-        *x = v[i];
+impl LaneIds {
+    /// The lanes of `ids` (1 to 16 entries).
+    #[inline(always)]
+    pub fn new(ids: &[u32]) -> LaneIds {
+        let mut idx = [ids[ids.len() - 1] as usize; LANES];
+        for (x, &i) in idx.iter_mut().zip(ids) {
+            *x = i as usize;
+        }
+        let run = idx.windows(2).all(|w| w[1] == w[0] + 1).then_some(idx[0]);
+        LaneIds { idx, run }
     }
-    u32x16::from(a)
-}
 
-/// `ids` (1 to 16 entries) as 16 lane indices, the last repeated.
-#[inline(always)]
-pub fn lane_ids(ids: &[u32]) -> [usize; LANES] {
-    let mut a = [ids[ids.len() - 1] as usize; LANES];
-    for (x, &i) in a.iter_mut().zip(ids) {
-        *x = i as usize;
+    /// The lanes' values of the column `v` (a loop the compiler keeps inline, unlike
+    /// `array::from_fn`).
+    #[inline(always)]
+    pub fn gather(&self, v: &[f32]) -> f32x16 {
+        if let Some(a) = self.run {
+            return f32x16::from(&v[a..a + LANES]);
+        }
+        let mut a = [0.0; LANES];
+        for (x, &i) in a.iter_mut().zip(&self.idx) {
+            *x = v[i];
+        }
+        f32x16::from(a)
     }
-    a
+
+    /// [`LaneIds::gather`] of words.
+    #[inline(always)]
+    pub fn gather_words(&self, v: &[u32]) -> u32x16 {
+        if let Some(a) = self.run {
+            return u32x16::from(&v[a..a + LANES]);
+        }
+        let mut a = [0; LANES];
+        for (x, &i) in a.iter_mut().zip(&self.idx) {
+            *x = v[i];
+        }
+        u32x16::from(a)
+    }
 }
 
 /// Appends the first `count` lanes of `v` to the column `col`. A full vector (the usual
@@ -414,6 +434,27 @@ pub fn iota(first: u32) -> u32x16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lane_ids_load_a_run_only_when_consecutive() {
+        let col: Vec<f32> = (0..40).map(|i| i as f32 * 1.5).collect();
+        let expect = |ids: &[u32]| {
+            let last = ids[ids.len() - 1];
+            f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| col[*ids.get(k).unwrap_or(&last) as usize]))
+        };
+        let run: Vec<u32> = (3..19).collect();
+        // 15 ids whose repeated last spans 15 (a partial group is never a run), a
+        // repeated id that spans 15, and a full run.
+        let gap: Vec<u32> = [0].into_iter().chain(2..16).collect();
+        let dup: Vec<u32> = [0, 0].into_iter().chain(2..16).collect();
+        for ids in [&run, &gap, &dup, &vec![7]] {
+            let lanes = LaneIds::new(ids);
+            assert_eq!(lanes.run.is_some(), ids == &run, "{ids:?}");
+            assert_eq!(lanes.gather(&col).to_array(), expect(ids).to_array(), "{ids:?}");
+            let words: Vec<u32> = col.iter().map(|x| x.to_bits()).collect();
+            assert_eq!(lanes.gather_words(&words).to_array(), expect(ids).to_array().map(f32::to_bits));
+        }
+    }
 
     fn lanes(f: impl Fn(usize) -> u32) -> u32x16 {
         u32x16::from(std::array::from_fn::<u32, 16, _>(f))

@@ -11,7 +11,7 @@ use crate::geometry::shapes::{quad_point, sphere_point, triangle_point, Shape};
 use crate::geometry::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
 use crate::scene::{Material, Scene};
-use crate::simd::{gather, lane_ids, push_lanes, LANES, V3};
+use crate::simd::{push_lanes, LaneIds, LANES, V3};
 
 /// Lambert plus normalised Phong: `color/π + specular·(n+2)/(2π)·max(0, r·wo)^n`,
 /// with `r` the mirror direction of `wi` about `n`.
@@ -129,31 +129,39 @@ pub struct HitLanes {
     pub ng: V3<f32x16>,
 }
 
-/// The hits of rays `ids` (1 to 16; lanes past the last repeat it): every lane runs the
-/// sphere, parallelogram and triangle formulas and keeps its own shape's.
+/// The hits of rays `ids` (1 to 16, in queue order; lanes past the last repeat it):
+/// every lane runs the formulas of the shapes present and keeps its own shape's.
 pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -> HitLanes {
-    let idx = lane_ids(ids);
-    let id = |k: usize| idx[k];
-    let ray = |v: &[f32]| gather(v, &idx);
+    let lanes = LaneIds::new(ids);
+    let id = |k: usize| lanes.idx[k];
+    let ray = |v: &[f32]| lanes.gather(v);
     let o = V3 { x: ray(&rays.ox), y: ray(&rays.oy), z: ray(&rays.oz) };
     let d = V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) };
     // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
     // and edges, a triangle's vertices.
-    let (mut abc, mut kind, mut kinds) = ([[0.0f32; LANES]; 9], [0u32; LANES], 0u32);
-    for k in 0..LANES {
-        let (a, b, c, what) = match scene.accel.prims[hits.prim[id(k)] as usize].shape {
-            Shape::Sphere { center, radius } => (center, Vec3::splat(radius), Vec3::ZERO, 0),
-            Shape::Quad { corner, u, v } => (corner, u, v, 1),
-            Shape::Triangle { v0, v1, v2 } => (v0, v1, v2, 2),
-        };
-        for (j, x) in [a, b, c].iter().flat_map(|v| v.to_array()).enumerate() {
-            abc[j][k] = x;
+    let points = |prim: u32| match scene.accel.prims[prim as usize].shape {
+        Shape::Sphere { center, radius } => (center, Vec3::splat(radius), Vec3::ZERO, 0),
+        Shape::Quad { corner, u, v } => (corner, u, v, 1),
+        Shape::Triangle { v0, v1, v2 } => (v0, v1, v2, 2),
+    };
+    let first = hits.prim[id(0)];
+    let (a, b, c, kind, kinds) = if (1..LANES).all(|k| hits.prim[id(k)] == first) {
+        // One primitive under all lanes (a large quad or triangle): its points once.
+        let (a, b, c, what) = points(first);
+        (V3::splat(a), V3::splat(b), V3::splat(c), [what; LANES], 1 << what)
+    } else {
+        let (mut abc, mut kind, mut kinds) = ([[0.0f32; LANES]; 9], [0u32; LANES], 0u32);
+        for k in 0..LANES {
+            let (a, b, c, what) = points(hits.prim[id(k)]);
+            for (j, x) in [a, b, c].iter().flat_map(|v| v.to_array()).enumerate() {
+                abc[j][k] = x;
+            }
+            kind[k] = what;
+            kinds |= 1 << what;
         }
-        kind[k] = what;
-        kinds |= 1 << what;
-    }
-    let v3 = |j: usize| V3 { x: f32x16::from(abc[j]), y: f32x16::from(abc[j + 1]), z: f32x16::from(abc[j + 2]) };
-    let (a, b, c) = (v3(0), v3(3), v3(6));
+        let v3 = |j: usize| V3 { x: f32x16::from(abc[j]), y: f32x16::from(abc[j + 1]), z: f32x16::from(abc[j + 2]) };
+        (v3(0), v3(3), v3(6), kind, kinds)
+    };
     let x = o + d.scale(ray(&hits.t));
     // Only the formulas of the shapes present (an all-triangle mesh group skips two of
     // three); an absent shape's lanes are never picked, so zeros stand in.
@@ -186,8 +194,8 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
         return;
     }
     let HitLanes { d, p, err, ng } = hit_lanes(scene, rays, hits, ids);
-    let idx = lane_ids(ids);
-    let ray = |v: &[f32]| gather(v, &idx);
+    let lanes = LaneIds::new(ids);
+    let ray = |v: &[f32]| lanes.gather(v);
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = V3::if_negative(ng.dot(d), ng, -ng);
     // Whole columns at once: one capacity check per column, not per value.
@@ -204,7 +212,7 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     put3(&mut out.wr, &mut out.wg, &mut out.wb, V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) });
     // Albedo, Phong reflectance and exponent: seven columns filled in one pass.
     let mut mat = [[0.0f32; LANES]; 7];
-    for (k, &i) in idx.iter().enumerate() {
+    for (k, &i) in lanes.idx.iter().enumerate() {
         let (c, sp, shininess) = diffuse_material(scene, hits.prim[i]).unwrap_or_default();
         for (col, x) in mat.iter_mut().zip([c.x, c.y, c.z, sp.x, sp.y, sp.z, shininess]) {
             col[k] = x;

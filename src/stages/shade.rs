@@ -15,7 +15,7 @@ use crate::light::{
 };
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use crate::scene::{Light, Scene, ShadowMode};
-use crate::simd::{gather, gather_words, push_lanes, Word, LANES, V3};
+use crate::simd::{push_lanes, LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, diffuse_material, diffuse_surfaces, queued_surface};
 
 /// Shades every ray of `rays` at its hit in `hits`: fills `shadow`, `points` and
@@ -181,17 +181,10 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
     let n = scene.settings.shadow_samples;
     let si = triples.point;
     // A run of consecutive points (one sample, one light) loads straight from the queue.
-    let run = (si[LANES - 1] == si[0] + LANES as u32 - 1).then_some(si[0] as usize);
-    let idx = si.map(|i| i as usize);
-    let f = |v: &[f32]| match run {
-        Some(a) => f32x16::from(&v[a..a + LANES]),
-        None => gather(v, &idx),
-    };
+    let lanes = LaneIds::new(&si);
+    let f = |v: &[f32]| lanes.gather(v);
     let v3 = |x: &[f32], y: &[f32], z: &[f32]| V3 { x: f(x), y: f(y), z: f(z) };
-    let u = |v: &[u32]| match run {
-        Some(a) => u32x16::from(&v[a..a + LANES]),
-        None => gather_words(v, &idx),
-    };
+    let u = |v: &[u32]| lanes.gather_words(v);
     let lights = LightLanes::new(scene, &triples.light);
     let (o, normal) = (v3(&q.ox, &q.oy, &q.oz), v3(&q.nx, &q.ny, &q.nz));
     let index = u(&q.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(triples.sample));
@@ -205,6 +198,9 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
     let (wx, wy, wz) = (s.wi.x.to_array(), s.wi.y.to_array(), s.wi.z.to_array());
     let tmax = (s.dist * f32x16::splat(SHADOW_TMAX_SCALE)).to_array();
     let dark = (s.cos_x.simd_le(f32x16::ZERO) | s.cos_y.simd_le(f32x16::ZERO)).to_bitmask();
+    let spec = v3(&q.sr, &q.sg, &q.sb);
+    let phong =
+        !(spec.x.simd_eq(f32x16::ZERO) & spec.y.simd_eq(f32x16::ZERO) & spec.z.simd_eq(f32x16::ZERO)).to_bitmask();
     let (factor, (rx, ry, rz)) = (factor.to_array(), (r.x.to_array(), r.y.to_array(), r.z.to_array()));
     // The lanes that cast a ray, then whole columns at once.
     let (mut keep, mut m) = ([0usize; LANES], 0);
@@ -212,7 +208,7 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
         keep[m] = k;
         m += 1;
         let p = si[k] as usize;
-        if q.specular(p) != Vec3::ZERO {
+        if phong & (1 << k) != 0 {
             let wi = Vec3::new(wx[k], wy[k], wz[k]);
             let brdf = diffuse_brdf(q.color(p), q.specular(p), q.shininess[p], q.normal(p), wi, q.wo(p));
             let l = q.weight(p) * brdf * Vec3::new(rx[k], ry[k], rz[k]) * factor[k];
