@@ -189,7 +189,6 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
         let d = pinhole_lanes(scene, fx, fy);
         let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
         let jw = words(j);
-        let n = rays.len() + count;
         if cam.aperture > 0.0 {
             // The lens positions ray by ray (the disk mapping's sine and cosine are
             // libm's), the thin-lens rays on lanes.
@@ -209,19 +208,20 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
             for (col, x) in
                 [(&mut rays.ox, cam.position.x), (&mut rays.oy, cam.position.y), (&mut rays.oz, cam.position.z)]
             {
-                col.resize(n, x);
+                push_lanes(col, [x; LANES], count);
             }
             push_lanes(&mut rays.dx, dx, count);
             push_lanes(&mut rays.dy, dy, count);
             push_lanes(&mut rays.dz, dz, count);
         }
-        let fill = |v: &mut Vec<f32>, x: f32| v.resize(n, x);
-        rays.slot.resize(n, slot);
+        // Whole vectors, not `resize`'s element-by-element fill.
+        let fill = |v: &mut Vec<f32>, x: f32| push_lanes(v, [x; LANES], count);
+        push_lanes(&mut rays.slot, [slot; LANES], count);
         fill(&mut rays.wr, w.x);
         fill(&mut rays.wg, w.y);
         fill(&mut rays.wb, w.z);
-        rays.depth.resize(n, 0);
-        rays.key.resize(n, key);
+        push_lanes(&mut rays.depth, [0; LANES], count);
+        push_lanes(&mut rays.key, [key; LANES], count);
         push_lanes(&mut rays.sample, jw, count);
     }
 }
