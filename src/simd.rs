@@ -386,31 +386,34 @@ impl LaneIds {
         LaneIds { idx, run }
     }
 
-    /// The lanes' values of the column `v` (a loop the compiler keeps inline, unlike
-    /// `array::from_fn`).
+    /// The lanes' values of the column `v`, entry by entry (a loop the compiler keeps
+    /// inline, unlike `array::from_fn`).
     #[inline(always)]
-    pub fn gather(&self, v: &[f32]) -> f32x16 {
-        if let Some(a) = self.run {
-            return f32x16::from(&v[a..a + LANES]);
-        }
-        let mut a = [0.0; LANES];
+    fn spread<T: Copy + Default>(&self, v: &[T]) -> [T; LANES] {
+        let mut a = [T::default(); LANES];
         for (x, &i) in a.iter_mut().zip(&self.idx) {
             *x = v[i];
         }
-        f32x16::from(a)
+        a
+    }
+
+    /// The lanes' values of the column `v`. (A run loads the slice straight into the
+    /// vector: through an array it measured 1.5 ns a hit slower in shade.)
+    #[inline(always)]
+    pub fn gather(&self, v: &[f32]) -> f32x16 {
+        match self.run {
+            Some(a) => f32x16::from(&v[a..a + LANES]),
+            None => f32x16::from(self.spread(v)),
+        }
     }
 
     /// [`LaneIds::gather`] of words.
     #[inline(always)]
     pub fn gather_words(&self, v: &[u32]) -> u32x16 {
-        if let Some(a) = self.run {
-            return u32x16::from(&v[a..a + LANES]);
+        match self.run {
+            Some(a) => u32x16::from(&v[a..a + LANES]),
+            None => u32x16::from(self.spread(v)),
         }
-        let mut a = [0; LANES];
-        for (x, &i) in a.iter_mut().zip(&self.idx) {
-            *x = v[i];
-        }
-        u32x16::from(a)
     }
 }
 
