@@ -678,3 +678,32 @@ fn a_pixels_shadow_rays_are_stratified_over_all_its_camera_samples() {
     let o = shade(&scene, &other, &trace(&scene, &other));
     assert_ne!(light_uv(&scene, o.shadow.origin(0), o.shadow.dir(0)), uv[0]);
 }
+
+#[test]
+fn focus_probes_on_lanes_equal_the_scalar_formulas() {
+    use glam::Vec2;
+    use wavetrace::stages::focus;
+    let scene = support::scene(wavetrace::DEFAULT_SCENE, &["camera.aperture=0.2", "camera.focus_distance=4.0"]);
+    let (w, h) = (scene.settings.width, scene.settings.height);
+    // Scattered over the frame: some probes hit, some see the sky.
+    let film = |i: u32| Vec2::new(((i * 53) % w) as f32 + 0.25, ((i * 29) % h) as f32 + 0.5);
+    // 37 probes from point 5: two full lane groups and a partial one.
+    let mut rays = RayQueue::default();
+    focus::generate(&scene, 5..42, film, &mut rays);
+    assert_eq!(rays.len(), 37);
+    let (s, cam) = (&scene.settings, &scene.camera);
+    for i in 0..rays.len() {
+        let d = cam.pinhole_dir(film(5 + i as u32), s.width, s.height);
+        assert_eq!(rays.dir(i).to_array().map(f32::to_bits), d.to_array().map(f32::to_bits), "probe {i}");
+        assert_eq!((rays.origin(i), rays.slot[i]), (cam.position, i as u32));
+    }
+    let (_, hits) = support::step(&scene, &rays);
+    let (mut sharp, mut lens) = (vec![0.0; 40], vec![0.0; 40]);
+    focus::blur(&scene, &rays, &hits, 2, &mut sharp, &mut lens);
+    for i in 0..rays.len() {
+        let r = focus::coc_pixels::<f32>(&scene, hits.t[i] * rays.dir(i).dot(cam.forward));
+        assert_eq!(sharp[2 + i].to_bits(), r.to_bits(), "probe {i}");
+        assert!(lens[2 + i].to_bits() == r.to_bits() || lens[2 + i] == f32::INFINITY, "probe {i}");
+    }
+    assert!(hits.t.iter().any(|t| t.is_finite()) && hits.t.iter().any(|t| t.is_infinite()), "hits and misses both");
+}

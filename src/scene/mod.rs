@@ -14,6 +14,7 @@ pub mod transform;
 use glam::{Vec2, Vec3};
 
 use crate::geometry::Accel;
+use crate::simd::{Real, V3};
 
 pub use load::{load, SceneSource};
 
@@ -142,9 +143,17 @@ impl Camera {
     /// of a `width`×`height` image.
     #[inline]
     pub fn pinhole_dir(&self, film: Vec2, width: u32, height: u32) -> Vec3 {
-        let sx = (2.0 * film.x / width as f32 - 1.0) * self.tan_half_fov * self.aspect;
-        let sy = (1.0 - 2.0 * film.y / height as f32) * self.tan_half_fov;
-        (self.forward + sx * self.right + sy * self.up).normalize()
+        self.pinhole_dirs(film.x, film.y, width, height).vec()
+    }
+
+    /// [`Camera::pinhole_dir`] on lanes of film positions (`fx`, `fy`): one formula for
+    /// both widths, in glam's order of operations, so a lane has the scalar bits.
+    #[inline(always)]
+    pub fn pinhole_dirs<R: Real>(&self, fx: R, fy: R, width: u32, height: u32) -> V3<R> {
+        let (two, one) = (R::splat(2.0), R::splat(1.0));
+        let sx = (two * fx / R::splat(width as f32) - one) * R::splat(self.tan_half_fov) * R::splat(self.aspect);
+        let sy = (one - two * fy / R::splat(height as f32)) * R::splat(self.tan_half_fov);
+        (V3::splat(self.forward) + V3::splat(self.right).scale(sx) + V3::splat(self.up).scale(sy)).normalize()
     }
 }
 

@@ -186,7 +186,7 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
         let aa = if dof == 1 { j } else { j.div_rem(dof).0 };
         let (cx, cy, _) = cmj_lanes(aa, s.aa_samples, pattern);
         let (fx, fy) = (fx0 + cx, fy0 + cy);
-        let d = pinhole_lanes(scene, fx, fy);
+        let d = cam.pinhole_dirs(fx, fy, s.width, s.height);
         let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
         let jw = words(j);
         if cam.aperture > 0.0 {
@@ -238,17 +238,6 @@ fn lens_sample(scene: &Scene, pixel: u32, aa: u32, l: u32, j: u32, lens_seed: u3
         1 => sobol_owen(j, lens_seed),
         dof => cmj(l, dof, hash(&[s.seed, pixel, aa, dim::LENS])),
     }
-}
-
-/// [`Camera::pinhole_dir`](crate::scene::Camera::pinhole_dir) on lanes of film positions:
-/// the same operations in the same order, so the same bits.
-#[inline(always)]
-fn pinhole_lanes<R: Real>(scene: &Scene, fx: R, fy: R) -> V3<R> {
-    let (s, cam) = (&scene.settings, &scene.camera);
-    let (two, one) = (R::splat(2.0), R::splat(1.0));
-    let sx = (two * fx / R::splat(s.width as f32) - one) * R::splat(cam.tan_half_fov) * R::splat(cam.aspect);
-    let sy = (one - two * fy / R::splat(s.height as f32)) * R::splat(cam.tan_half_fov);
-    (V3::splat(cam.forward) + V3::splat(cam.right).scale(sx) + V3::splat(cam.up).scale(sy)).normalize()
 }
 
 /// Side of the screen blocks camera rays are generated in.

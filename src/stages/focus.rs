@@ -7,25 +7,39 @@
 //! glass, whose surface may be in focus while what they show is not. Touches no pixel
 //! state. The mapping is documented in docs/paper.md.
 
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 use std::ops::Range;
+use wide::f32x16;
 
 use crate::geometry::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, MISS};
 use crate::scene::{Material, Scene};
+use crate::simd::{LaneIds, Real, LANES, V3};
 
 /// Pinhole rays through the film positions `film(i)` of points `range`, for their first
 /// hit's depth only (they are intersected, never shaded). Slot: the point index minus
-/// `range.start`. No randomness: a point's probe depends only on its film position.
+/// `range.start`. No randomness: a point's probe depends only on its film position. The
+/// directions are computed 16 at a time on lanes ([`Camera::pinhole_dirs`]).
 pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, rays: &mut RayQueue) {
     rays.clear();
     let s = &scene.settings;
     let cam = &scene.camera;
     let first = range.start;
-    for i in range {
-        let d = cam.pinhole_dir(film(i as u32), s.width, s.height);
-        rays.push(cam.position, d, (i - first) as u32, glam::Vec3::ZERO, 0, 0, 0);
+    for i0 in range.clone().step_by(LANES) {
+        let count = (range.end - i0).min(LANES as u64) as usize;
+        // Lanes past the last point repeat it and are not written.
+        let (mut fx, mut fy) = ([0.0f32; LANES], [0.0f32; LANES]);
+        for k in 0..LANES {
+            let p = film((i0 + k.min(count - 1) as u64) as u32);
+            (fx[k], fy[k]) = (p.x, p.y);
+        }
+        let d = cam.pinhole_dirs(f32x16::from(fx), f32x16::from(fy), s.width, s.height);
+        let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
+        for k in 0..count {
+            let slot = (i0 + k as u64 - first) as u32;
+            rays.push(cam.position, Vec3::new(dx[k], dy[k], dz[k]), slot, Vec3::ZERO, 0, 0, 0);
+        }
     }
 }
 
@@ -35,19 +49,26 @@ pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, ra
 /// there the surface (and its silhouette) may be in focus while the reflected or
 /// refracted image comes from far away, and through a curved surface the lens rays of
 /// one film point fan out to places the first-hit depth says nothing about. Such a
-/// probe keeps its own blur for the eps but asks for every lens sample.
+/// probe keeps its own blur for the eps but asks for every lens sample. The radii are
+/// computed 16 probes at a time on lanes.
 pub fn blur(scene: &Scene, rays: &RayQueue, hits: &HitQueue, first: usize, sharp: &mut [f32], lens: &mut [f32]) {
-    for i in 0..rays.len() {
+    let forward = V3::splat(scene.camera.forward);
+    for i0 in (0..rays.len()).step_by(LANES) {
+        let ids: [u32; LANES] = std::array::from_fn(|k| (i0 + k).min(rays.len() - 1) as u32);
+        let lanes = LaneIds::new(&ids);
+        let d = V3 { x: lanes.gather(&rays.dx), y: lanes.gather(&rays.dy), z: lanes.gather(&rays.dz) };
         // Depth along the view axis: the thin lens focuses planes, not spheres.
-        let z = hits.t[i] * rays.dir(i).dot(scene.camera.forward);
-        let r = coc_pixels(scene, z);
-        let specular = hits.prim[i] != MISS && {
-            let prim = &scene.accel.prims[hits.prim[i] as usize];
-            prim.light == NO_LIGHT && !matches!(scene.materials[prim.material as usize], Material::Diffuse { .. })
-        };
-        let at = first + rays.slot[i] as usize;
-        sharp[at] = r;
-        lens[at] = if specular { f32::INFINITY } else { r };
+        let r = coc_pixels(scene, lanes.gather(&hits.t) * d.dot(forward)).to_array();
+        for (k, &r) in r.iter().enumerate().take(rays.len() - i0) {
+            let i = i0 + k;
+            let specular = hits.prim[i] != MISS && {
+                let prim = &scene.accel.prims[hits.prim[i] as usize];
+                prim.light == NO_LIGHT && !matches!(scene.materials[prim.material as usize], Material::Diffuse { .. })
+            };
+            let at = first + rays.slot[i] as usize;
+            sharp[at] = r;
+            lens[at] = if specular { f32::INFINITY } else { r };
+        }
     }
 }
 
@@ -55,10 +76,11 @@ pub fn blur(scene: &Scene, rays: &RayQueue, hits: &HitQueue, first: usize, sharp
 /// miss). A lens of radius A focused at distance f spreads a point at depth z over a
 /// disk of radius A·|z − f|/z on the focus plane, where one pixel is 2·f·tan(fov_y/2)/H
 /// high, so r = A·H/(2·tan(fov_y/2)) · |1/f − 1/z|.
-pub fn coc_pixels(scene: &Scene, z: f32) -> f32 {
+/// On lanes or scalar (one formula).
+pub fn coc_pixels<R: Real>(scene: &Scene, z: R) -> R {
     let cam = &scene.camera;
     let scale = cam.aperture * scene.settings.height as f32 / (2.0 * cam.tan_half_fov);
-    scale * (1.0 / cam.focus_distance - 1.0 / z).abs()
+    R::splat(scale) * (R::splat(1.0 / cam.focus_distance) - R::splat(1.0) / z).abs()
 }
 
 /// Lens samples for a point blurred over `r` pixels: one per pixel of the circle of
