@@ -11,7 +11,7 @@ use wide::{f32x16, u32x16};
 
 use super::Tile;
 use crate::queue::RayQueue;
-use crate::sampling::{cmj, cmj_lanes, concentric_disk, dim, hash, sobol_owen, CMJ_LANES_MAX};
+use crate::sampling::{cmj, cmj_lanes, concentric_disk, dim, hash, sobol_owen, sobol_owen_lanes, CMJ_LANES_MAX};
 use crate::scene::Scene;
 use crate::simd::{iota, push_lanes, words, Real, Word, LANES, V3};
 
@@ -190,11 +190,19 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
         let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
         let jw = words(j);
         if cam.aperture > 0.0 {
-            // The lens positions ray by ray (the disk mapping's sine and cosine are
-            // libm's), the thin-lens rays on lanes.
+            // One lens ray per AA sample: the pixel's Sobol points on lanes (what
+            // `lens_sample` gives, bit for bit). The disk mapping stays ray by ray (its
+            // sine and cosine are libm's), the thin-lens rays on lanes.
+            let sobol = (dof == 1).then(|| {
+                let (x, y) = sobol_owen_lanes(j, u32x16::splat(lens_seed));
+                (x.to_array(), y.to_array())
+            });
             let (aw, mut disk) = (words(aa), [[0.0; LANES]; 2]);
             for k in 0..LANES {
-                let lens = lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed);
+                let lens = match &sobol {
+                    Some((x, y)) => Vec2::new(x[k], y[k]),
+                    None => lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed),
+                };
                 (disk[0][k], disk[1][k]) = concentric_disk(lens).into();
             }
             let (o, d) = thin_lens_lanes(scene, d, f32x16::from(disk[0]), f32x16::from(disk[1]));
