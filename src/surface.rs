@@ -177,6 +177,7 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
         z: is_sphere.select(s.z, is_quad.select(q.z, t.z)),
     };
     let (p, err) = (pick(sphere.0, quad.0, triangle.0), pick(sphere.1, quad.1, triangle.1));
+    // `kinds` has bit 1 << kind: 4 = triangles only, 2 = parallelograms only.
     let ng = match kinds {
         4 => (b - a).cross(c - a),
         2 => b.cross(c),

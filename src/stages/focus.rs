@@ -75,8 +75,8 @@ pub fn blur(scene: &Scene, rays: &RayQueue, hits: &HitQueue, first: usize, sharp
 /// Radius in pixels of the circle of confusion of a point at depth `z` (infinite for a
 /// miss). A lens of radius A focused at distance f spreads a point at depth z over a
 /// disk of radius A·|z − f|/z on the focus plane, where one pixel is 2·f·tan(fov_y/2)/H
-/// high, so r = A·H/(2·tan(fov_y/2)) · |1/f − 1/z|.
-/// On lanes or scalar (one formula).
+/// high, so r = A·H/(2·tan(fov_y/2)) · |1/f − 1/z|. One formula for lanes and for a
+/// single value (`R = f32`).
 pub fn coc_pixels<R: Real>(scene: &Scene, z: R) -> R {
     let cam = &scene.camera;
     let scale = cam.aperture * scene.settings.height as f32 / (2.0 * cam.tan_half_fov);
