@@ -53,6 +53,30 @@ pub(crate) fn slab(b: &obvhs::aabb::Aabb, ray: &Ray) -> f32 {
     }
 }
 
+/// The reciprocal of a ray direction's component for the slab tests: `1/x`, clamped to
+/// ±`f32::MAX` (a zero component gives ±MAX by its sign). Never NaN and never zero, so
+/// `(bound − origin) · inv` is never NaN (a bound on the origin's plane gives 0). obvhs's
+/// `Ray::new` clamps at ±1/ε instead, which is not conservative: a ray parallel to an axis
+/// passing within `t / 8.4·10⁶` inside a box's face (a camera ray exactly along −z, 10⁻⁶
+/// from a triangle's edge at distance 10) gets a slab interval on that axis ending before
+/// its hit, and the box is skipped; every kernel builds its rays with this instead.
+#[inline(always)]
+pub(crate) fn inv_dir(x: f32) -> f32 {
+    (1.0 / x).clamp(-f32::MAX, f32::MAX)
+}
+
+/// An obvhs ray from `o` along `d` over `(tmin, tmax)`, with [`inv_dir`]'s reciprocals.
+#[inline(always)]
+pub(crate) fn ray(o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Ray {
+    Ray {
+        origin: o.into(),
+        direction: d.into(),
+        inv_direction: glam::Vec3A::new(inv_dir(d.x), inv_dir(d.y), inv_dir(d.z)),
+        tmin,
+        tmax,
+    }
+}
+
 /// A box is skipped only when its entry distance exceeds the ray's current `tmax` by more
 /// than `tmax · (CULL − 1) + Accel::slack`. The entry distance and a primitive's hit
 /// distance round independently, so a primitive lying on a face of its own box (every
@@ -290,17 +314,15 @@ impl Accel {
         let bvh = self.bvh.as_ref()?;
         let prims = &self.prims;
         let mut hit = RayHit::none();
-        bvh.ray_traverse(Ray::new(o.into(), d.into(), tmin, tmax), &mut hit, |r, id| {
-            prims[id].shape.intersect(o, d, r.tmin, r.tmax)
-        })
-        .then_some((hit.t, hit.primitive_id))
+        bvh.ray_traverse(ray(o, d, tmin, tmax), &mut hit, |r, id| prims[id].shape.intersect(o, d, r.tmin, r.tmax))
+            .then_some((hit.t, hit.primitive_id))
     }
 
     /// [`Accel::occluded`] through obvhs's own any-hit traversal (`Bvh2::ray_traverse_miss`).
     pub fn occluded_obvhs(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
         let prims = &self.prims;
-        !bvh.ray_traverse_miss(Ray::new(o.into(), d.into(), tmin, tmax), |r, id| {
+        !bvh.ray_traverse_miss(ray(o, d, tmin, tmax), |r, id| {
             let p = &prims[id];
             if p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax {
                 0.0
@@ -322,7 +344,7 @@ impl Accel {
         c: &mut Traversal,
     ) -> Option<(f32, u32)> {
         let bvh = self.bvh.as_ref()?;
-        let ray = Ray::new(o.into(), d.into(), tmin, tmax);
+        let ray = ray(o, d, tmin, tmax);
         let prims = &self.prims;
         let mut best = (f32::INFINITY, u32::MAX);
         if self.depth >= STACK {
@@ -350,7 +372,7 @@ impl Accel {
     #[inline]
     pub fn occluded<const COUNT: bool>(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, c: &mut Traversal) -> bool {
         let Some(bvh) = self.bvh.as_ref() else { return false };
-        let ray = Ray::new(o.into(), d.into(), tmin, tmax);
+        let ray = ray(o, d, tmin, tmax);
         let prims = &self.prims;
         let blocks = |p: &Primitive, r: &Ray| p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax;
         if self.depth >= STACK {

@@ -25,7 +25,7 @@ use obvhs::bvh2::Bvh2;
 use obvhs::ray::Ray;
 use wide::{f32x4, f32x8};
 
-use super::bvh::{Traversal, CULL};
+use super::bvh::{ray, Traversal, CULL};
 use super::packet::{Simd, MAX};
 use super::shapes::{intersect_triangle, shear_axes, Primitive, Shape, NO_LIGHT};
 
@@ -434,7 +434,7 @@ impl<S: Simd> WideBvh<S> {
     ) -> Option<(f32, u32)> {
         let mut best = (f32::INFINITY, u32::MAX);
         let sheared = Sheared::new(o, d);
-        self.walk::<COUNT, true>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
+        self.walk::<COUNT, true>(slack, ray(o, d, tmin, tmax), c, |r, b| {
             if !b.triangles {
                 let first = b.first as usize;
                 for (id, p) in prims[first..first + b.count as usize].iter().enumerate() {
@@ -488,7 +488,7 @@ impl<S: Simd> WideBvh<S> {
     ) -> bool {
         let mut blocked = false;
         let sheared = Sheared::new(o, d);
-        self.walk::<COUNT, false>(slack, Ray::new(o.into(), d.into(), tmin, tmax), c, |r, b| {
+        self.walk::<COUNT, false>(slack, ray(o, d, tmin, tmax), c, |r, b| {
             if !b.triangles {
                 let first = b.first as usize;
                 for p in &prims[first..first + b.count as usize] {

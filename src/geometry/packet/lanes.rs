@@ -75,13 +75,8 @@ impl<'a, S: Simd> Lanes<'a, S> {
         } else {
             Axes::Mixed(is_x, is_y)
         };
-        // obvhs's safe_inverse on lanes: ±1/ε where |x| ≤ ε (the sign of x, zeros
-        // included), else 1/x. Unused lanes get 1.
-        let inv = dir.map(|x| {
-            let tiny = S::le(S::max(x, -x), S::splat(f32::EPSILON));
-            let signed = S::select(S::negative(x), S::splat(-1.0 / f32::EPSILON), S::splat(1.0 / f32::EPSILON));
-            S::select(used, S::select(tiny, signed, one / x), one)
-        });
+        // `inv_dir` on lanes (1/x clamped to ±MAX); unused lanes get 1.
+        let inv = dir.map(|x| S::select(used, (one / x).max(S::splat(-f32::MAX)).min(S::splat(f32::MAX)), one));
         Lanes {
             o,
             d,

@@ -2,11 +2,10 @@
 
 use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node;
-use obvhs::ray::Ray;
 
 use super::lanes::Lanes;
 use super::{lanes_of, PacketWork, Simd, MAX};
-use crate::geometry::bvh::{subtree, Accel, NodeStack, Traversal, STACK};
+use crate::geometry::bvh::{ray, subtree, Accel, NodeStack, Traversal, STACK};
 use crate::geometry::shapes::NO_LIGHT;
 
 impl Accel {
@@ -111,10 +110,10 @@ impl Accel {
     ) -> bool {
         for l in lanes_of(active) {
             work.fallbacks += 1;
-            let ray = Ray::new(lanes.o[l].into(), lanes.d[l].into(), 0.0, tmax[l]);
+            let single = ray(lanes.o[l], lanes.d[l], 0.0, tmax[l]);
             let mut go = true;
             let mut count = Traversal::default();
-            subtree::<true>(nodes, first, self.slack, ray, &mut count, |r, range, _| {
+            subtree::<true>(nodes, first, self.slack, single, &mut count, |r, range, _| {
                 go = leaf(lanes, 1 << l, range, tmax);
                 r.tmax = tmax[l];
                 // A blocked any-hit lane has tmax = -∞: nothing more to find.
