@@ -48,6 +48,22 @@ fn text_table_lists_each_set() {
 }
 
 #[test]
+fn kernels_flag_measures_only_the_kernels_named() {
+    let mut args = SMALL.to_vec();
+    args.extend(["--reps", "1", "--kernels", "hybrid,wide", "--json"]);
+    let out = bench(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let kernels: Vec<&str> = v["sets"].as_array().unwrap().iter().map(|s| s["kernel"].as_str().unwrap()).collect();
+    // The table's order, whatever the order asked in.
+    assert_eq!(kernels, ["wide", "hybrid"].repeat(3));
+    let mut args = SMALL.to_vec();
+    args.extend(["--reps", "1", "--kernels", "packet"]);
+    let text = String::from_utf8(bench(&args).stdout).unwrap();
+    assert!(text.contains("packet") && !text.contains("scalar") && !text.contains("/scalar"), "{text}");
+}
+
+#[test]
 fn bad_flags_exit_2_with_a_message() {
     for (args, needle) in [
         (&["--lanes", "5"][..], "'5' for '--lanes"),
@@ -61,6 +77,7 @@ fn bad_flags_exit_2_with_a_message() {
         (&["--mesh", "no/such/mesh.obj"], "no/such/mesh.obj"),
         (&["--sphere", "11"], "--sphere"),
         (&["--leaf", "0"], "--leaf"),
+        (&["--kernels", "wide,simd"], "'simd' for '--kernels"),
         (
             &["--export-rays", "target/no-such-export-dir", "--set", "render.width=8", "--set", "render.height=8"],
             "spheres or parallelograms",

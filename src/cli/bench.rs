@@ -68,10 +68,29 @@ pub struct BenchArgs {
     /// Time by the process's CPU time, not the wall clock (for a shared, loaded machine).
     #[arg(long)]
     cpu_time: bool,
+    /// The kernels to measure, comma separated: scalar, packet, wide, hybrid (default:
+    /// all four; their answers are checked against the first one listed).
+    #[arg(long, value_enum, value_delimiter = ',', hide_possible_values = true)]
+    kernels: Vec<KernelName>,
     /// Print JSON: {"bvh_build_seconds", "primitives", "bytes_per_primitive", "threads", "clock",
     /// "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
     #[arg(long)]
     json: bool,
+}
+
+/// `--kernels`: one of the kernels `wavetrace bench` measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum KernelName {
+    Scalar,
+    Packet,
+    Wide,
+    Hybrid,
+}
+
+impl KernelName {
+    fn name(self) -> &'static str {
+        bench::KERNELS[self as usize]
+    }
 }
 
 /// `--lanes`: the packet widths the packet kernel is built for.
@@ -155,6 +174,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         packet,
         min_lanes: args.min_lanes,
         cpu_time: args.cpu_time,
+        kernels: args.kernels.iter().map(|k| k.name()).collect(),
     };
     opts.check()?;
     let side = (opts.max_rays as f64).sqrt() as usize;

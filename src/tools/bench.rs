@@ -52,7 +52,12 @@ pub struct BenchOptions {
     /// Time by the process's CPU time instead of the wall clock (on a shared machine the
     /// wall clock also counts the time other processes held the cores).
     pub cpu_time: bool,
+    /// The kernels to measure, by name ([`KERNELS`]); empty: all of them.
+    pub kernels: Vec<&'static str>,
 }
+
+/// The kernels `wavetrace bench` measures, by the names its table and JSON use.
+pub const KERNELS: [&str; 4] = ["scalar", "packet", "wide", "hybrid"];
 
 impl Default for BenchOptions {
     fn default() -> Self {
@@ -64,6 +69,7 @@ impl Default for BenchOptions {
             packet: PacketConfig::RENDER,
             min_lanes: RENDER_MIN_LANES,
             cpu_time: false,
+            kernels: Vec::new(),
         }
     }
 }
@@ -364,35 +370,40 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
 /// The kernels `wavetrace bench` measures, with their column names.
 fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 4] {
     [
-        ("scalar", Kernel::Scalar),
-        ("packet", Kernel::Packet(opts.lanes, opts.packet)),
-        ("wide", Kernel::Wide),
-        ("hybrid", Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
+        (KERNELS[0], Kernel::Scalar),
+        (KERNELS[1], Kernel::Packet(opts.lanes, opts.packet)),
+        (KERNELS[2], Kernel::Wide),
+        (KERNELS[3], Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
     ]
 }
 
 /// Measures every set of `sets` with every kernel, interleaved: each repetition traces
-/// the set once with each kernel in turn (after one untimed pass each), so drifting load
-/// on the machine touches every kernel alike.
+/// the set with each kernel in turn, an untimed pass then a timed one (warm caches), so
+/// drifting load on the machine touches every kernel alike.
 pub fn run(accel: &Accel, sets: &[(&'static str, RaySet)], opts: &BenchOptions) -> Result<BenchReport> {
     opts.check()?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
         .map_err(|e| Error::Internal(format!("cannot start {} threads: {e}", opts.threads)))?;
-    let kernels = kernels(opts);
+    let kernels: Vec<_> =
+        kernels(opts).into_iter().filter(|k| opts.kernels.is_empty() || opts.kernels.contains(&k.0)).collect();
     let mut out = Vec::new();
     for (name, set) in sets {
         let checks: Vec<u64> = kernels.iter().map(|&(_, k)| trace(accel, set, &pool, k).1).collect();
         if let Some(k) = (1..kernels.len()).find(|&k| checks[k] != checks[0]) {
             return Err(Error::Internal(format!(
-                "{name} set: the {} kernel found {} where the scalar kernel found {}",
-                kernels[k].0, checks[k], checks[0]
+                "{name} set: the {} kernel found {} where the {} kernel found {}",
+                kernels[k].0, checks[k], kernels[0].0, checks[0]
             )));
         }
         let mut secs = vec![Vec::new(); kernels.len()];
         for _ in 0..opts.reps {
             for (k, &(_, kernel)) in kernels.iter().enumerate() {
+                // An untimed pass first, so each kernel is timed on caches holding its own
+                // structures, not the previous kernel's (as a renderer running one kernel,
+                // or Embree tracing set after set in benches/embree.py, would be).
+                trace(accel, set, &pool, kernel);
                 let t = trace(accel, set, &pool, kernel).0;
                 secs[k].push(if opts.cpu_time { t.cpu } else { t.wall });
             }
@@ -438,18 +449,34 @@ impl BenchReport {
             self.clock,
         );
         t += &format!("{:<14} {:>9}  Mrays/s:", "set", "rays");
-        let per = 4;
-        for r in self.sets.iter().take(per) {
-            t += &format!(" {:>8}", r.kernel);
+        // One row per set, one column per kernel measured; against the scalar kernel when
+        // it ran.
+        let per = self.sets.iter().take_while(|r| r.set == self.sets[0].set).count().max(1);
+        let names: Vec<&str> = self.sets.iter().take(per).map(|r| r.kernel).collect();
+        let scalar = names.iter().position(|&k| k == KERNELS[0]);
+        let over: Vec<usize> = match scalar {
+            Some(_) => [KERNELS[2], KERNELS[3]].iter().filter_map(|k| names.iter().position(|n| n == k)).collect(),
+            None => Vec::new(),
+        };
+        for k in &names {
+            t += &format!(" {k:>8}");
         }
-        t += "  wide/scalar hybrid/scalar\n";
+        for &k in &over {
+            t += &format!(" {:>13}", format!("{}/scalar", names[k]));
+        }
+        t += "\n";
         for row in self.sets.chunks(per) {
             t += &format!("{:<14} {:>9}          ", row[0].set, row[0].rays);
             for r in row {
                 t += &format!(" {:>8.2}", r.mrays_per_s);
             }
-            let ratio = |k: usize| if row[0].mrays_per_s > 0.0 { row[k].mrays_per_s / row[0].mrays_per_s } else { 0.0 };
-            t += &format!("  {:>11.2} {:>13.2}\n", ratio(2), ratio(3));
+            if let Some(s) = scalar {
+                for &k in &over {
+                    let ratio = if row[s].mrays_per_s > 0.0 { row[k].mrays_per_s / row[s].mrays_per_s } else { 0.0 };
+                    t += &format!(" {ratio:>13.2}");
+                }
+            }
+            t += "\n";
         }
         t
     }
