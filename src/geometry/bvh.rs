@@ -77,6 +77,30 @@ pub(crate) fn ray(o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Ray {
     }
 }
 
+/// The bound to test a primitive against in a closest-hit search that has found `best`
+/// so far (`(∞, u32::MAX)` before any hit) along a ray whose limit is now `tmax`: `tmax`
+/// itself before a hit (exclusive, as callers ask); after one (`tmax` = its distance),
+/// the next float up, so a primitive hit at exactly that distance is found too and
+/// [`nearer`] can rule on the tie.
+#[inline(always)]
+pub(crate) fn tie_limit(best: (f32, u32), tmax: f32) -> f32 {
+    if best.1 == u32::MAX {
+        tmax
+    } else {
+        tmax.next_up()
+    }
+}
+
+/// The closest-hit rule of every kernel: a hit at `t` (below [`tie_limit`]) by primitive
+/// `id` replaces `best` when nearer, or exactly as near with a lower id. So the answer is
+/// the lowest-id primitive at the closest distance whatever order a traversal (binary,
+/// wide, packet; any tree) meets them in; exact ties happen where surfaces meet, on two
+/// walls' shared edge, and the primitive decides the normal and material.
+#[inline(always)]
+pub(crate) fn nearer(t: f32, id: u32, best: (f32, u32)) -> bool {
+    t < best.0 || (t == best.0 && id < best.1)
+}
+
 /// A box is skipped only when its entry distance exceeds the ray's current `tmax` by more
 /// than `tmax · (CULL − 1) + Accel::slack`. The entry distance and a primitive's hit
 /// distance round independently, so a primitive lying on a face of its own box (every
@@ -314,8 +338,21 @@ impl Accel {
         let bvh = self.bvh.as_ref()?;
         let prims = &self.prims;
         let mut hit = RayHit::none();
-        bvh.ray_traverse(ray(o, d, tmin, tmax), &mut hit, |r, id| prims[id].shape.intersect(o, d, r.tmin, r.tmax))
-            .then_some((hit.t, hit.primitive_id))
+        let mut best = (f32::INFINITY, u32::MAX);
+        // obvhs keeps the strictly nearer hit; the tie rule is applied here.
+        bvh.ray_traverse(ray(o, d, tmin, tmax), &mut hit, |r, id| {
+            let limit = tie_limit(best, r.tmax);
+            let t = prims[id].shape.intersect(o, d, r.tmin, limit);
+            if t < limit && nearer(t, id as u32, best) {
+                best = (t, id as u32);
+            }
+            if t < r.tmax {
+                t
+            } else {
+                f32::INFINITY
+            }
+        });
+        (best.1 != u32::MAX).then_some(best)
     }
 
     /// [`Accel::occluded`] through obvhs's own any-hit traversal (`Bvh2::ray_traverse_miss`).
@@ -355,8 +392,9 @@ impl Accel {
                 c.prims += range.len() as u64;
             }
             for id in range {
-                let t = prims[id].shape.intersect(o, d, r.tmin, r.tmax);
-                if t < r.tmax {
+                let limit = tie_limit(best, r.tmax);
+                let t = prims[id].shape.intersect(o, d, r.tmin, limit);
+                if t < limit && nearer(t, id as u32, best) {
                     r.tmax = t;
                     best = (t, id as u32);
                 }

@@ -12,20 +12,19 @@
 //! (`(bound − origin) · inv`, far distance widened by 1 + 2γ₃, culled past
 //! `tmax · CULL + slack`); each triangle lane performs [`intersect_triangle`]'s operations
 //! in the same order (a lane whose edge function rounds to zero takes the scalar kernel,
-//! which recomputes in f64), the nearest lane wins and the lowest lane on a tie, as the
-//! scalar loop's strict `t < tmax` would; blocks holding another shape run the scalar
-//! kernels. Skipping the
-//! binary tree's intermediate boxes loses no hit: a parent's computed entry distance is
-//! never later than its child's (subtraction and multiplication round monotonically), so
-//! a primitive reachable here is reachable there. The closest distance is the same bit
-//! for bit; only on an exact tie in t may the primitive differ.
+//! which recomputes in f64), the nearest lane wins and on an exact tie in t the lowest
+//! primitive id, as in every kernel ([`nearer`]); blocks holding another shape run the
+//! scalar kernels. Skipping the binary tree's intermediate boxes loses no hit: a parent's
+//! computed entry distance is never later than its child's (subtraction and
+//! multiplication round monotonically), so a primitive reachable here is reachable there.
+//! The closest distance is the same bit for bit, and so is the primitive.
 
 use glam::Vec3;
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::Ray;
 use wide::{f32x4, f32x8};
 
-use super::bvh::{ray, Traversal, CULL};
+use super::bvh::{nearer, ray, tie_limit, Traversal, CULL};
 use super::packet::{Simd, MAX};
 use super::shapes::{intersect_triangle, shear_axes, Primitive, Shape, NO_LIGHT};
 
@@ -437,21 +436,23 @@ impl<S: Simd> WideBvh<S> {
         self.walk::<COUNT, true>(slack, ray(o, d, tmin, tmax), c, |r, b| {
             if !b.triangles {
                 let first = b.first as usize;
-                for (id, p) in prims[first..first + b.count as usize].iter().enumerate() {
-                    let t = p.shape.intersect(o, d, r.tmin, r.tmax);
-                    if t < r.tmax {
+                for (k, p) in prims[first..first + b.count as usize].iter().enumerate() {
+                    let (limit, id) = (tie_limit(best, r.tmax), (first + k) as u32);
+                    let t = p.shape.intersect(o, d, r.tmin, limit);
+                    if t < limit && nearer(t, id, best) {
                         r.tmax = t;
-                        best = (t, (first + id) as u32);
+                        best = (t, id);
                     }
                 }
                 return Leaf::Go;
             }
             let lanes = (1 << b.count) - 1;
             let t = sheared.triangles(b, lanes, o, d);
-            let ok = (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(r.tmax))).bits() & lanes;
+            let limit = tie_limit(best, r.tmax);
+            let ok = (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(limit))).bits() & lanes;
             if ok != 0 {
-                // The nearest lane, the lowest on a tie: what the scalar loop's strict
-                // `t < tmax` keeps.
+                // The nearest lane, the lowest (the lowest primitive id) on a tie, then
+                // the tie rule against the hit so far.
                 let mut a = [0.0; MAX];
                 t.store(&mut a);
                 let mut m = ok;
@@ -464,8 +465,10 @@ impl<S: Simd> WideBvh<S> {
                         l = k;
                     }
                 }
-                r.tmax = a[l];
-                best = (a[l], b.first + l as u32);
+                if nearer(a[l], b.first + l as u32, best) {
+                    r.tmax = a[l];
+                    best = (a[l], b.first + l as u32);
+                }
             }
             Leaf::Go
         });

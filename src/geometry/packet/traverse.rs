@@ -5,7 +5,7 @@ use obvhs::bvh2::node::Bvh2Node;
 
 use super::lanes::Lanes;
 use super::{lanes_of, PacketWork, Simd, MAX};
-use crate::geometry::bvh::{ray, subtree, Accel, NodeStack, Traversal, STACK};
+use crate::geometry::bvh::{nearer, ray, subtree, tie_limit, Accel, NodeStack, Traversal, STACK};
 use crate::geometry::shapes::NO_LIGHT;
 
 impl Accel {
@@ -129,7 +129,7 @@ impl Accel {
 
     /// Closest hits of a packet of up to `S::LANES` rays (`o`, `d` of equal length) within
     /// `(tmin, ∞)`: `out[l]` is `(t, primitive)` or `(∞, u32::MAX)`. The same hits as
-    /// [`Accel::closest`] (on exact ties in t, possibly another primitive). `min_active`:
+    /// [`Accel::closest`], primitives included (the tie rule of [`nearer`]). `min_active`:
     /// see [`PacketConfig::min_active`](super::PacketConfig::min_active).
     pub fn closest_packet<S: Simd>(
         &self,
@@ -154,6 +154,8 @@ impl Accel {
         let mut tmax = [f32::NEG_INFINITY; MAX];
         tmax[..n].fill(f32::INFINITY);
         let mut best = [(f32::INFINITY, u32::MAX); MAX];
+        // Each lane's `tie_limit`: its tmax before a hit, just above the hit's distance after.
+        let mut limit = tmax;
         let prims = &self.prims;
         let tmin_s = S::splat(tmin);
         let mut tests = 0u64;
@@ -163,24 +165,28 @@ impl Accel {
                 // One lane: the scalar kernels.
                 let l = mask.trailing_zeros() as usize;
                 for id in range {
-                    let t = prims[id].shape.intersect(o[l], d[l], tmin, tmax[l]);
-                    if t < tmax[l] {
-                        tmax[l] = t;
+                    let t = prims[id].shape.intersect(o[l], d[l], tmin, limit[l]);
+                    if t < limit[l] && nearer(t, id as u32, best[l]) {
                         best[l] = (t, id as u32);
+                        tmax[l] = t;
+                        limit[l] = tie_limit(best[l], t);
                     }
                 }
                 return true;
             }
             for id in range {
-                let tm = S::load(tmax);
+                let tm = S::load(&limit);
                 let t = lanes.shape(&prims[id].shape, mask, tmin_s, tm);
                 let hits = (t.gt(tmin_s) & t.lt(tm)).bits() & mask;
                 if hits != 0 {
                     let mut a = [0.0; MAX];
                     t.store(&mut a);
                     for l in lanes_of(hits) {
-                        tmax[l] = a[l];
-                        best[l] = (a[l], id as u32);
+                        if nearer(a[l], id as u32, best[l]) {
+                            best[l] = (a[l], id as u32);
+                            tmax[l] = a[l];
+                            limit[l] = tie_limit(best[l], a[l]);
+                        }
                     }
                 }
             }
