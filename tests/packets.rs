@@ -344,9 +344,11 @@ fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_or_wide_kernel() {
 }
 
 /// Rays parallel to two axes, passing just inside or on the shared edge of two triangles
-/// of a wall at distance 10: every kernel finds the wall. (obvhs's `Ray::new` clamps a
-/// zero direction component's reciprocal at 1/ε, and the slab test then skipped the box
-/// of a triangle the ray passes 10⁻⁶ inside of: the ray went through the wall.)
+/// of a wall at distance 10: every kernel finds the wall, and the primitive a brute-force
+/// search finds. (obvhs's `Ray::new` clamps a zero direction component's reciprocal at
+/// 1/ε, and the slab test then skipped the box of a triangle the ray passes 10⁻⁶ inside
+/// of: the ray went through the wall. A ray exactly on the edge runs in a face of each
+/// triangle's box: see `slab_origin`.)
 #[test]
 fn axis_parallel_rays_along_a_shared_edge_hit_the_wall_in_every_kernel() {
     let tri = |a: Vec3, b: Vec3, c: Vec3| Primitive {
@@ -367,6 +369,13 @@ fn axis_parallel_rays_along_a_shared_edge_hit_the_wall_in_every_kernel() {
     for (&o, &d) in o.iter().zip(&d) {
         let hit = accel.closest::<false>(o, d, 0.0, f32::INFINITY, &mut Traversal::default());
         assert!(hit.is_some_and(|h| (h.0 - 10.0).abs() < 1e-5), "ray from {o:?} along {d:?} missed the wall: {hit:?}");
+        // Every primitive the triangle test says is hit was met, whichever box it sits in
+        // (a ray along the shared edge runs in a face of both boxes): the answer is the
+        // brute-force one, the nearest and on a tie the lowest id.
+        let brute = (0..accel.prims.len() as u32)
+            .map(|id| (accel.prims[id as usize].shape.intersect(o, d, 0.0, f32::INFINITY), id))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        assert_eq!(hit, brute, "ray from {o:?} along {d:?}");
         assert!(accel.occluded::<false>(o, d, 0.0, 20.0, &mut Traversal::default()), "ray from {o:?} unblocked");
     }
     check_wide(&accel, &o, &d, "wall");

@@ -235,6 +235,26 @@ fn build_bvh2(prims: &[Primitive], params: &BvhBuildParams) -> Bvh2 {
     bvh
 }
 
+/// Widens every node's box by one float outward on each side. A ray parallel to an axis
+/// (a zero direction component, reciprocal ±`f32::MAX`: [`inv_dir`]) that runs exactly in
+/// a box's face plane gets `(bound − o) · inv` = 0 for that face: kept when it is the near
+/// face, skipped when it is the far one. The triangle test still reports hits on that
+/// face (on an edge two triangles share), so which of them a ray along a shared edge met
+/// depended on which box the tree put each in. Widened, a face that primitives touch is
+/// never exactly in the ray's plane on the wrong side, the box is kept, and every kernel
+/// meets every primitive the ray touches, whatever the tree. Parents contain their
+/// children's widened boxes (rounding outward is monotone).
+fn widen_boxes(bvh: &mut Bvh2) {
+    for node in &mut bvh.nodes {
+        let b = node.aabb();
+        let out = |v: glam::Vec3A, up: bool| {
+            glam::Vec3A::from(v.to_array().map(|x| if up { x.next_up() } else { x.next_down() }))
+        };
+        let widened = obvhs::aabb::Aabb { min: out(b.min, false), max: out(b.max, true) };
+        node.set_aabb(widened);
+    }
+}
+
 impl Accel {
     /// Builds the BVH over `prims` (which may be empty) with leaves of at most [`LEAF`]
     /// primitives.
@@ -251,6 +271,7 @@ impl Accel {
         }
         let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), ..BvhBuildParams::medium_build() };
         let mut bvh = build_bvh2(&prims, &params);
+        widen_boxes(&mut bvh);
         // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
         // mesh (found by fuzzing) builds deeper trees, which take obvhs's traversal (see
         // `STACK`), so give it a stack that holds them, as obvhs's own insertion does.
