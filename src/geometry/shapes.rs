@@ -144,29 +144,21 @@ pub fn intersect_sphere(center: Vec3, radius: f32, o: Vec3, d: Vec3, tmin: f32, 
     }
 }
 
-/// The watertight triangle test's frame for direction `d`: `kz` the dominant axis, `kx`,
-/// `ky` the other two, swapped when `d[kz] < 0` so the winding is kept. Shared by the
-/// scalar and the SIMD kernel so both shear exactly alike.
-#[inline]
+/// The watertight triangle test's frame for direction `d`: `kz` the axis of largest |d|
+/// (x over y over z on ties, as the comparisons below decide), `kx`, `ky` the next two
+/// cyclically. Shared by every kernel so all shear exactly alike. Woop et al. swap `kx`
+/// and `ky` when `d[kz] < 0` to keep the winding; the swap only negates the three edge
+/// functions, their sum and the distance's numerator, each exactly (IEEE subtraction and
+/// rounding are symmetric), so the distance and every test on it come out the same, bit
+/// for bit, and hits from both sides count: it is left out, and with it a per-ray select.
+#[inline(always)]
 pub(crate) fn shear_axes(d: Vec3) -> [usize; 3] {
+    // Arithmetic, not branches: on incoherent rays the dominant axis changes from one ray
+    // to the next.
     let ad = d.abs();
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z {
-            0
-        } else {
-            2
-        }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-    if d[kz] < 0.0 {
-        [ky, kx, kz]
-    } else {
-        [kx, ky, kz]
-    }
+    let (xy, xz, yz) = (ad.x > ad.y, ad.x > ad.z, ad.y > ad.z);
+    let kz = 2 - 2 * (xy & xz) as usize - (!xy & yz) as usize;
+    [(kz + 1) % 3, (kz + 2) % 3, kz]
 }
 
 /// Watertight ray–triangle intersection (Woop, Benthin and Wald, "Watertight

@@ -19,7 +19,7 @@
 //! multiplication round monotonically), so a primitive reachable here is reachable there.
 //! The closest distance is the same bit for bit, and so is the primitive.
 
-use glam::Vec3;
+use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::Ray;
 use wide::{f32x4, f32x8};
@@ -97,13 +97,20 @@ struct Sheared {
 }
 
 impl Sheared {
+    #[inline(always)]
     fn new(o: Vec3, d: Vec3) -> Sheared {
-        let [kx, ky, kz] = shear_axes(d);
-        Sheared {
-            axes: [kx, ky, kz],
-            shear: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
-            origin: [o[kx], o[ky], o[kz]],
-        }
+        let axes = shear_axes(d);
+        // The frame's components by lane selects (the frame is a rotation of x, y, z), not
+        // by indexing by axis, which branches on the axis.
+        let (m0, m1) = (BVec3A::splat(axes[2] == 0), BVec3A::splat(axes[2] == 1));
+        let frame = |v: Vec3| {
+            let v = Vec3A::from(v);
+            Vec3A::select(m0, v.yzx(), Vec3A::select(m1, v.zxy(), v))
+        };
+        let (fo, fd) = (frame(o), frame(d));
+        // d[kx]/d[kz], d[ky]/d[kz], 1/d[kz]: the scalar test's three divisions, on lanes.
+        let shear = Vec3A::new(fd.x, fd.y, 1.0) / Vec3A::splat(fd.z);
+        Sheared { axes, shear: shear.to_array(), origin: fo.to_array() }
     }
 
     /// Each lane's distance to its triangle exactly as [`intersect_triangle`] computes it

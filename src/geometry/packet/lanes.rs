@@ -51,17 +51,16 @@ impl<'a, S: Simd> Lanes<'a, S> {
         used[..d.len()].fill(f32::from_bits(u32::MAX));
         let used = S::load(&used);
         // `shear_axes` on lanes: kz is the axis of largest |d| (x over y over z on ties as
-        // its comparisons decide); kx, ky follow it cyclically, swapped when d[kz] < 0.
+        // its comparisons decide); kx, ky follow it cyclically.
         let ad = dir.map(|x| S::max(x, -x));
         let x_over_y = ad[0].gt(ad[1]);
         let kz_x = x_over_y & ad[0].gt(ad[2]);
         let kz_y = S::select(x_over_y, zero, ad[1].gt(ad[2]));
         let kz_z = S::select(kz_x | kz_y, zero, on);
         let pick = |is_x: S, is_y: S, v: &[S; 3]| S::select(is_x, v[0], S::select(is_y, v[1], v[2]));
-        let flip = pick(kz_x, kz_y, &dir).lt(zero);
         // Per frame axis j: "is x" and "is y" (else z), only on used lanes.
-        let is_x = [S::select(flip, kz_y, kz_z), S::select(flip, kz_z, kz_y), kz_x].map(|m| m & used);
-        let is_y = [S::select(flip, kz_z, kz_x), S::select(flip, kz_x, kz_z), kz_y].map(|m| m & used);
+        let is_x = [kz_z, kz_y, kz_x].map(|m| m & used);
+        let is_y = [kz_x, kz_z, kz_y].map(|m| m & used);
         let sheared_origin = [0, 1, 2].map(|j| pick(is_x[j], is_y[j], &origin));
         // d[kx], d[ky], d[kz]: unused lanes divide 1 by 1.
         let [dx, dy, dz] = [0, 1, 2].map(|j| S::select(used, pick(is_x[j], is_y[j], &dir), one));
