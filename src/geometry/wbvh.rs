@@ -384,15 +384,34 @@ impl<S: Simd> WideBvh<S> {
                 } else {
                     let mut t = [0.0f32; MAX];
                     near.store(&mut t);
-                    // Push every hit child, insertion-sorting the pushed ones farthest
+                    // The first two hit children: the nearer is visited next, the other
+                    // pushed (a tie visits the later slot first, as the sort below does).
+                    let i = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let k = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let (a, b) = ((node.child[i], t[i]), (node.child[k], t[k]));
+                    let (near, far) = if a.1 < b.1 { (a, b) } else { (b, a) };
+                    // The far children are visited later, if not culled by then: start
+                    // their loads now (a walk waits on memory most of its time).
+                    self.prefetch(far.0);
+                    if bits == 0 {
+                        // Two hits, the most common case past one: no sort.
+                        stack[top] = far;
+                        top += 1;
+                        current = near.0;
+                        continue;
+                    }
+                    // More: push them all, insertion-sorting the pushed ones farthest
                     // first, so the nearest is on top (ties keep slot order: deterministic).
                     let base = top;
+                    stack[top] = far;
+                    stack[top + 1] = near;
+                    top += 2;
                     while bits != 0 {
                         let i = bits.trailing_zeros() as usize;
                         bits &= bits - 1;
                         let e = (node.child[i], t[i]);
-                        // The far children are visited later, if not culled by then:
-                        // start their loads now (a walk waits on memory most of its time).
                         self.prefetch(e.0);
                         let mut j = top;
                         while j > base && stack[j - 1].1 < e.1 {
