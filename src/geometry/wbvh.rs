@@ -372,14 +372,19 @@ impl<S: Simd> WideBvh<S> {
                 } else if !ORDER {
                     // Any-hit: the order does not change the answer, so skip the sort
                     // (as Embree's occlusion traversal does).
-                    while bits != 0 {
+                    // The last hit child is visited next, straight from the node (not
+                    // through a store and a load on the stack); the others are pushed.
+                    loop {
                         let i = bits.trailing_zeros() as usize;
                         bits &= bits - 1;
+                        if bits == 0 {
+                            current = node.child[i];
+                            break;
+                        }
+                        self.prefetch(node.child[i]);
                         stack[top] = (node.child[i], f32::NEG_INFINITY);
                         top += 1;
                     }
-                    top -= 1;
-                    current = stack[top].0;
                     continue;
                 } else {
                     let mut t = [0.0f32; MAX];
