@@ -213,8 +213,10 @@ pub struct Accel {
 
 /// obvhs's `build_bvh2` without its closing debug self-check, which asserts the tree is
 /// shallower than the default traversal stack before [`Accel::build_with`] can size the
-/// stack to the tree; the same steps in the same order, so the same tree.
-fn build_bvh2(prims: &[Primitive], params: &BvhBuildParams) -> Bvh2 {
+/// stack to the tree; the same steps in the same order, so the same tree. Also returns the
+/// tree as it stood before the leaf collapse (one primitive per leaf), from which the wide
+/// BVH chooses its own nodes and leaves.
+fn build_bvh2(prims: &[Primitive], params: &BvhBuildParams) -> (Bvh2, Bvh2) {
     let indices = (0..prims.len() as u32).collect();
     let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(prims.len()).build(
         params.ploc_search_distance,
@@ -225,6 +227,7 @@ fn build_bvh2(prims: &[Primitive], params: &BvhBuildParams) -> Bvh2 {
     );
     let mut reinsertion = obvhs::bvh2::reinsertion::ReinsertionOptimizer::default();
     reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None);
+    let fine = bvh.clone();
     obvhs::bvh2::leaf_collapser::collapse(
         &mut bvh,
         params.max_prims_per_leaf.clamp(1, 255),
@@ -232,7 +235,7 @@ fn build_bvh2(prims: &[Primitive], params: &BvhBuildParams) -> Bvh2 {
     );
     let ratio = params.reinsertion_batch_ratio * params.post_collapse_reinsertion_batch_ratio_multiplier;
     reinsertion.run(&mut bvh, ratio, None);
-    bvh
+    (bvh, fine)
 }
 
 /// Widens every node's box by one float outward on each side. A ray parallel to an axis
@@ -269,9 +272,18 @@ impl Accel {
         if prims.is_empty() {
             return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
         }
-        let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), ..BvhBuildParams::medium_build() };
-        let mut bvh = build_bvh2(&prims, &params);
+        // obvhs's slow preset (wider PLOC search, more reinsertion): 1.5× the build time of
+        // its medium one, and the wide kernel 3-15% faster on the incoherent sets of three of
+        // the four meshes (measured: docs/performance.md). Its pre-splitting, which
+        // `build_bvh2` does not do, would duplicate primitive references.
+        let params = BvhBuildParams {
+            max_prims_per_leaf: max_leaf.clamp(1, 64),
+            pre_split: false,
+            ..BvhBuildParams::slow_build()
+        };
+        let (mut bvh, mut fine) = build_bvh2(&prims, &params);
         widen_boxes(&mut bvh);
+        widen_boxes(&mut fine);
         // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
         // mesh (found by fuzzing) builds deeper trees, which take obvhs's traversal (see
         // `STACK`), so give it a stack that holds them, as obvhs's own insertion does.
@@ -284,7 +296,16 @@ impl Accel {
         let root = bvh.nodes[0].aabb();
         let scale = Vec3::from(root.min).abs().max(Vec3::from(root.max).abs()).max_element();
         let slack = if scale.is_finite() { scale / 65536.0 } else { 0.0 };
-        let wide = WideBvh::build(&bvh, &prims);
+        // The one-primitive-leaf tree indexes the input order; point it at the reordered
+        // primitives, whose ids the wide kernel returns.
+        let mut id_of = vec![0u32; prims.len()];
+        for (new, &old) in bvh.primitive_indices.iter().enumerate() {
+            id_of[old as usize] = new as u32;
+        }
+        for i in &mut fine.primitive_indices {
+            *i = id_of[*i as usize];
+        }
+        let wide = WideBvh::build(&fine, &prims, params.max_prims_per_leaf);
         Accel { prims, bvh: Some(bvh), wide, depth, slack, build_seconds: start.elapsed().as_secs_f64() }
     }
 

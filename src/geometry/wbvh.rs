@@ -2,8 +2,10 @@
 //! (`W` = lanes of the `wide` vector, 8 in the renderer: [`Wide`]) whose boxes are stored
 //! structure-of-arrays, so one ray tests all of a node's children with one SIMD slab test
 //! and visits the hit ones nearest first (Embree's single-ray layout; Wald et al.,
-//! "Getting Rid of Packets", 2008). obvhs stays the builder: the collapse only regroups
-//! its nodes, and the leaves are its leaves, over the same primitive order.
+//! "Getting Rid of Packets", 2008). obvhs stays the builder: the wide nodes and leaves are
+//! chosen among its binary tree's nodes (taken before its leaf collapse, one primitive per
+//! leaf) by the SAH-optimal collapse of Ylitie et al. (2017), with leaves costed by the
+//! blocks they fill, so the wide tree's leaves are not the binary tree's.
 //!
 //! A leaf's triangles are stored structure-of-arrays too, in blocks of [`TRIS`] lanes (a
 //! leaf of more takes consecutive blocks), and tested at once, one lane per triangle.
@@ -14,10 +16,10 @@
 //! in the same order (a lane whose edge function rounds to zero takes the scalar kernel,
 //! which recomputes in f64), the nearest lane wins and on an exact tie in t the lowest
 //! primitive id, as in every kernel ([`nearer`]); blocks holding another shape run the
-//! scalar kernels. Skipping the binary tree's intermediate boxes loses no hit: a parent's
-//! computed entry distance is never later than its child's (subtraction and
-//! multiplication round monotonically), so a primitive reachable here is reachable there.
-//! The closest distance is the same bit for bit, and so is the primitive.
+//! scalar kernels. Every box is widened by one float after the build (`widen_boxes`), so a
+//! ray meets every primitive it touches whatever the tree, and the tie rule makes the
+//! answer independent of the order the tree is walked in: the closest distance is the
+//! binary kernels' bit for bit, and so is the primitive.
 
 use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};
 use obvhs::bvh2::Bvh2;
@@ -69,7 +71,8 @@ struct Node<S> {
 struct Block {
     /// `v[j][axis]`: vertex j's coordinate on `axis`, one lane per triangle.
     v: [[Tris; 3]; 3],
-    /// The first primitive's index (lane l is primitive `first + l`).
+    /// Where the block's primitive ids start in [`WideBvh::ids`] (lane l is primitive
+    /// `ids[first + l]`).
     first: u32,
     /// Primitives in the block.
     count: u32,
@@ -83,6 +86,9 @@ struct Block {
 pub struct WideBvh<S> {
     nodes: Vec<Node<S>>,
     blocks: Vec<Block>,
+    /// The primitive ids of the blocks' lanes (read only for a hit, so kept apart from
+    /// the vertices a traversal streams through).
+    ids: Vec<u32>,
     /// Depth in wide nodes (root = 1).
     depth: usize,
 }
@@ -165,80 +171,193 @@ enum Leaf {
     Stop,
 }
 
+/// The SAH cost of testing one wide node's boxes, the unit of [`BLOCK_COST`].
+const NODE_COST: f32 = 1.0;
+/// The SAH cost of testing one leaf block, relative to a node (measured:
+/// docs/performance.md).
+const BLOCK_COST: f32 = 1.2;
+
+/// How a binary node's subtree is best laid out in a given number of wide child slots
+/// (Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
+/// BVHs", 2017, section 4.1; obvhs's `bvh2_to_cwbvh` follows the same scheme).
+#[derive(Clone, Copy, Default)]
+struct Decision {
+    /// SAH cost of the subtree laid out this way (surface area × [`NODE_COST`] per wide
+    /// node, × [`BLOCK_COST`] per leaf block).
+    cost: f32,
+    /// [`LEAF_SLOT`], [`NODE_SLOT`] or [`SPLIT`].
+    kind: u8,
+    /// With [`SPLIT`] (and for a [`NODE_SLOT`]'s own children): the slot decisions of the
+    /// two binary children.
+    left: u8,
+    right: u8,
+}
+
+/// The subtree takes one slot as a leaf.
+const LEAF_SLOT: u8 = 0;
+/// The subtree takes one slot as a wide node.
+const NODE_SLOT: u8 = 1;
+/// The subtree's two children share the slots (`left` + `right` + 2 of them).
+const SPLIT: u8 = 2;
+
 impl<S: Simd> WideBvh<S> {
-    /// Collapses `bvh` (whose leaves index `prims`); `None` when the tree cannot be
-    /// encoded (more than 2²⁷ leaf blocks, a leaf over 64 primitives): the binary
+    /// Builds the wide tree over `fine`, a binary tree with one primitive per leaf whose
+    /// `primitive_indices` index `prims`: the wide nodes and leaves that minimise the SAH
+    /// cost among the collapses of `fine` (see [`Decision`]), leaves of at most `max_leaf`
+    /// primitives. `None` when the tree cannot
+    /// be encoded (more than 2²⁷ leaf blocks, a leaf over 64 primitives): the binary
     /// traversal then serves.
-    pub fn build(bvh: &Bvh2, prims: &[Primitive]) -> Option<WideBvh<S>> {
+    pub fn build(fine: &Bvh2, prims: &[Primitive], max_leaf: u32) -> Option<WideBvh<S>> {
         assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
-        let root = bvh.nodes.first()?;
-        let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), depth: 0 };
-        let top = if root.is_leaf() { vec![0] } else { tree.collect(bvh, 0) };
-        tree.emit(bvh, prims, &top, 1)?;
+        fine.nodes.first()?;
+        let plan = Self::plan(fine, max_leaf);
+        let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), ids: Vec::new(), depth: 0 };
+        let root = &fine.nodes[0];
+        let top = if root.is_leaf() || plan[0][0].kind == LEAF_SLOT {
+            vec![0]
+        } else {
+            let mut kids = Vec::with_capacity(S::LANES);
+            Self::children(fine, &plan, 0, 0, &mut kids);
+            kids
+        };
+        tree.nodes.push(Node { bounds: [[S::splat(0.0); 3]; 2], child: [u32::MAX; MAX_W], valid: 0 });
+        tree.fill(fine, &plan, prims, 0, &top, 1)?;
         Some(tree)
     }
 
-    /// The Bvh2 nodes that become the children of the wide node replacing inner node
-    /// `n`: its two children, then repeatedly the inner one of largest surface area
-    /// replaced by its two children, until `W` are found or all are leaves.
-    fn collect(&self, bvh: &Bvh2, n: usize) -> Vec<usize> {
-        let first = bvh.nodes[n].first_index as usize;
-        let mut kids = vec![first, first + 1];
-        while kids.len() < S::LANES {
-            let widest = kids
-                .iter()
-                .enumerate()
-                .filter(|(_, &k)| !bvh.nodes[k].is_leaf())
-                .max_by(|a, b| bvh.nodes[*a.1].aabb().half_area().total_cmp(&bvh.nodes[*b.1].aabb().half_area()));
-            let Some((i, &k)) = widest else { break };
-            let f = bvh.nodes[k].first_index as usize;
-            kids[i] = f;
-            kids.insert(i + 1, f + 1);
+    /// Every binary node's best [`Decision`] for 1 to `W` slots (index = slots − 1),
+    /// bottom-up (by an explicit stack: fuzzed meshes build very deep trees).
+    fn plan(fine: &Bvh2, max_leaf: u32) -> Vec<[Decision; MAX_W]> {
+        let w = S::LANES;
+        let mut plan = vec![[Decision::default(); MAX_W]; fine.nodes.len()];
+        let mut count = vec![0u32; fine.nodes.len()];
+        let leaf_cost = |area: f32, n: u32| area * BLOCK_COST * n.div_ceil(TRIS as u32) as f32;
+        let mut stack = vec![(0usize, false)];
+        while let Some((k, ready)) = stack.pop() {
+            let node = &fine.nodes[k];
+            let area = node.aabb().half_area();
+            if node.is_leaf() {
+                count[k] = node.prim_count;
+                let d = Decision { cost: leaf_cost(area, node.prim_count), kind: LEAF_SLOT, left: 0, right: 0 };
+                plan[k] = [d; MAX_W];
+                continue;
+            }
+            let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+            if !ready {
+                stack.extend([(k, true), (r, false), (l, false)]);
+                continue;
+            }
+            count[k] = count[l] + count[r];
+            // One slot: a leaf, or a wide node whose W slots the children share.
+            let mut inner = Decision { cost: f32::INFINITY, kind: NODE_SLOT, left: 0, right: 0 };
+            for j in 0..w - 1 {
+                let c = plan[l][j].cost + plan[r][w - 2 - j].cost;
+                if c < inner.cost {
+                    inner = Decision { cost: c, kind: NODE_SLOT, left: j as u8, right: (w - 2 - j) as u8 };
+                }
+            }
+            inner.cost += area * NODE_COST;
+            let leaf = if count[k] <= max_leaf { leaf_cost(area, count[k]) } else { f32::INFINITY };
+            plan[k][0] = if leaf < inner.cost { Decision { cost: leaf, kind: LEAF_SLOT, ..inner } } else { inner };
+            // i + 1 slots: as few, or split between the children.
+            for i in 1..w {
+                let mut best = plan[k][i - 1];
+                for j in 0..i {
+                    let c = plan[l][j].cost + plan[r][i - 1 - j].cost;
+                    if c < best.cost {
+                        best = Decision { cost: c, kind: SPLIT, left: j as u8, right: (i - 1 - j) as u8 };
+                    }
+                }
+                plan[k][i] = best;
+            }
         }
-        kids
+        plan
     }
 
-    /// Appends the wide node holding the Bvh2 nodes `kids` (and, depth first, the nodes
-    /// below it); returns its index.
-    fn emit(&mut self, bvh: &Bvh2, prims: &[Primitive], kids: &[usize], depth: usize) -> Option<u32> {
+    /// Appends to `out` the binary nodes that fill the wide slots of binary node `k` laid
+    /// out by its decision `i`: each child that splits further contributes its own.
+    fn children(fine: &Bvh2, plan: &[[Decision; MAX_W]], k: usize, i: usize, out: &mut Vec<usize>) {
+        let d = plan[k][i];
+        let first = fine.nodes[k].first_index as usize;
+        for (c, j) in [(first, d.left as usize), (first + 1, d.right as usize)] {
+            if !fine.nodes[c].is_leaf() && plan[c][j].kind == SPLIT {
+                Self::children(fine, plan, c, j, out);
+            } else {
+                out.push(c);
+            }
+        }
+    }
+
+    /// Fills wide node `index` (already appended) with the binary nodes `kids`, one per
+    /// slot: its leaves' blocks are appended first, then its inner children, side by side,
+    /// then each of their subtrees in turn, so what one node leads to lies together in
+    /// memory.
+    fn fill(
+        &mut self,
+        fine: &Bvh2,
+        plan: &[[Decision; MAX_W]],
+        prims: &[Primitive],
+        index: usize,
+        kids: &[usize],
+        depth: usize,
+    ) -> Option<()> {
         self.depth = self.depth.max(depth);
-        let index = self.nodes.len();
         let mut lo = [[f32::INFINITY; MAX]; 3];
         let mut hi = [[f32::INFINITY; MAX]; 3];
         let mut child = [u32::MAX; MAX_W];
-        self.nodes.push(Node { bounds: [[S::splat(0.0); 3]; 2], child, valid: 0 });
+        let inner = |k: usize| !fine.nodes[k].is_leaf() && plan[k][0].kind != LEAF_SLOT;
         for (slot, &k) in kids.iter().enumerate() {
-            let node = &bvh.nodes[k];
-            let b = node.aabb();
+            let b = fine.nodes[k].aabb();
             for axis in 0..3 {
                 lo[axis][slot] = b.min[axis];
                 hi[axis][slot] = b.max[axis];
             }
-            child[slot] = if node.is_leaf() {
-                self.leaf(prims, node.first_index as usize, node.prim_count as usize)?
-            } else {
-                let below = self.collect(bvh, k);
-                self.emit(bvh, prims, &below, depth + 1)?
-            };
+            if !inner(k) {
+                child[slot] = self.leaf(fine, prims, k)?;
+            }
+        }
+        for (slot, &k) in kids.iter().enumerate() {
+            if inner(k) {
+                child[slot] = self.nodes.len() as u32;
+                self.nodes.push(self.nodes[index]);
+            }
         }
         let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
         self.nodes[index] = Node { bounds: [load3(&lo), load3(&hi)], child, valid: (1 << kids.len()) - 1 };
-        Some(index as u32)
+        let mut below = Vec::with_capacity(S::LANES);
+        for (slot, &k) in kids.iter().enumerate() {
+            if inner(k) {
+                below.clear();
+                Self::children(fine, plan, k, 0, &mut below);
+                self.fill(fine, plan, prims, child[slot] as usize, &below, depth + 1)?;
+            }
+        }
+        Some(())
     }
 
-    /// Appends the blocks of the leaf holding `prims[first..first + count]`; returns its
-    /// child reference.
-    fn leaf(&mut self, prims: &[Primitive], first: usize, count: usize) -> Option<u32> {
-        let (start, n) = (self.blocks.len(), count.div_ceil(TRIS));
+    /// Appends the blocks of a leaf holding every primitive below binary node `k`; returns
+    /// its child reference.
+    fn leaf(&mut self, fine: &Bvh2, prims: &[Primitive], k: usize) -> Option<u32> {
+        let mut ids = Vec::new();
+        let mut stack = vec![k];
+        while let Some(n) = stack.pop() {
+            let node = &fine.nodes[n];
+            if node.is_leaf() {
+                let first = node.first_index as usize;
+                ids.extend_from_slice(&fine.primitive_indices[first..first + node.prim_count as usize]);
+            } else {
+                stack.extend([node.first_index as usize + 1, node.first_index as usize]);
+            }
+        }
+        let (start, n) = (self.blocks.len(), ids.len().div_ceil(TRIS));
         if start + n > 1 << FIRST_BITS || n > MAX_BLOCKS || n == 0 {
             return None;
         }
-        for b in 0..n {
-            let lo = first + b * TRIS;
-            let here = &prims[lo..(lo + TRIS).min(first + count)];
+        for lanes in ids.chunks(TRIS) {
             let mut v = [[[0.0f32; MAX]; 3]; 3];
             let mut blockers = 0;
-            for (l, p) in here.iter().enumerate() {
+            for (l, &id) in lanes.iter().enumerate() {
+                let p = &prims[id as usize];
                 if let Shape::Triangle { v0, v1, v2 } = p.shape {
                     for (j, vert) in [v0, v1, v2].iter().enumerate() {
                         for axis in 0..3 {
@@ -248,9 +367,11 @@ impl<S: Simd> WideBvh<S> {
                 }
                 blockers |= ((p.light == NO_LIGHT) as u32) << l;
             }
-            let triangles = here.iter().all(|p| matches!(p.shape, Shape::Triangle { .. }));
+            let triangles = lanes.iter().all(|&id| matches!(prims[id as usize].shape, Shape::Triangle { .. }));
             let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
-            self.blocks.push(Block { v, first: lo as u32, count: here.len() as u32, blockers, triangles });
+            let first = self.ids.len() as u32;
+            self.ids.extend_from_slice(lanes);
+            self.blocks.push(Block { v, first, count: lanes.len() as u32, blockers, triangles });
         }
         Some(LEAF | ((n - 1) as u32) << FIRST_BITS | start as u32)
     }
@@ -280,7 +401,9 @@ impl<S: Simd> WideBvh<S> {
 
     /// Bytes of the node and leaf-block arrays.
     pub fn bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node<S>>() + self.blocks.len() * std::mem::size_of::<Block>()
+        self.nodes.len() * std::mem::size_of::<Node<S>>()
+            + self.blocks.len() * std::mem::size_of::<Block>()
+            + self.ids.len() * std::mem::size_of::<u32>()
     }
 
     /// Depth of the tree in wide nodes (root = 1).
@@ -467,9 +590,9 @@ impl<S: Simd> WideBvh<S> {
         self.walk::<COUNT, true>(slack, ray(o, d, tmin, tmax), c, |r, b| {
             if !b.triangles {
                 let first = b.first as usize;
-                for (k, p) in prims[first..first + b.count as usize].iter().enumerate() {
-                    let (limit, id) = (tie_limit(best, r.tmax), (first + k) as u32);
-                    let t = p.shape.intersect(o, d, r.tmin, limit);
+                for &id in &self.ids[first..first + b.count as usize] {
+                    let limit = tie_limit(best, r.tmax);
+                    let t = prims[id as usize].shape.intersect(o, d, r.tmin, limit);
                     if t < limit && nearer(t, id, best) {
                         r.tmax = t;
                         best = (t, id);
@@ -482,23 +605,19 @@ impl<S: Simd> WideBvh<S> {
             let limit = tie_limit(best, r.tmax);
             let ok = (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(limit))).bits() & lanes;
             if ok != 0 {
-                // The nearest lane, the lowest (the lowest primitive id) on a tie, then
-                // the tie rule against the hit so far.
+                // Each hitting lane through the tie rule: the nearest, the lowest primitive
+                // id on a tie (ids are not in lane order: the leaves gather subtrees).
                 let mut a = [0.0; MAX];
                 t.store(&mut a);
                 let mut m = ok;
-                let mut l = m.trailing_zeros() as usize;
-                m &= m - 1;
                 while m != 0 {
                     let k = m.trailing_zeros() as usize;
                     m &= m - 1;
-                    if a[k] < a[l] {
-                        l = k;
+                    let id = self.ids[b.first as usize + k];
+                    if nearer(a[k], id, best) {
+                        best = (a[k], id);
+                        r.tmax = a[k];
                     }
-                }
-                if nearer(a[l], b.first + l as u32, best) {
-                    r.tmax = a[l];
-                    best = (a[l], b.first + l as u32);
                 }
             }
             Leaf::Go
@@ -525,7 +644,7 @@ impl<S: Simd> WideBvh<S> {
         self.walk::<COUNT, false>(slack, ray(o, d, tmin, tmax), c, |r, b| {
             if !b.triangles {
                 let first = b.first as usize;
-                for p in &prims[first..first + b.count as usize] {
+                for p in self.ids[first..first + b.count as usize].iter().map(|&id| &prims[id as usize]) {
                     if p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax {
                         blocked = true;
                         return Leaf::Stop;
