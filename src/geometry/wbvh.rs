@@ -435,8 +435,9 @@ impl<S: Simd> WideBvh<S> {
     ) {
         STACK.with_borrow_mut(|stack| {
             // A node at depth k leaves at most W − 1 siblings on the stack for each of the
-            // k − 1 nodes above it, plus its own W: depth · (W − 1) + 1 bounds the stack.
-            let need = self.depth * (S::LANES - 1) + 1;
+            // k − 1 nodes above it, plus its own W: depth · (W − 1) + 1 bounds the stack;
+            // W more, for the any-hit walk's stores past its top.
+            let need = self.depth * (S::LANES - 1) + 1 + S::LANES;
             if stack.len() < need {
                 stack.resize(need, (0, 0.0));
             }
@@ -495,19 +496,17 @@ impl<S: Simd> WideBvh<S> {
                 } else if !ORDER {
                     // Any-hit: the order does not change the answer, so skip the sort
                     // (as Embree's occlusion traversal does).
-                    // The last hit child is visited next, straight from the node (not
-                    // through a store and a load on the stack); the others are pushed.
-                    loop {
-                        let i = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        if bits == 0 {
-                            current = node.child[i];
-                            break;
-                        }
-                        self.prefetch(node.child[i]);
-                        stack[top] = (node.child[i], f32::NEG_INFINITY);
-                        top += 1;
+                    // Every hit child is pushed in slot order without a branch per child
+                    // (each slot is stored, and the top moves past it only if it was hit:
+                    // where the hit children stop is data the branch predictor cannot
+                    // learn), then the last is taken off again and visited straight from
+                    // the node, not through a store and a load.
+                    for (i, &child) in node.child.iter().enumerate().take(S::LANES) {
+                        stack[top] = (child, f32::NEG_INFINITY);
+                        top += (bits >> i) as usize & 1;
                     }
+                    top -= 1;
+                    current = node.child[(31 - bits.leading_zeros()) as usize];
                     continue;
                 } else {
                     let mut t = [0.0f32; MAX];
