@@ -77,6 +77,7 @@ fn bad_flags_exit_2_with_a_message() {
         (&["--mesh", "no/such/mesh.obj"], "no/such/mesh.obj"),
         (&["--sphere", "11"], "--sphere"),
         (&["--leaf", "0"], "--leaf"),
+        (&["--bvh", "low"], "'low' for '--bvh"),
         (&["--kernels", "wide,simd"], "'simd' for '--kernels"),
         (
             &["--export-rays", "target/no-such-export-dir", "--set", "render.width=8", "--set", "render.height=8"],
@@ -154,4 +155,41 @@ fn mesh_sets_export_npy_files_that_match_the_json() {
     let ts: Vec<f32> = t[header..].chunks(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
     assert!(ts.iter().any(|t| t.is_finite()) && ts.iter().any(|t| t.is_infinite()));
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bvh_flag_changes_the_tree_not_the_answers() {
+    let export = |quality: &str| {
+        let dir = std::env::temp_dir().join(format!("wavetrace-bench-bvh-{quality}-{}", std::process::id()));
+        let out = bench(&[
+            "--sphere",
+            "3",
+            "--max-rays",
+            "4096",
+            "--reps",
+            "1",
+            "--threads",
+            "1",
+            "--kernels",
+            "wide",
+            "--json",
+            "--bvh",
+            quality,
+            "--export-rays",
+            dir.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+        let read = |name: &str| std::fs::read(dir.join(name)).unwrap();
+        let files = ["camera.t.npy", "bounce.origins.npy", "bounce.t.npy", "random.t.npy", "bounce-shadow.blocked.npy"]
+            .map(read);
+        std::fs::remove_dir_all(&dir).unwrap();
+        (v["bytes_per_primitive"][1].as_f64().unwrap(), files)
+    };
+    let (medium_bytes, medium) = export("medium");
+    let (high_bytes, high) = export("high");
+    // Different wide trees (their sizes differ)...
+    assert_ne!(medium_bytes, high_bytes);
+    // ...the same distances, the same bounce rays built from them, the same blocked rays.
+    assert!(medium == high, "the answers differ between --bvh medium and --bvh high");
 }

@@ -29,6 +29,9 @@ pub struct BenchArgs {
     /// With --mesh or --sphere: most primitives per BVH leaf (1 to 64).
     #[arg(long, default_value_t = wavetrace::geometry::bvh::LEAF, value_parser = clap::value_parser!(u32).range(1..=64))]
     leaf: u32,
+    /// With --mesh or --sphere: the BVH build's quality (a scene sets `render.bvh`).
+    #[arg(long, value_enum, default_value_t = Quality::High)]
+    bvh: Quality,
     /// Write the triangles, the ray sets and the wide kernel's answers as NumPy files to
     /// DIR (for benches/embree.py); triangle-only scenes.
     #[arg(long, value_name = "DIR")]
@@ -90,6 +93,22 @@ pub enum KernelName {
 impl KernelName {
     fn name(self) -> &'static str {
         bench::KERNELS[self as usize]
+    }
+}
+
+/// `--bvh`: [`BvhQuality`](wavetrace::geometry::bvh::BvhQuality) on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Quality {
+    Medium,
+    High,
+}
+
+impl Quality {
+    fn quality(self) -> wavetrace::geometry::bvh::BvhQuality {
+        match self {
+            Quality::Medium => wavetrace::geometry::bvh::BvhQuality::Medium,
+            Quality::High => wavetrace::geometry::bvh::BvhQuality::High,
+        }
     }
 }
 
@@ -179,11 +198,15 @@ pub fn run(args: BenchArgs) -> Result<()> {
     opts.check()?;
     let side = (opts.max_rays as f64).sqrt() as usize;
     let (accel, sets) = if let Some(path) = &args.mesh {
-        let accel = bench_mesh::mesh_accel(wavetrace::scene::mesh::load_obj(path).map_err(Error::input)?, args.leaf);
+        let accel = bench_mesh::mesh_accel(
+            wavetrace::scene::mesh::load_obj(path).map_err(Error::input)?,
+            args.leaf,
+            args.bvh.quality(),
+        );
         let sets = bench_mesh::mesh_ray_sets(&accel, side.max(1));
         (accel, sets)
     } else if let Some(levels) = args.sphere {
-        let accel = bench_mesh::mesh_accel(bench_mesh::displaced_sphere(levels), args.leaf);
+        let accel = bench_mesh::mesh_accel(bench_mesh::displaced_sphere(levels), args.leaf, args.bvh.quality());
         let sets = bench_mesh::mesh_ray_sets(&accel, side.max(1));
         (accel, sets)
     } else {

@@ -258,29 +258,40 @@ fn widen_boxes(bvh: &mut Bvh2) {
     }
 }
 
+/// How much time the BVH build spends on the tree's quality (the names are Embree's
+/// `RTC_BUILD_QUALITY_*`). Every kernel's answers are the same either way, bit for bit;
+/// only the build's and the traversal's times differ (measured: docs/performance.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BvhQuality {
+    /// obvhs's medium preset: the build about 0.4× of `High`'s, incoherent rays through the
+    /// wide kernel 2–11% slower on the scanned meshes.
+    Medium,
+    /// obvhs's slow preset (a wider PLOC search, more reinsertion).
+    #[default]
+    High,
+}
+
 impl Accel {
     /// Builds the BVH over `prims` (which may be empty) with leaves of at most [`LEAF`]
-    /// primitives.
+    /// primitives, at [`BvhQuality::High`].
     pub fn build(prims: Vec<Primitive>) -> Accel {
-        Accel::build_with(prims, LEAF)
+        Accel::build_with(prims, LEAF, BvhQuality::High)
     }
 
-    /// [`Accel::build`] with leaves of at most `max_leaf` primitives (1 to 64; obvhs's
-    /// collapse decides by its cost model below that), for measuring the leaf size.
-    pub fn build_with(prims: Vec<Primitive>, max_leaf: u32) -> Accel {
+    /// [`Accel::build`] with leaves of at most `max_leaf` primitives (1 to 64; the SAH
+    /// decides below that) and the given quality.
+    pub fn build_with(prims: Vec<Primitive>, max_leaf: u32, quality: BvhQuality) -> Accel {
         let start = Instant::now();
         if prims.is_empty() {
             return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
         }
-        // obvhs's slow preset (wider PLOC search, more reinsertion): 1.5× the build time of
-        // its medium one, and the wide kernel 3-15% faster on the incoherent sets of three of
-        // the four meshes (measured: docs/performance.md). Its pre-splitting, which
-        // `build_bvh2` does not do, would duplicate primitive references.
-        let params = BvhBuildParams {
-            max_prims_per_leaf: max_leaf.clamp(1, 64),
-            pre_split: false,
-            ..BvhBuildParams::slow_build()
+        let preset = match quality {
+            BvhQuality::Medium => BvhBuildParams::medium_build(),
+            BvhQuality::High => BvhBuildParams::slow_build(),
         };
+        // The slow preset's pre-splitting, which `build_bvh2` does not do, would duplicate
+        // primitive references.
+        let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), pre_split: false, ..preset };
         let (mut bvh, mut fine) = build_bvh2(&prims, &params);
         widen_boxes(&mut bvh);
         widen_boxes(&mut fine);

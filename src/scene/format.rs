@@ -41,6 +41,9 @@ pub struct RenderDesc {
     pub seed: u32,
     /// Trace in SIMD packets (default true; see docs/performance.md).
     pub packets: bool,
+    /// The BVH build's quality: "medium" or "high" (default "high"; see
+    /// docs/performance.md).
+    pub bvh: BvhDesc,
     /// Anti-aliasing.
     pub aa: AaDesc,
     /// Soft shadows.
@@ -57,6 +60,7 @@ impl Default for RenderDesc {
             max_depth: 6,
             seed: 1,
             packets: true,
+            bvh: BvhDesc::High,
             aa: AaDesc::default(),
             shadows: ShadowsDesc::default(),
             dof: DofDesc::default(),
@@ -130,6 +134,16 @@ impl Default for ShadowsDesc {
     fn default() -> Self {
         ShadowsDesc { mode: SamplingDesc::Uniform, samples: 16, probe: ProbeDesc::Grid3, tolerance: 0.0, batch: 16 }
     }
+}
+
+/// `render.bvh`: "medium" or "high".
+#[derive(Deserialize, Serialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum BvhDesc {
+    /// A faster build, slower incoherent traversal.
+    Medium,
+    /// A slower build, faster incoherent traversal.
+    High,
 }
 
 /// `render.aa.mode` and `render.shadows.mode`: "uniform" or "adaptive".

@@ -10,6 +10,7 @@ use super::format::*;
 use super::mitsuba::xml::Loc;
 use super::objects::transform;
 use super::{AaMode, Camera, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
+use crate::geometry::bvh::BvhQuality;
 use crate::geometry::NO_LIGHT;
 use crate::{Error, Result};
 
@@ -492,6 +493,10 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         shadow_samples: r.shadows.samples,
         dof_samples,
         packets: r.packets,
+        bvh: match r.bvh {
+            BvhDesc::Medium => BvhQuality::Medium,
+            BvhDesc::High => BvhQuality::High,
+        },
         dof_radius,
         penumbra_stop,
     })
@@ -631,7 +636,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         .iter()
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = prims.len();
-    let (accel, normals) = super::objects::build_accel(prims, normals);
+    let (accel, normals) = super::objects::build_accel(prims, normals, settings.bvh);
     info.bvh_seconds = accel.build_seconds;
     Ok(Scene { settings, camera, background, materials, lights, accel, normals, has_specular, info })
 }

@@ -13,6 +13,7 @@ pub mod transform;
 
 use glam::{Vec2, Vec3};
 
+use crate::geometry::bvh::BvhQuality;
 use crate::geometry::Accel;
 use crate::simd::{Real, V3};
 
@@ -99,6 +100,8 @@ pub struct Settings {
     pub dof_samples: u32,
     /// Trace rays in SIMD packets (same hits; a performance choice).
     pub packets: bool,
+    /// The BVH build's quality (same hits; a performance choice).
+    pub bvh: BvhQuality,
     /// DOF-aware adaptive AA: the blur radius (pixels) from which a pixel is not refined.
     /// `Some` only when it has an effect: adaptive AA, `dof_aware`, an open aperture.
     pub dof_radius: Option<f32>,

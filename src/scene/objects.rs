@@ -10,6 +10,7 @@ use super::format::*;
 use super::load::{available_memory, color, coord, edges, in_range, vec3, Ctx, MAX_COORD};
 use super::transform::Transform;
 use super::{Light, SceneInfo};
+use crate::geometry::bvh::{BvhQuality, LEAF};
 use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::Result;
 
@@ -279,15 +280,15 @@ fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
 /// about shading normals: each primitive's position rides through the build in its
 /// `material` field and is replaced by the real one afterwards. Without smooth meshes the
 /// normals table is empty and the build is the plain one.
-pub(super) fn build_accel(mut prims: Vec<Primitive>, normals: Normals) -> (Accel, Vec<[Vec3; 3]>) {
+pub(super) fn build_accel(mut prims: Vec<Primitive>, normals: Normals, quality: BvhQuality) -> (Accel, Vec<[Vec3; 3]>) {
     if normals.iter().all(Option::is_none) {
-        return (Accel::build(prims), Vec::new());
+        return (Accel::build_with(prims, LEAF, quality), Vec::new());
     }
     let materials: Vec<u32> = prims.iter().map(|p| p.material).collect();
     for (i, p) in prims.iter_mut().enumerate() {
         p.material = i as u32;
     }
-    let mut accel = Accel::build(prims);
+    let mut accel = Accel::build_with(prims, LEAF, quality);
     let mut table = Vec::with_capacity(accel.prims.len());
     for p in &mut accel.prims {
         let i = p.material as usize;

@@ -17,19 +17,21 @@ use std::path::Path;
 
 use super::bench::{any_hit_set, closest_set, cosine_direction, RaySet};
 use crate::error::{Error, Result};
+use crate::geometry::bvh::BvhQuality;
 use crate::geometry::offset::offset_ray_origin;
 use crate::geometry::tracer::Coherence;
 use crate::geometry::{Accel, Primitive, Shape, Traversal, NO_LIGHT};
 use crate::sampling::{hash, to_unit};
 
 /// The acceleration structure over a bare triangle list (one material, no lights), with
-/// leaves of at most `max_leaf` primitives.
-pub fn mesh_accel(tris: Vec<[Vec3; 3]>, max_leaf: u32) -> Accel {
+/// leaves of at most `max_leaf` primitives, built at `quality`.
+pub fn mesh_accel(tris: Vec<[Vec3; 3]>, max_leaf: u32, quality: BvhQuality) -> Accel {
     Accel::build_with(
         tris.into_iter()
             .map(|[v0, v1, v2]| Primitive { shape: Shape::Triangle { v0, v1, v2 }, material: 0, light: NO_LIGHT })
             .collect(),
         max_leaf,
+        quality,
     )
 }
 
@@ -275,7 +277,7 @@ mod tests {
     fn generated_sphere_is_closed_and_sized() {
         let tris = displaced_sphere(2);
         assert_eq!(tris.len(), 20 * 16);
-        let accel = mesh_accel(tris, crate::geometry::bvh::LEAF);
+        let accel = mesh_accel(tris, crate::geometry::bvh::LEAF, BvhQuality::High);
         let mut c = Traversal::default();
         for i in 0..2000 {
             let d = sphere_dir(u(i, 0), u(i, 1));
