@@ -263,8 +263,8 @@ fn widen_boxes(bvh: &mut Bvh2) {
 /// only the build's and the traversal's times differ (measured: docs/performance.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BvhQuality {
-    /// obvhs's medium preset: the build about 0.4× of `High`'s, incoherent rays through the
-    /// wide kernel 2–11% slower on the scanned meshes.
+    /// obvhs's medium preset: the build 0.55–0.75× as long as `High`'s, incoherent rays
+    /// through the wide kernel up to 11% slower on the scanned meshes.
     Medium,
     /// obvhs's slow preset (a wider PLOC search, more reinsertion).
     #[default]
