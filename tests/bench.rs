@@ -118,25 +118,21 @@ fn ray_sets_are_the_renderers_rays_and_thin_uniformly() {
     assert_eq!(report.sets.len(), 12);
 }
 
+/// `wavetrace bench --sphere LEVEL` on small sets, one thread, exporting its rays to a
+/// fresh directory named after `name`, with `extra` flags: the JSON and the directory.
+fn export_sphere(level: &str, name: &str, extra: &[&str]) -> (serde_json::Value, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("wavetrace-bench-{name}-{}", std::process::id()));
+    let mut args = vec!["--sphere", level, "--max-rays", "4096", "--reps", "1", "--threads", "1", "--json"];
+    args.extend(extra);
+    args.extend(["--export-rays", dir.to_str().unwrap()]);
+    let out = bench(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    (serde_json::from_slice(&out.stdout).expect("JSON"), dir)
+}
+
 #[test]
 fn mesh_sets_export_npy_files_that_match_the_json() {
-    let dir = std::env::temp_dir().join(format!("wavetrace-bench-export-{}", std::process::id()));
-    let out = bench(&[
-        "--sphere",
-        "2",
-        "--max-rays",
-        "4096",
-        "--reps",
-        "1",
-        "--threads",
-        "1",
-        "--cpu-time",
-        "--json",
-        "--export-rays",
-        dir.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let (v, dir) = export_sphere("2", "export", &["--cpu-time"]);
     assert_eq!(v["primitives"], 320);
     assert_eq!(v["clock"], "cpu");
     let list = std::fs::read_to_string(dir.join("sets.txt")).unwrap();
@@ -160,26 +156,7 @@ fn mesh_sets_export_npy_files_that_match_the_json() {
 #[test]
 fn bvh_flag_changes_the_tree_not_the_answers() {
     let export = |quality: &str| {
-        let dir = std::env::temp_dir().join(format!("wavetrace-bench-bvh-{quality}-{}", std::process::id()));
-        let out = bench(&[
-            "--sphere",
-            "3",
-            "--max-rays",
-            "4096",
-            "--reps",
-            "1",
-            "--threads",
-            "1",
-            "--kernels",
-            "wide",
-            "--json",
-            "--bvh",
-            quality,
-            "--export-rays",
-            dir.to_str().unwrap(),
-        ]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+        let (v, dir) = export_sphere("3", &format!("bvh-{quality}"), &["--kernels", "wide", "--bvh", quality]);
         let read = |name: &str| std::fs::read(dir.join(name)).unwrap();
         let files = ["camera.t.npy", "bounce.origins.npy", "bounce.t.npy", "random.t.npy", "bounce-shadow.blocked.npy"]
             .map(read);
