@@ -204,9 +204,8 @@ impl<S: Simd> WideBvh<S> {
     /// Builds the wide tree over `fine`, a binary tree with one primitive per leaf whose
     /// `primitive_indices` index `prims`: the wide nodes and leaves that minimise the SAH
     /// cost among the collapses of `fine` (see [`Decision`]), leaves of at most `max_leaf`
-    /// primitives. `None` when the tree cannot
-    /// be encoded (more than 2²⁷ leaf blocks, a leaf over 64 primitives): the binary
-    /// traversal then serves.
+    /// primitives. `None` when the tree cannot be encoded (more than 2²⁷ leaf blocks, a
+    /// leaf over 64 primitives): the binary traversal then serves.
     pub fn build(fine: &Bvh2, prims: &[Primitive], max_leaf: u32) -> Option<WideBvh<S>> {
         assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
         fine.nodes.first()?;
