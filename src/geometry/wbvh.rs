@@ -24,7 +24,7 @@
 use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::Ray;
-use wide::{f32x4, f32x8};
+use wide::f32x8;
 
 use super::bvh::{nearer, ray, tie_limit, Traversal, CULL};
 use super::packet::{Simd, MAX};
@@ -34,7 +34,7 @@ use super::shapes::{intersect_triangle, shear_axes, Primitive, Shape, NO_LIGHT};
 pub type Wide = f32x8;
 
 /// The SIMD type of a leaf block (lanes = triangles; measured: docs/performance.md).
-type Tris = f32x4;
+type Tris = f32x8;
 /// Triangles per leaf block.
 const TRIS: usize = <Tris as Simd>::LANES;
 
@@ -175,7 +175,7 @@ enum Leaf {
 const NODE_COST: f32 = 1.0;
 /// The SAH cost of testing one leaf block, relative to a node (measured:
 /// docs/performance.md).
-const BLOCK_COST: f32 = 1.2;
+const BLOCK_COST: f32 = 1.6;
 
 /// How a binary node's subtree is best laid out in a given number of wide child slots
 /// (Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
@@ -500,10 +500,15 @@ impl<S: Simd> WideBvh<S> {
                     // where the hit children stop is data the branch predictor cannot
                     // learn), then the last is taken off again and visited straight from
                     // the node, not through a store and a load.
+                    // Only the child is stored: an any-hit walk pops without the culling
+                    // test (the box test was against the same cull).
+                    let slots = &mut stack[top..top + S::LANES];
+                    let mut j = 0;
                     for (i, &child) in node.child.iter().enumerate().take(S::LANES) {
-                        stack[top] = (child, f32::NEG_INFINITY);
-                        top += (bits >> i) as usize & 1;
+                        slots[j & (S::LANES - 1)].0 = child;
+                        j += (bits >> i) as usize & 1;
                     }
+                    top += j;
                     top -= 1;
                     current = node.child[(31 - bits.leading_zeros()) as usize];
                     continue;
@@ -560,7 +565,7 @@ impl<S: Simd> WideBvh<S> {
                 }
                 top -= 1;
                 let (next, t) = stack[top];
-                if t < cull {
+                if !ORDER || t < cull {
                     current = next;
                     break;
                 }
