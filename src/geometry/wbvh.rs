@@ -510,6 +510,9 @@ impl<S: Simd> WideBvh<S> {
                     }
                     top += j;
                     top -= 1;
+                    // The new top of the stack is visited next after this subtree: start
+                    // its loads now (one prefetch; every pushed child's was slower).
+                    self.prefetch(stack[top - 1].0);
                     current = node.child[(31 - bits.leading_zeros()) as usize];
                     continue;
                 } else {
@@ -567,6 +570,10 @@ impl<S: Simd> WideBvh<S> {
                 let (next, t) = stack[top];
                 if !ORDER || t < cull {
                     current = next;
+                    if !ORDER && top > 0 {
+                        // As after a push: the entry below is the any-hit walk's next.
+                        self.prefetch(stack[top - 1].0);
+                    }
                     break;
                 }
             }
