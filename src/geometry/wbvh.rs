@@ -176,6 +176,10 @@ const NODE_COST: f32 = 1.0;
 /// The SAH cost of testing one leaf block, relative to a node (measured:
 /// docs/performance.md).
 const BLOCK_COST: f32 = 1.6;
+/// The SAH cost of testing one primitive of a leaf that holds a shape other than a
+/// triangle (the scalar kernels test each alone), relative to a node (measured:
+/// docs/performance.md).
+const PRIM_COST: f32 = 0.6;
 
 /// How a binary node's subtree is best laid out in a given number of wide child slots
 /// (Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
@@ -209,7 +213,7 @@ impl<S: Simd> WideBvh<S> {
     pub fn build(fine: &Bvh2, prims: &[Primitive], max_leaf: u32) -> Option<WideBvh<S>> {
         assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
         fine.nodes.first()?;
-        let plan = Self::plan(fine, max_leaf);
+        let plan = Self::plan(fine, prims, max_leaf);
         let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), ids: Vec::new(), depth: 0 };
         let root = &fine.nodes[0];
         let top = if root.is_leaf() || plan[0][0].kind == LEAF_SLOT {
@@ -226,18 +230,33 @@ impl<S: Simd> WideBvh<S> {
 
     /// Every binary node's best [`Decision`] for 1 to `W` slots (index = slots − 1),
     /// bottom-up (by an explicit stack: fuzzed meshes build very deep trees).
-    fn plan(fine: &Bvh2, max_leaf: u32) -> Vec<[Decision; MAX_W]> {
+    fn plan(fine: &Bvh2, prims: &[Primitive], max_leaf: u32) -> Vec<[Decision; MAX_W]> {
         let w = S::LANES;
         let mut plan = vec![[Decision::default(); MAX_W]; fine.nodes.len()];
         let mut count = vec![0u32; fine.nodes.len()];
-        let leaf_cost = |area: f32, n: u32| area * BLOCK_COST * n.div_ceil(TRIS as u32) as f32;
+        // Per binary node: primitives below it, and how many of them are not triangles.
+        let mut other = vec![0u32; fine.nodes.len()];
+        // A leaf of triangles costs its blocks; one holding another shape goes to the
+        // scalar kernels, which pay per primitive.
+        let leaf_cost = |area: f32, n: u32, other: u32| {
+            if other == 0 {
+                area * BLOCK_COST * n.div_ceil(TRIS as u32) as f32
+            } else {
+                area * PRIM_COST * n as f32
+            }
+        };
         let mut stack = vec![(0usize, false)];
         while let Some((k, ready)) = stack.pop() {
             let node = &fine.nodes[k];
             let area = node.aabb().half_area();
             if node.is_leaf() {
                 count[k] = node.prim_count;
-                let d = Decision { cost: leaf_cost(area, node.prim_count), kind: LEAF_SLOT, left: 0, right: 0 };
+                let first = node.first_index as usize;
+                other[k] = fine.primitive_indices[first..first + node.prim_count as usize]
+                    .iter()
+                    .filter(|&&id| !matches!(prims[id as usize].shape, Shape::Triangle { .. }))
+                    .count() as u32;
+                let d = Decision { cost: leaf_cost(area, count[k], other[k]), kind: LEAF_SLOT, left: 0, right: 0 };
                 plan[k] = [d; MAX_W];
                 continue;
             }
@@ -247,6 +266,7 @@ impl<S: Simd> WideBvh<S> {
                 continue;
             }
             count[k] = count[l] + count[r];
+            other[k] = other[l] + other[r];
             // One slot: a leaf, or a wide node whose W slots the children share.
             let mut inner = Decision { cost: f32::INFINITY, kind: NODE_SLOT, left: 0, right: 0 };
             for j in 0..w - 1 {
@@ -256,7 +276,7 @@ impl<S: Simd> WideBvh<S> {
                 }
             }
             inner.cost += area * NODE_COST;
-            let leaf = if count[k] <= max_leaf { leaf_cost(area, count[k]) } else { f32::INFINITY };
+            let leaf = if count[k] <= max_leaf { leaf_cost(area, count[k], other[k]) } else { f32::INFINITY };
             plan[k][0] = if leaf < inner.cost { Decision { cost: leaf, kind: LEAF_SLOT, ..inner } } else { inner };
             // i + 1 slots: as few, or split between the children.
             for i in 1..w {
