@@ -234,7 +234,7 @@ impl<S: Simd> WideBvh<S> {
         let w = S::LANES;
         let mut plan = vec![[Decision::default(); MAX_W]; fine.nodes.len()];
         let mut count = vec![0u32; fine.nodes.len()];
-        // Per binary node: primitives below it, and how many of them are not triangles.
+        // Per binary node: how many of the primitives below it are not triangles.
         let mut other = vec![0u32; fine.nodes.len()];
         // A leaf of triangles costs its blocks; one holding another shape goes to the
         // scalar kernels, which pay per primitive.
@@ -521,7 +521,8 @@ impl<S: Simd> WideBvh<S> {
                     // learn), then the last is taken off again and visited straight from
                     // the node, not through a store and a load.
                     // Only the child is stored: an any-hit walk pops without the culling
-                    // test (the box test was against the same cull).
+                    // test (the box test was against the same cull). `j ≤ i < LANES`, so
+                    // the mask changes no index; it only spares a bounds check per slot.
                     let slots = &mut stack[top..top + S::LANES];
                     let mut j = 0;
                     for (i, &child) in node.child.iter().enumerate().take(S::LANES) {
