@@ -181,6 +181,12 @@ const BLOCK_COST: f32 = 1.6;
 /// docs/performance.md).
 const PRIM_COST: f32 = 0.6;
 
+/// True for a triangle: the shape leaf blocks test on lanes (others take the scalar
+/// kernels, and the collapse costs them per primitive).
+fn is_triangle(p: &Primitive) -> bool {
+    matches!(p.shape, Shape::Triangle { .. })
+}
+
 /// How a binary node's subtree is best laid out in a given number of wide child slots
 /// (Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
 /// BVHs", 2017, section 4.1; obvhs's `bvh2_to_cwbvh` follows the same scheme).
@@ -254,7 +260,7 @@ impl<S: Simd> WideBvh<S> {
                 let first = node.first_index as usize;
                 other[k] = fine.primitive_indices[first..first + node.prim_count as usize]
                     .iter()
-                    .filter(|&&id| !matches!(prims[id as usize].shape, Shape::Triangle { .. }))
+                    .filter(|&&id| !is_triangle(&prims[id as usize]))
                     .count() as u32;
                 let d = Decision { cost: leaf_cost(area, count[k], other[k]), kind: LEAF_SLOT, left: 0, right: 0 };
                 plan[k] = [d; MAX_W];
@@ -386,7 +392,7 @@ impl<S: Simd> WideBvh<S> {
                 }
                 blockers |= ((p.light == NO_LIGHT) as u32) << l;
             }
-            let triangles = lanes.iter().all(|&id| matches!(prims[id as usize].shape, Shape::Triangle { .. }));
+            let triangles = lanes.iter().all(|&id| is_triangle(&prims[id as usize]));
             let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
             let first = self.ids.len() as u32;
             self.ids.extend_from_slice(lanes);
