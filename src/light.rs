@@ -267,6 +267,16 @@ pub fn probe_count(light: &Light, probe: Probe) -> u32 {
     }
 }
 
+/// Whether the adaptive shadow test probes `light` when uniform mode casts `samples`
+/// rays to it: an area light with fewer probe rays than samples. With as many probes as
+/// samples the test cannot cast fewer rays than uniform sampling (a lit or dark point
+/// pays the samples' count in probes, a penumbra point pays both), so such a light is
+/// sampled as in uniform mode, with uniform mode's rays and image.
+pub fn probes_light(light: &Light, probe: Probe, samples: u32) -> bool {
+    let probes = probe_count(light, probe);
+    probes > 0 && probes < samples
+}
+
 /// The probe targets on area light `li` for a shading point whose path is named by `key`
 /// (its point key hashed with its sample index); the first [`probe_count`] are used.
 /// A parallelogram's are its corners (and centre), a jittered point in each quarter, or

@@ -198,11 +198,11 @@ soa! {
 
 soa! {
     /// Shading points waiting for the adaptive shadow test of one area light (the shadow
-    /// corner queue): each names a ray of the current wave (whose hit is the point) and a
-    /// light, with the light's contribution if nothing blocked it.
+    /// corner queue): each names a shading point of the current wave (an entry of its
+    /// [`SurfaceQueue`]) and a light, with the light's contribution if nothing blocked it.
     pub struct ShadowPointQueue {
-        /// Index of the ray (and hit) in the current wave.
-        ray: u32,
+        /// Index of the shading point in the wave's surface queue.
+        surface: u32,
         /// Index of the area light.
         light: u32,
         /// Accumulation slot of the ray.
@@ -214,7 +214,7 @@ soa! {
         /// Unoccluded contribution blue.
         ub: f32,
     }
-    push(ray: u32 => ray; light: u32 => light; slot: u32 => slot; unoccluded: Vec3 => ur, ug, ub)
+    push(surface: u32 => surface; light: u32 => light; slot: u32 => slot; unoccluded: Vec3 => ur, ug, ub)
     get(unoccluded => ur, ug, ub)
 }
 
@@ -381,6 +381,8 @@ pub struct WaveQueues {
     pub surfaces: SurfaceQueue,
     /// Adaptive shadows: the shadow-corner queue.
     pub points: ShadowPointQueue,
+    /// Adaptive shadows: the shadow-corner test's probe rays (slot: the point).
+    pub probes: ShadowQueue,
     /// Adaptive shadows: the points the corner test could not decide.
     pub penumbra: IndexQueue,
     /// Adaptive shadows: the penumbra stage's queues.
@@ -401,6 +403,7 @@ impl WaveQueues {
             + self.shadow.bytes()
             + self.surfaces.bytes()
             + self.points.bytes()
+            + self.probes.bytes()
             + self.penumbra.bytes()
             + self.penumbra_rays.bytes()
             + self.specular.bytes()

@@ -158,6 +158,9 @@ pub struct Stats {
     pub penumbra_points: u64,
     /// Adaptive shadows: shadow rays uniform mode would cast for the same points.
     pub shadow_uniform_rays: u64,
+    /// Adaptive shadows: (point, area light) pairs sampled uniformly because the light's
+    /// probes would cost as many rays as its samples.
+    pub shadow_uniform_fallback: u64,
     /// Penumbra early stopping: points that stopped before all their rays.
     pub penumbra_stopped: u64,
     /// Penumbra early stopping: rays of the fixed-n method not traced.
@@ -241,6 +244,7 @@ impl Stats {
         self.shadow_uniform_rays += o.shadow_uniform_rays;
         self.penumbra_stopped += o.penumbra_stopped;
         self.penumbra_saved_rays += o.penumbra_saved_rays;
+        self.shadow_uniform_fallback += o.shadow_uniform_fallback;
     }
 
     /// Rays by kind, with their names in the report. The kinds are disjoint.
@@ -330,11 +334,23 @@ pub struct QueueReport {
     pub uniform_rays: u64,
     /// uniform_rays - rays (negative when adaptive cost more).
     pub saved: i64,
+    /// Shadows: (point, area light) pairs that did not enter the test but were sampled
+    /// as in uniform mode, because the light's probes would cost as many rays as its
+    /// samples (they cost what uniform mode does, and are in neither count above).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uniform_fallback: Option<u64>,
 }
 
 impl QueueReport {
     fn new(entered: u64, refined: u64, rays: u64, uniform_rays: u64) -> QueueReport {
-        QueueReport { entered, refined, rays, uniform_rays, saved: uniform_rays as i64 - rays as i64 }
+        QueueReport {
+            entered,
+            refined,
+            rays,
+            uniform_rays,
+            saved: uniform_rays as i64 - rays as i64,
+            uniform_fallback: None,
+        }
     }
 }
 
@@ -426,7 +442,8 @@ impl Report {
             }),
             adaptive_shadows: matches!(settings.shadow_mode, ShadowMode::Adaptive(_)).then(|| {
                 let rays = t.shadow_corner_rays + t.penumbra_rays;
-                QueueReport::new(t.shadow_points, t.penumbra_points, rays, t.shadow_uniform_rays)
+                let report = QueueReport::new(t.shadow_points, t.penumbra_points, rays, t.shadow_uniform_rays);
+                QueueReport { uniform_fallback: Some(t.shadow_uniform_fallback), ..report }
             }),
             penumbra_early_stop: settings.penumbra_stop.map(|_| EarlyStopReport {
                 points: t.penumbra_points,
@@ -532,6 +549,9 @@ impl Report {
                     q.saved,
                     100.0 * q.saved as f64 / q.uniform_rays.max(1) as f64
                 );
+                if let Some(n) = q.uniform_fallback.filter(|&n| n > 0) {
+                    s += &format!("{name}: {n} more sampled uniformly (probes would cost as much as the samples)\n");
+                }
             }
         }
         if let Some(e) = &self.penumbra_early_stop {

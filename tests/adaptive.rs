@@ -287,3 +287,22 @@ fn corner_test_is_fooled_by_a_small_occluder_and_the_options_catch_it() {
     assert_eq!(stats_grid.shadow_corner_rays, 9 * stats_grid.shadow_points);
     assert_eq!(stats_center.shadow_corner_rays, 5 * stats_center.shadow_points);
 }
+
+#[test]
+fn a_light_probed_with_as_many_rays_as_samples_renders_as_uniform_mode() {
+    // 4 samples against the 4 corner probes: adaptive mode samples the light as uniform
+    // mode does, so the two images are the same bits, the rays the same, and the stats
+    // count every (point, light) pair as sampled uniformly.
+    let sets = ["render.shadows.samples=4", "render.shadows.probe=\"corners\""];
+    let adaptive = render_text(FLAT, &sets, 2);
+    let uniform = render_text(FLAT, &[sets[0], sets[1], "render.shadows.mode=uniform"], 2);
+    let bits =
+        |o: &wavetrace::RenderOutput| o.image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    assert_eq!(bits(&adaptive), bits(&uniform));
+    assert_eq!(adaptive.stats.shadow_rays, uniform.stats.shadow_rays);
+    assert_eq!((adaptive.stats.shadow_points, adaptive.stats.shadow_corner_rays), (0, 0));
+    assert!(adaptive.stats.shadow_uniform_fallback > 0);
+    // Five samples: the light is probed again.
+    let probed = render_text(FLAT, &["render.shadows.samples=5", sets[1]], 2);
+    assert!(probed.stats.shadow_points > 0 && probed.stats.shadow_uniform_fallback == 0);
+}

@@ -75,3 +75,25 @@ fn embedded_default_is_the_file_in_scenes() {
     assert_eq!(file, wavetrace::DEFAULT_SCENE);
     let _ = SceneSource::default_scene();
 }
+
+#[test]
+fn adaptive_shadows_never_cast_more_rays_than_uniform_on_the_project_scenes() {
+    // Each scene with its own samples and probe set, shadows adaptive: probes plus
+    // penumbra rays never exceed what uniform sampling casts for the same points (a light
+    // whose probes would cost its samples is sampled uniformly and counts in neither).
+    let mut names = Vec::new();
+    scene_files(Path::new(""), &mut names);
+    names.sort();
+    let mut probed = 0;
+    for name in names {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(&name);
+        let src = SceneSource::from_file(&path).expect("readable");
+        let sets = ["render.width=40", "render.height=30", "render.shadows.mode=adaptive"].map(String::from);
+        let scene = load(&src, &sets).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let s = render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).expect("render").stats;
+        let cast = s.shadow_corner_rays + s.penumbra_rays;
+        assert!(cast <= s.shadow_uniform_rays, "{name}: {cast} adaptive rays vs {} uniform", s.shadow_uniform_rays);
+        probed += (s.shadow_points > 0) as usize;
+    }
+    assert!(probed >= 5, "only {probed} scenes probe a light");
+}

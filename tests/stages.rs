@@ -15,6 +15,7 @@ use wavetrace::light::probe_targets;
 use wavetrace::light::SHADOW_TMAX_SCALE;
 use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use wavetrace::scene::{Light, Probe, ShadowMode};
+use wavetrace::stages::shade::ShadeCounts;
 use wavetrace::stages::{shade as shade_stage, shadow_corner};
 use wavetrace::Scene;
 
@@ -25,10 +26,12 @@ use wavetrace::Scene;
 struct Shaded {
     shadow: ShadowQueue,
     points: ShadowPointQueue,
+    surfaces: SurfaceQueue,
     specular: Vec<u32>,
     film: FilmQueue,
-    /// The stage's return value: uniform-mode shadow rays of the queued points.
-    uniform_equivalent: u64,
+    /// The stage's return value: uniform-mode shadow rays of the queued points, and the
+    /// points sampled uniformly instead.
+    counts: ShadeCounts,
 }
 
 /// The shade stage on one wave (the only call of `shade::shade` in this file).
@@ -36,9 +39,9 @@ fn shade(scene: &Scene, rays: &RayQueue, hits: &HitQueue) -> Shaded {
     let (mut shadow, mut points, mut specular, mut film) =
         (ShadowQueue::default(), ShadowPointQueue::default(), IndexQueue::default(), FilmQueue::default());
     let mut surfaces = SurfaceQueue::default();
-    let uniform_equivalent =
+    let counts =
         shade_stage::shade(scene, rays, hits, &mut shadow, &mut points, &mut surfaces, &mut specular, &mut film);
-    Shaded { shadow, points, specular: specular.index, film, uniform_equivalent }
+    Shaded { shadow, points, surfaces, specular: specular.index, film, counts }
 }
 
 /// What the shadow-corner stage wrote.
@@ -50,18 +53,13 @@ struct Cornered {
 }
 
 /// The shadow-corner stage (the only call of `shadow_corner::shadow_corners` here).
-fn shadow_corners(
-    scene: &mut Scene,
-    probe: Probe,
-    rays: &RayQueue,
-    hits: &HitQueue,
-    points: &ShadowPointQueue,
-) -> Cornered {
+fn shadow_corners(scene: &mut Scene, probe: Probe, surfaces: &SurfaceQueue, points: &ShadowPointQueue) -> Cornered {
     // The stage reads its probe set from the scene's settings.
     scene.settings.shadow_mode = ShadowMode::Adaptive(probe);
-    let (mut film, mut penumbra) = (FilmQueue::default(), IndexQueue::default());
+    let (mut film, mut penumbra, mut probes) = (FilmQueue::default(), IndexQueue::default(), ShadowQueue::default());
     let mut tracer = Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false);
-    let cast = shadow_corner::shadow_corners(scene, &mut tracer, rays, hits, points, &mut film, &mut penumbra);
+    let cast =
+        shadow_corner::shadow_corners(scene, &mut tracer, surfaces, points, &mut probes, &mut film, &mut penumbra);
     Cornered { film, penumbra: penumbra.index, cast }
 }
 
@@ -398,7 +396,7 @@ fn a_diffuse_hit_under_a_point_light_casts_one_shadow_ray_just_short_of_it() {
     let hits = trace(&scene, &rays);
     let out = shade(&scene, &rays, &hits);
     assert!(out.film.is_empty() && out.points.is_empty() && out.specular.is_empty());
-    assert_eq!(out.uniform_equivalent, 0);
+    assert_eq!(out.counts.uniform_equivalent, 0);
     // Exact: one shadow ray, in the ray's slot.
     assert_eq!(out.shadow.len(), 1);
     assert_eq!(out.shadow.slot[0], 5);
@@ -484,9 +482,10 @@ fn adaptive_shadows_queue_the_point_instead_of_casting_rays() {
     let out = shade(&scene, &rays, &hits);
     assert!(out.shadow.is_empty(), "no shadow rays in adaptive mode");
     assert_eq!((out.film.len(), out.film.slot[0]), (1, 3), "the miss");
-    assert_eq!((out.points.ray.clone(), out.points.light.clone()), (vec![1], vec![0]));
+    assert_eq!((out.points.surface.clone(), out.points.light.clone()), (vec![0], vec![0]));
+    assert_eq!(out.surfaces.ray, vec![1]);
     // Exact count: uniform mode would have cast all 16 samples here.
-    assert_eq!(out.uniform_equivalent, 16);
+    assert_eq!(out.counts, ShadeCounts { uniform_equivalent: 16, uniform_fallback: 0 });
     // Tolerance 1e-4 relative: Lambert's exact polygon irradiance, times the weight.
     let x = rays.origin(1) + hits.t[1] * DOWN;
     let expect = w * Vec3::splat(0.8) * FRAC_1_PI * radiance * floor_irradiance(&scene, x);
@@ -554,22 +553,22 @@ fn occluder(x0: f32, x1: f32) -> String {
 
 /// Rays straight down onto the floor at `xs` (z = 0) from below the occluders, slot
 /// 10 + index; shaded in adaptive mode: (rays, hits, queued points).
-fn points_at(scene: &Scene, xs: &[f32]) -> (RayQueue, HitQueue, ShadowPointQueue) {
+fn points_at(scene: &Scene, xs: &[f32]) -> (SurfaceQueue, ShadowPointQueue) {
     let list: Vec<_> =
         xs.iter().enumerate().map(|(i, &x)| (Vec3::new(x, 1.0, 0.0), DOWN, 10 + i as u32, Vec3::ONE, 0)).collect();
     let rays = wave(&list);
     let hits = trace(scene, &rays);
     let out = shade(scene, &rays, &hits);
     assert_eq!(out.points.len(), xs.len(), "every point is queued");
-    (rays, hits, out.points)
+    (out.surfaces, out.points)
 }
 
 #[test]
 fn an_unoccluded_point_sends_its_unoccluded_value_to_the_film() {
     let mut scene = quad_lit("", &[ADAPTIVE]);
-    let (rays, hits, points) = points_at(&scene, &[0.3]);
+    let (surfaces, points) = points_at(&scene, &[0.3]);
     for probe in PROBES {
-        let out = shadow_corners(&mut scene, probe, &rays, &hits, &points);
+        let out = shadow_corners(&mut scene, probe, &surfaces, &points);
         // Exact: every probe cast, the unoccluded value in the point's slot, no penumbra.
         assert_eq!(out.cast, probe.rays() as usize, "{probe:?}");
         assert_eq!(out.film.slot, vec![10], "{probe:?}");
@@ -581,9 +580,9 @@ fn an_unoccluded_point_sends_its_unoccluded_value_to_the_film() {
 #[test]
 fn a_fully_occluded_point_sends_nothing() {
     let mut scene = quad_lit(&occluder(-5.0, 5.0), &[ADAPTIVE]);
-    let (rays, hits, points) = points_at(&scene, &[0.3]);
+    let (surfaces, points) = points_at(&scene, &[0.3]);
     for probe in PROBES {
-        let out = shadow_corners(&mut scene, probe, &rays, &hits, &points);
+        let out = shadow_corners(&mut scene, probe, &surfaces, &points);
         assert_eq!(out.cast, probe.rays() as usize, "{probe:?}");
         assert!(out.film.is_empty() && out.penumbra.is_empty(), "{probe:?}");
     }
@@ -595,15 +594,82 @@ fn a_half_occluded_point_lands_in_the_penumbra_list() {
     // seen from x = 0, the probes to x = -1 are blocked and those to x ≥ 0 are not; from
     // x = 3 none is, from x = -3 all are.
     let mut scene = quad_lit(&occluder(-5.0, -0.2), &[ADAPTIVE]);
-    let (rays, hits, points) = points_at(&scene, &[3.0, -3.0, 0.0]);
+    let (surfaces, points) = points_at(&scene, &[3.0, -3.0, 0.0]);
     // Jittered probes are random within each quarter of the light: left out.
     for probe in [Probe::Corners, Probe::CornersCenter, Probe::Grid3] {
-        let out = shadow_corners(&mut scene, probe, &rays, &hits, &points);
+        let out = shadow_corners(&mut scene, probe, &surfaces, &points);
         // Exact: the lit point's value in its slot, the dark one nowhere, the half-lit
         // one (point 2) in the penumbra list.
         assert_eq!(out.cast, 3 * probe.rays() as usize, "{probe:?}");
         assert_eq!(out.film.slot, vec![10], "{probe:?}");
         assert_eq!(out.penumbra, vec![2], "{probe:?}");
+    }
+}
+
+#[test]
+fn probes_traced_as_a_queue_give_the_single_ray_answers() {
+    // Occluders of several widths and heights, and 300 points over the floor: lit, dark
+    // and penumbra points of every kind. The stage traces all probes as one queue (in
+    // packets or one by one, the tracer's choice); each point's verdict must be what
+    // tracing each of its probes alone gives.
+    let extra = [occluder(-5.0, -0.2), occluder(0.4, 0.5), occluder(1.1, 3.0)].concat();
+    let mut scene = quad_lit(&extra, &[ADAPTIVE]);
+    let mut rng = support::Lcg(11);
+    let xs: Vec<f32> = (0..300).map(|_| rng.next() * 8.0 - 4.0).collect();
+    let (surfaces, points) = points_at(&scene, &xs);
+    for probe in PROBES {
+        let out = shadow_corners(&mut scene, probe, &surfaces, &points);
+        let mut tracer = Tracer::new(&scene.accel, Kernel::Wide, false);
+        let (mut film, mut penumbra, mut cast) = (Vec::new(), Vec::new(), 0);
+        for k in 0..points.len() {
+            let s = points.surface[k] as usize;
+            let o = surfaces.origin(s);
+            let key = wavetrace::sampling::hash(&[surfaces.key[s], surfaces.sample[s]]);
+            let n = probe.rays() as usize;
+            let visible = probe_targets(&scene, probe, 0, key)[..n]
+                .iter()
+                .filter(|&&target| {
+                    let (to, dist) = (target - o, (target - o).length());
+                    !tracer.occluded_one(o, to / dist, dist * SHADOW_TMAX_SCALE)
+                })
+                .count();
+            cast += n;
+            if visible == n {
+                film.push(points.slot[k]);
+            } else if visible > 0 {
+                penumbra.push(k as u32);
+            }
+        }
+        assert_eq!(out.cast, cast, "{probe:?}");
+        assert_eq!(out.film.slot, film, "{probe:?}");
+        assert_eq!(out.penumbra, penumbra, "{probe:?}");
+        assert!(!film.is_empty() && !penumbra.is_empty() && film.len() + penumbra.len() < xs.len(), "{probe:?}");
+    }
+}
+
+#[test]
+fn a_light_whose_probes_cost_its_samples_is_sampled_as_in_uniform_mode() {
+    // 4 samples against the 4 corner probes (and 9 against the 3x3 grid): the shade stage
+    // queues no point and casts uniform mode's rays, bit for bit; the stats count the
+    // points. 5 samples against the 4 corners: probed.
+    let extra = occluder(-5.0, -0.2);
+    let xs = [3.0, -3.0, 0.0, 0.7];
+    let list: Vec<_> =
+        xs.iter().enumerate().map(|(i, &x)| (Vec3::new(x, 1.0, 0.0), DOWN, 10 + i as u32, Vec3::ONE, 0)).collect();
+    let rays = wave(&list);
+    for (samples, probe, probed) in [(4, "corners", false), (9, "3x3", false), (5, "corners", true)] {
+        let sets = [format!("render.shadows.samples={samples}"), format!("render.shadows.probe=\"{probe}\"")];
+        let uniform = quad_lit(&extra, &[&sets[0], &sets[1]]);
+        let adaptive = quad_lit(&extra, &[&sets[0], &sets[1], ADAPTIVE]);
+        let hits = trace(&uniform, &rays);
+        let (u, a) = (shade(&uniform, &rays, &hits), shade(&adaptive, &rays, &hits));
+        if probed {
+            assert_eq!((a.points.len(), a.shadow.len(), a.counts.uniform_fallback), (xs.len(), 0, 0));
+        } else {
+            assert!(a.points.is_empty(), "{samples} {probe}");
+            assert_eq!(a.shadow, u.shadow, "{samples} {probe}");
+            assert_eq!(a.counts, ShadeCounts { uniform_equivalent: 0, uniform_fallback: xs.len() as u64 });
+        }
     }
 }
 

@@ -10,6 +10,7 @@ use crate::geometry::tracer::Tracer;
 use crate::geometry::Traversal;
 use crate::queue::WaveQueues;
 use crate::stages::penumbra::PenumbraCounts;
+use crate::stages::shade::ShadeCounts;
 use crate::stats::{Span, Stage, Stats};
 
 /// The kind of camera ray a pass starts, for the stats.
@@ -76,13 +77,14 @@ impl Meter {
         self.lap(Stage::Intersect, n, n, tr.take_work(), since)
     }
 
-    /// Shading; `uniform_equivalent` is what shade returned.
-    pub fn shade(&mut self, q: &WaveQueues, uniform_equivalent: u64, since: Instant) -> Instant {
+    /// Shading; `counts` is what shade returned.
+    pub fn shade(&mut self, q: &WaveQueues, counts: ShadeCounts, since: Instant) -> Instant {
         let p = &mut self.stats.peak;
         p.shadow = p.shadow.max(q.shadow.len() as u64);
         p.shadow_points = p.shadow_points.max(q.points.len() as u64);
         p.specular = p.specular.max(q.specular.len() as u64);
-        self.stats.shadow_uniform_rays += uniform_equivalent;
+        self.stats.shadow_uniform_rays += counts.uniform_equivalent;
+        self.stats.shadow_uniform_fallback += counts.uniform_fallback;
         let out = q.shadow.len() + q.points.len() + q.specular.len() + q.film.len();
         self.lap(Stage::Shade, q.rays.len(), out, Traversal::default(), since)
     }

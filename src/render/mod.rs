@@ -45,7 +45,10 @@ pub fn wave_size(scene: &Scene) -> u64 {
         .map(|l| match (l, s.shadow_mode) {
             (Light::Point { .. }, _) => 1,
             (_, ShadowMode::Uniform) => s.shadow_samples as u64,
-            (l, ShadowMode::Adaptive(p)) => crate::light::probe_count(l, p) as u64 + s.shadow_samples as u64,
+            (l, ShadowMode::Adaptive(p)) if crate::light::probes_light(l, p, s.shadow_samples) => {
+                crate::light::probe_count(l, p) as u64 + s.shadow_samples as u64
+            }
+            (_, ShadowMode::Adaptive(_)) => s.shadow_samples as u64,
         })
         .sum();
     (SHADOW_RAYS_PER_WAVE / per_hit.max(1)).clamp(1, WAVE_RAYS)

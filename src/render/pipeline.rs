@@ -122,7 +122,7 @@ impl<'a> Pipeline<'a> {
         intersect::intersect(tr, &q.rays, coherence, &mut q.hits);
         t = m.intersect(q, heat, tr, t);
 
-        let uniform = shade::shade(
+        let counts = shade::shade(
             scene,
             &q.rays,
             &q.hits,
@@ -132,20 +132,21 @@ impl<'a> Pipeline<'a> {
             &mut q.specular,
             &mut q.film,
         );
-        t = m.shade(q, uniform, t);
+        t = m.shade(q, counts, t);
 
         let lit = shadow::occlusion(tr, &q.shadow, &mut q.film);
         t = m.shadow(q, heat, lit, tr, t);
 
         if let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode {
-            let (rays, hits, points) = (&q.rays, &q.hits, &q.points);
-            let cast = shadow_corner::shadow_corners(scene, tr, rays, hits, points, &mut q.film, &mut q.penumbra);
+            let (surfaces, points) = (&q.surfaces, &q.points);
+            let (probes, film, pen) = (&mut q.probes, &mut q.film, &mut q.penumbra);
+            let cast = shadow_corner::shadow_corners(scene, tr, surfaces, points, probes, film, pen);
             // Probe rays per point depend on the light's shape (a triangle's 3x3 set is 7).
             let probes = |li: u32| crate::light::probe_count(&scene.lights[li as usize], probe) as f32;
             t = m.shadow_corners(q, heat, (cast, &probes), tr, t);
 
-            let (rays, hits, points) = (&q.rays, &q.hits, &q.points);
-            let pen = penumbra::penumbra(scene, tr, rays, hits, points, &q.penumbra, &mut q.penumbra_rays, &mut q.film);
+            let (surfaces, points) = (&q.surfaces, &q.points);
+            let pen = penumbra::penumbra(scene, tr, surfaces, points, &q.penumbra, &mut q.penumbra_rays, &mut q.film);
             t = m.penumbra(q, heat, pen, tr, t);
         }
 

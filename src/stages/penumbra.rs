@@ -15,10 +15,10 @@
 
 use crate::geometry::tracer::Tracer;
 use crate::light::{area_light_samples, sample_grid, SHADOW_TMAX_SCALE};
-use crate::queue::{FilmQueue, HitQueue, IndexQueue, PenumbraQueues, RayQueue, ShadowPointQueue};
+use crate::queue::{FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, SurfaceQueue};
 use crate::sampling::{dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
-use crate::surface::diffuse_surface;
+use crate::surface::queued_surface;
 
 /// Two-sided 95% normal quantile of the Wilson interval.
 const Z95: f32 = 1.959_964;
@@ -50,15 +50,14 @@ pub struct PenumbraCounts {
 pub fn penumbra(
     scene: &Scene,
     tracer: &mut Tracer,
-    rays: &RayQueue,
-    hits: &HitQueue,
+    surfaces: &SurfaceQueue,
     points: &ShadowPointQueue,
     penumbra: &IndexQueue,
     q: &mut PenumbraQueues,
     film: &mut FilmQueue,
 ) -> PenumbraCounts {
     let stop = scene.settings.penumbra_stop;
-    generate(scene, rays, hits, points, penumbra, q);
+    generate(scene, surfaces, points, penumbra, q);
     let Some(stop) = stop else {
         for p in 0..q.points.len() {
             q.points.taken[p] = q.points.end[p] - q.points.start[p];
@@ -87,8 +86,7 @@ pub fn penumbra(
 /// take the rays in, and the active list.
 fn generate(
     scene: &Scene,
-    rays: &RayQueue,
-    hits: &HitQueue,
+    surfaces: &SurfaceQueue,
     points: &ShadowPointQueue,
     penumbra: &IndexQueue,
     q: &mut PenumbraQueues,
@@ -103,10 +101,7 @@ fn generate(
     for (i, &k) in penumbra.index.iter().enumerate() {
         let k = k as usize;
         let start = q.rays.len() as u32;
-        let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else {
-            q.points.push(start, start, 0, 0);
-            continue;
-        };
+        let surf = queued_surface(surfaces, points.surface[k] as usize);
         let li = points.light[k] as usize;
         q.cells.clear();
         let (shadow, cells) = (&mut q.rays, &mut q.cells);

@@ -2,7 +2,8 @@
 //! the film queue, mirror or dielectric hits to the specular list for the scatter
 //! stage, and diffuse hits' direct lighting to the shadow queue (one ray per point
 //! light; per area light `shadows.samples` stratified rays in uniform mode, or one entry
-//! in the shadow-corner queue in adaptive mode). Uniform shadow rays to quad lights are
+//! in the shadow-corner queue in adaptive mode when the light's probes cost fewer rays
+//! than its samples, else the uniform rays). Uniform shadow rays to quad lights are
 //! computed on 16 lanes at a time, in the order and with the bits of the scalar loop.
 
 use glam::Vec3;
@@ -11,16 +12,26 @@ use wide::{f32x16, u32x16};
 
 use crate::geometry::NO_LIGHT;
 use crate::light::{
-    emitted, light_seed_lanes, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes, SHADOW_TMAX_SCALE,
+    emitted, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes, SHADOW_TMAX_SCALE,
 };
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use crate::scene::{Light, Scene, ShadowMode};
 use crate::simd::{push_lanes, LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, diffuse_material, diffuse_surfaces, queued_surface};
 
-/// Shades every ray of `rays` at its hit in `hits`: fills `shadow`, `points` and
-/// `specular` (cleared first) and appends to `film`. Returns the number of shadow rays
-/// uniform mode would have cast for the points put in the shadow-corner queue.
+/// What the shade stage counted for the adaptive shadow test's stats.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ShadeCounts {
+    /// Shadow rays uniform mode would have cast for the points put in the shadow-corner
+    /// queue.
+    pub uniform_equivalent: u64,
+    /// (point, area light) pairs of adaptive mode sampled uniformly because the light's
+    /// probes would cost as many rays as its samples ([`probes_light`]).
+    pub uniform_fallback: u64,
+}
+
+/// Shades every ray of `rays` at its hit in `hits`: fills `shadow`, `points`, `surfaces`
+/// and `specular` (cleared first) and appends to `film`.
 #[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
 pub fn shade(
     scene: &Scene,
@@ -31,15 +42,21 @@ pub fn shade(
     surfaces: &mut SurfaceQueue,
     specular: &mut IndexQueue,
     film: &mut FilmQueue,
-) -> u64 {
+) -> ShadeCounts {
     shadow.clear();
     points.clear();
     surfaces.clear();
     specular.clear();
-    let adaptive = matches!(scene.settings.shadow_mode, ShadowMode::Adaptive(_));
+    let s = &scene.settings;
+    // The lights the adaptive test probes; the others are sampled as in uniform mode.
+    let probed = |li: usize| match s.shadow_mode {
+        ShadowMode::Adaptive(probe) => probes_light(&scene.lights[li], probe, s.shadow_samples),
+        ShadowMode::Uniform => false,
+    };
+    let any_probed = (0..scene.lights.len()).any(probed);
     // Uniform shadows go on lanes when every light is a quad (a point light's one ray
     // would interleave with them, and keeps the scalar loop).
-    let lanes = !adaptive && scene.lights.iter().all(|l| matches!(l, Light::Quad { .. }));
+    let lanes = !any_probed && scene.lights.iter().all(|l| matches!(l, Light::Quad { .. }));
     // Diffuse hits go to the surface queue 16 at a time (in ray order); the rest is
     // settled here.
     let (mut group, mut len) = ([0u32; LANES], 0);
@@ -64,27 +81,31 @@ pub fn shade(
             if let Some(radiance) = emitted(&scene.lights[prim.light as usize], rays.dir(i)) {
                 film.push(rays.slot[i], rays.weight(i) * radiance);
             }
-        } else if rays.depth[i] < scene.settings.max_depth {
+        } else if rays.depth[i] < s.max_depth {
             specular.push(i as u32);
         }
     }
     diffuse_surfaces(scene, rays, hits, &group[..len], surfaces);
+    let mut counts = ShadeCounts::default();
+    if let ShadowMode::Adaptive(probe) = s.shadow_mode {
+        let fallback = scene.lights.iter().filter(|l| lit_area(l) && !probes_light(l, probe, s.shadow_samples));
+        counts.uniform_fallback = fallback.count() as u64 * surfaces.len() as u64;
+    }
     if lanes {
         quad_shadow_lanes(scene, surfaces, shadow);
-        return 0;
+        return counts;
     }
-    let mut uniform_equivalent = 0u64;
     for p in 0..surfaces.len() {
-        let (surf, i) = (queued_surface(surfaces, p), surfaces.ray[p]);
+        let surf = queued_surface(surfaces, p);
         for li in 0..scene.lights.len() {
-            // An area light in adaptive mode: its unoccluded contribution costs no rays;
-            // the shadow-corner stage decides whether it reaches the film. Count the rays
-            // uniform mode would have cast, for the stats.
-            match adaptive.then(|| unoccluded(scene, &surf, li)).flatten() {
+            // An area light the adaptive test probes: its unoccluded contribution costs
+            // no rays; the shadow-corner stage decides whether it reaches the film. Count
+            // the rays uniform mode would have cast, for the stats.
+            match probed(li).then(|| unoccluded(scene, &surf, li)).flatten() {
                 Some((_, 0)) => {}
                 Some((sum, n)) => {
-                    points.push(i, li as u32, surf.slot, sum);
-                    uniform_equivalent += n;
+                    points.push(p as u32, li as u32, surf.slot, sum);
+                    counts.uniform_equivalent += n;
                 }
                 None => {
                     uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l))
@@ -92,7 +113,15 @@ pub fn shade(
             }
         }
     }
-    uniform_equivalent
+    counts
+}
+
+/// An area light that emits (a point light or a dark light never enters the test).
+fn lit_area(light: &Light) -> bool {
+    match *light {
+        Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance != Vec3::ZERO,
+        Light::Point { .. } => false,
+    }
 }
 
 /// Uniform shadow rays from every point of `surfaces` to every lit quad light, 16

@@ -2,50 +2,66 @@
 //! shading point to an area light. If all reach the light the point is lit (its
 //! unoccluded contribution goes to the film); if none does it is dark; otherwise it
 //! goes to the penumbra queue.
+//!
+//! The probes of the whole queue are written to a shadow-ray queue (a point's probes
+//! next to each other, their slot naming the point), traced in one call of the
+//! occlusion kernels, and reduced per point: any-hit answers do not depend on the kernel
+//! or the order, so the lit, dark and penumbra sets are those of tracing each probe alone.
+
+use glam::Vec3;
 
 use crate::geometry::tracer::Tracer;
 use crate::light::{probe_count, probe_targets, SHADOW_TMAX_SCALE};
-use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue};
+use crate::queue::{FilmQueue, IndexQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue};
 use crate::sampling::hash;
 use crate::scene::{Scene, ShadowMode};
-use crate::surface::diffuse_surface;
 
-/// Tests every queued point against its light, with the probe set of
-/// `render.shadows.probe`; lit points append their unoccluded contribution to `film`,
-/// penumbra points go to `penumbra` (cleared first; indices into `points`). Returns the
-/// number of probe rays cast.
+/// Tests every queued point (`points`, whose surfaces are in `surfaces`) against its
+/// light with the probe set of `render.shadows.probe`: writes the probe rays to `probes`
+/// (cleared first; slot: the point), traces them, and appends the lit points'
+/// unoccluded contributions to `film`; penumbra points go to `penumbra` (cleared first;
+/// indices into `points`). Returns the number of probe rays cast.
 #[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
 pub fn shadow_corners(
     scene: &Scene,
     tracer: &mut Tracer,
-    rays: &RayQueue,
-    hits: &HitQueue,
+    surfaces: &SurfaceQueue,
     points: &ShadowPointQueue,
+    probes: &mut ShadowQueue,
     film: &mut FilmQueue,
     penumbra: &mut IndexQueue,
 ) -> usize {
     penumbra.clear();
+    probes.clear();
     let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode else { return 0 };
-    let mut cast = 0;
     for k in 0..points.len() {
-        let Some(surf) = diffuse_surface(scene, rays, hits, points.ray[k] as usize) else { continue };
+        let s = points.surface[k] as usize;
+        let o = surfaces.origin(s);
         let li = points.light[k] as usize;
-        let targets = probe_targets(scene, probe, li, hash(&[surf.key, surf.sample]));
+        let targets = probe_targets(scene, probe, li, hash(&[surfaces.key[s], surfaces.sample[s]]));
         let n = probe_count(&scene.lights[li], probe) as usize;
-        let mut visible = 0;
         for target in &targets[..n] {
-            let to = *target - surf.o;
+            let to = *target - o;
             let dist = to.length();
-            if !tracer.occluded_one(surf.o, to / dist, dist * SHADOW_TMAX_SCALE) {
-                visible += 1;
-            }
-        }
-        cast += n;
-        if visible == n {
-            film.push(surf.slot, points.unoccluded(k));
-        } else if visible > 0 {
-            penumbra.push(k as u32);
+            probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO);
         }
     }
-    cast
+    let blocked = tracer.occluded(probes);
+    // A point's probes are a run of equal slots: count the visible ones per run.
+    let mut r = 0;
+    while r < blocked.len() {
+        let k = probes.slot[r];
+        let start = r;
+        let mut visible = 0;
+        while r < blocked.len() && probes.slot[r] == k {
+            visible += !blocked[r] as usize;
+            r += 1;
+        }
+        if visible == r - start {
+            film.push(points.slot[k as usize], points.unoccluded(k as usize));
+        } else if visible > 0 {
+            penumbra.push(k);
+        }
+    }
+    probes.len()
 }
