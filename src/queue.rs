@@ -14,6 +14,7 @@
 use glam::Vec3;
 
 use crate::sampling::Progressive;
+use crate::simd::{push_lanes, LANES};
 
 /// Declares a structure-of-arrays queue: the struct with one public `Vec` per field,
 /// and its methods. `push(...)` lists the pushed values: `name: T => field` stores one
@@ -66,6 +67,23 @@ macro_rules! soa {
                 0 $( + self.$field.capacity() * std::mem::size_of::<$ty>() )+
             }
 
+            /// Appends the first `count` lanes of 16 entries given as lanes: per pushed value
+            /// an array of its 16 lane values (a vector as its x, y and z lane arrays).
+            /// Every column is written here, so none can be left short.
+            #[inline]
+            #[allow(clippy::too_many_arguments)] // one argument per value of the entry
+            pub fn push_lanes(&mut self, $( $arg: soa!(@lanes $aty; $($col),+) ),+ , count: usize) {
+                $( soa!(@put_lanes self, $arg, count, $($col),+); )+
+            }
+
+            /// Appends the lanes `picks` (in that order) of 16 entries given as lanes, as
+            /// [`push_lanes`](Self::push_lanes) takes them.
+            #[inline]
+            #[allow(clippy::too_many_arguments)] // one argument per value of the entry
+            pub fn push_picked(&mut self, $( $arg: soa!(@lanes $aty; $($col),+) ),+ , picks: &[usize]) {
+                $( soa!(@put_picked self, $arg, picks, $($col),+); )+
+            }
+
             /// Appends entries `range` of `src`.
             pub fn append_range(&mut self, src: &$name, range: std::ops::Range<usize>) {
                 $( self.$field.extend_from_slice(&src.$field[range.clone()]); )+
@@ -92,6 +110,20 @@ macro_rules! soa {
         $s.$z.push($v.z);
     }};
     (@first $s:ident, $f:ident $(, $rest:ident)*) => { $s.$f };
+    (@lanes $t:ty; $c:ident) => { [$t; LANES] };
+    (@lanes $t:ty; $x:ident, $y:ident, $z:ident) => { [[f32; LANES]; 3] };
+    (@put_lanes $s:ident, $v:ident, $n:ident, $c:ident) => { push_lanes(&mut $s.$c, $v, $n) };
+    (@put_lanes $s:ident, $v:ident, $n:ident, $x:ident, $y:ident, $z:ident) => {{
+        push_lanes(&mut $s.$x, $v[0], $n);
+        push_lanes(&mut $s.$y, $v[1], $n);
+        push_lanes(&mut $s.$z, $v[2], $n);
+    }};
+    (@put_picked $s:ident, $v:ident, $p:ident, $c:ident) => { $s.$c.extend($p.iter().map(|&k| $v[k])) };
+    (@put_picked $s:ident, $v:ident, $p:ident, $x:ident, $y:ident, $z:ident) => {{
+        $s.$x.extend($p.iter().map(|&k| $v[0][k]));
+        $s.$y.extend($p.iter().map(|&k| $v[1][k]));
+        $s.$z.extend($p.iter().map(|&k| $v[2][k]));
+    }};
 }
 
 soa! {

@@ -321,6 +321,14 @@ impl<R: Real> V3<R> {
     }
 }
 
+impl V3<f32x16> {
+    /// The x, y and z lanes as arrays: what a queue's `push_lanes` takes for a vector.
+    #[inline(always)]
+    pub fn lanes(self) -> [[f32; LANES]; 3] {
+        [self.x.to_array(), self.y.to_array(), self.z.to_array()]
+    }
+}
+
 impl V3<f32> {
     /// From a glam vector.
     #[inline(always)]

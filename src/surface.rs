@@ -11,7 +11,7 @@ use crate::geometry::shapes::{quad_point, sphere_point, triangle_point, Shape};
 use crate::geometry::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
 use crate::scene::{Material, Scene};
-use crate::simd::{push_lanes, LaneIds, LANES, V3};
+use crate::simd::{LaneIds, LANES, V3};
 
 /// Lambert plus normalised Phong: `color/π + specular·(n+2)/(2π)·max(0, r·wo)^n`,
 /// with `r` the mirror direction of `wi` about `n`.
@@ -199,34 +199,22 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     let ray = |v: &[f32]| lanes.gather(v);
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = V3::if_negative(ng.dot(d), ng, -ng);
-    // Whole columns at once: one capacity check per column, not per value.
-    let count = ids.len();
-    let put = |col: &mut Vec<f32>, v: f32x16| push_lanes(col, v.to_array(), count);
-    let put3 = |x: &mut Vec<f32>, y: &mut Vec<f32>, z: &mut Vec<f32>, v: V3<f32x16>| {
-        put(x, v.x);
-        put(y, v.y);
-        put(z, v.z);
-    };
-    put3(&mut out.ox, &mut out.oy, &mut out.oz, offset_lanes(p, err, n));
-    put3(&mut out.nx, &mut out.ny, &mut out.nz, shading_lanes(scene, hits, ids, p, n));
-    put3(&mut out.wox, &mut out.woy, &mut out.woz, -d);
-    put3(&mut out.wr, &mut out.wg, &mut out.wb, V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) });
+    let o = offset_lanes(p, err, n).lanes();
+    let shading = shading_lanes(scene, hits, ids, p, n).lanes();
+    let w = V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) }.lanes();
     // Albedo, Phong reflectance and exponent: seven columns filled in one pass.
-    let mut mat = [[0.0f32; LANES]; 7];
+    let (mut color, mut specular, mut shininess) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [0.0f32; LANES]);
     for (k, &i) in lanes.idx.iter().enumerate() {
-        let (c, sp, shininess) = diffuse_material(scene, hits.prim[i]).unwrap_or_default();
-        for (col, x) in mat.iter_mut().zip([c.x, c.y, c.z, sp.x, sp.y, sp.z, shininess]) {
-            col[k] = x;
-        }
+        let (c, sp, e) = diffuse_material(scene, hits.prim[i]).unwrap_or_default();
+        (color[0][k], color[1][k], color[2][k]) = (c.x, c.y, c.z);
+        (specular[0][k], specular[1][k], specular[2][k]) = (sp.x, sp.y, sp.z);
+        shininess[k] = e;
     }
-    let m = |j: usize| f32x16::from(mat[j]);
-    put3(&mut out.cr, &mut out.cg, &mut out.cb, V3 { x: m(0), y: m(1), z: m(2) });
-    put3(&mut out.sr, &mut out.sg, &mut out.sb, V3 { x: m(3), y: m(4), z: m(5) });
-    put(&mut out.shininess, m(6));
-    out.slot.extend(ids.iter().map(|&i| rays.slot[i as usize]));
-    out.key.extend(ids.iter().map(|&i| rays.key[i as usize]));
-    out.sample.extend(ids.iter().map(|&i| rays.sample[i as usize]));
-    out.ray.extend_from_slice(ids);
+    let words = |col: &[u32]| lanes.idx.map(|i| col[i]);
+    let ray_ids = lanes.idx.map(|i| i as u32);
+    let (slot, key, sample) = (words(&rays.slot), words(&rays.key), words(&rays.sample));
+    // Whole columns at once: one capacity check per column, not per value.
+    out.push_lanes(o, shading, (-d).lanes(), color, specular, shininess, w, slot, key, sample, ray_ids, ids.len());
 }
 
 /// [`shading_normal`] of every lane: `n` itself unless the scene has smooth meshes.

@@ -13,7 +13,7 @@ use super::Tile;
 use crate::queue::RayQueue;
 use crate::sampling::{cmj, cmj_lanes, concentric_disk, dim, hash, sobol_owen, sobol_owen_lanes, CMJ_LANES_MAX};
 use crate::scene::Scene;
-use crate::simd::{iota, push_lanes, words, Real, Word, LANES, V3};
+use crate::simd::{iota, words, Real, Word, LANES, V3};
 
 /// How many lens rays each point of a pass gets, and how a flattened ray index splits
 /// into (point, ray of the point).
@@ -53,6 +53,23 @@ impl<'a> Lens<'a> {
     pub fn rays(self, ks: Range<u64>) -> LensRays<'a> {
         let (point, ray, count) = if ks.is_empty() { (0, 0, 0) } else { self.split(ks.start) };
         LensRays { lens: self, left: ks.end.saturating_sub(ks.start), point, ray, count }
+    }
+}
+
+impl<'a> Lens<'a> {
+    /// Rays `ks` as runs of one point each: (point, its rays in the run, the point's ray
+    /// count), in order; what [`Lens::rays`] walks, a point at a time.
+    pub fn runs(self, ks: Range<u64>) -> impl Iterator<Item = (u32, Range<u32>, u32)> + 'a {
+        let mut k = ks.start;
+        std::iter::from_fn(move || {
+            if k >= ks.end {
+                return None;
+            }
+            let (point, ray, count) = self.split(k);
+            let n = ((count - ray) as u64).min(ks.end - k) as u32;
+            k += n as u64;
+            Some((point, ray..ray + n, count))
+        })
     }
 }
 
@@ -133,6 +150,44 @@ fn thin_lens_lanes<R: Real>(scene: &Scene, d: V3<R>, disk_x: R, disk_y: R) -> (V
     (o, (focus - o).normalize())
 }
 
+/// Lens rays `ls` of the `count` through film position `film`: ray l through lens
+/// position `cmj(l, count, pattern)`, with path `(key, base + l)`. What [`push`] gives
+/// ray by ray, 16 at a time on lanes (the CMJ pattern and the thin lens); the disk
+/// mapping's sine and cosine stay libm's, lane by lane, for their bits.
+fn lens_rays(
+    scene: &Scene,
+    film: Vec2,
+    (ls, count, pattern): (Range<u32>, u32, u32),
+    (slot, w): (u32, Vec3),
+    (key, base): (u32, u32),
+    rays: &mut RayQueue,
+) {
+    let cam = &scene.camera;
+    if cam.aperture <= 0.0 || count > CMJ_LANES_MAX {
+        for l in ls {
+            push(scene, film, || cmj(l, count, pattern), slot, w, (key, base + l), rays);
+        }
+        return;
+    }
+    let s = &scene.settings;
+    let d = V3::<f32x16>::splat(cam.pinhole_dir(film, s.width, s.height));
+    let w = w.to_array().map(|x| [x; LANES]);
+    for l0 in ls.clone().step_by(LANES) {
+        let n = (ls.end - l0).min(LANES as u32) as usize;
+        // Lanes past the last ray repeat it (a valid index) and are not written.
+        let l = iota(l0).min(u32x16::splat(ls.end - 1));
+        let (x, y, _) = cmj_lanes(l, count, pattern);
+        let (x, y) = (x.to_array(), y.to_array());
+        let mut disk = [[0.0; LANES]; 2];
+        for k in 0..n {
+            (disk[0][k], disk[1][k]) = concentric_disk(Vec2::new(x[k], y[k])).into();
+        }
+        let (o, dir) = thin_lens_lanes(scene, d, f32x16::from(disk[0]), f32x16::from(disk[1]));
+        let sample = words(l + u32x16::splat(base));
+        rays.push_lanes(o.lanes(), dir.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], sample, n);
+    }
+}
+
 /// Uniform mode: camera rays for the flattened (pixel, sample) indices `ks` of `tile`:
 /// k is pixel k / spp of the tile in [`block_slot`] order and per-pixel sample j = k % spp, which is
 /// AA sample j / dof_samples and lens sample j % dof_samples. Film positions are a CMJ
@@ -161,7 +216,8 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
     let cam = &scene.camera;
     let dof = s.dof_samples;
     let spp = s.aa_samples * dof;
-    let w = Vec3::splat(1.0 / spp as f32);
+    let weight = Vec3::splat(1.0 / spp as f32);
+    let w = weight.to_array().map(|x| [x; LANES]);
     let slot = block_slot(tile, q);
     let tw = tile.x1 - tile.x0;
     let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
@@ -174,7 +230,7 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
             let (aa, l) = (j / dof, j % dof);
             let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, pattern);
             let lens = || lens_sample(scene, pixel, aa, l, j, lens_seed);
-            push(scene, film, lens, slot, w, (key, j), rays);
+            push(scene, film, lens, slot, weight, (key, j), rays);
         }
         return;
     }
@@ -206,31 +262,11 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
                 (disk[0][k], disk[1][k]) = concentric_disk(lens).into();
             }
             let (o, d) = thin_lens_lanes(scene, d, f32x16::from(disk[0]), f32x16::from(disk[1]));
-            for (col, v) in [(&mut rays.ox, o.x), (&mut rays.oy, o.y), (&mut rays.oz, o.z)] {
-                push_lanes(col, v.to_array(), count);
-            }
-            for (col, v) in [(&mut rays.dx, d.x), (&mut rays.dy, d.y), (&mut rays.dz, d.z)] {
-                push_lanes(col, v.to_array(), count);
-            }
+            rays.push_lanes(o.lanes(), d.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], jw, count);
         } else {
-            for (col, x) in
-                [(&mut rays.ox, cam.position.x), (&mut rays.oy, cam.position.y), (&mut rays.oz, cam.position.z)]
-            {
-                push_lanes(col, [x; LANES], count);
-            }
-            push_lanes(&mut rays.dx, dx, count);
-            push_lanes(&mut rays.dy, dy, count);
-            push_lanes(&mut rays.dz, dz, count);
+            let o = cam.position.to_array().map(|x| [x; LANES]);
+            rays.push_lanes(o, [dx, dy, dz], [slot; LANES], w, [0; LANES], [key; LANES], jw, count);
         }
-        // Whole vectors, not `resize`'s element-by-element fill.
-        let fill = |v: &mut Vec<f32>, x: f32| push_lanes(v, [x; LANES], count);
-        push_lanes(&mut rays.slot, [slot; LANES], count);
-        fill(&mut rays.wr, w.x);
-        fill(&mut rays.wg, w.y);
-        fill(&mut rays.wb, w.z);
-        push_lanes(&mut rays.depth, [0; LANES], count);
-        push_lanes(&mut rays.key, [key; LANES], count);
-        push_lanes(&mut rays.sample, jw, count);
     }
 }
 
@@ -281,17 +317,17 @@ pub fn corner_index(scene: &Scene, cx: u32, cy: u32) -> u32 {
     cy * (scene.settings.width + 1) + cx
 }
 
-/// Pushes lens ray `lens` of `count` through grid corner `ci`. A corner's rays depend
+/// Pushes lens rays `ls` of `count` through grid corner `ci`. A corner's rays depend
 /// only on its index (and its lens count, which depends only on the corner too), so a
 /// shared corner and a per-pixel copy of it give the same radiance.
 #[inline]
-fn corner_ray(scene: &Scene, ci: u32, lens: u32, count: u32, slot: u32, rays: &mut RayQueue) {
+fn corner_rays(scene: &Scene, ci: u32, ls: Range<u32>, count: u32, slot: u32, rays: &mut RayQueue) {
     let s = &scene.settings;
     let (cx, cy) = (ci % (s.width + 1), ci / (s.width + 1));
     let w = Vec3::splat(1.0 / count as f32);
     let film = Vec2::new(cx as f32, cy as f32);
     let pattern = hash(&[s.seed, ci, dim::CORNER]);
-    push(scene, film, || cmj(lens, count, pattern), slot, w, (pattern, lens), rays);
+    lens_rays(scene, film, (ls, count, pattern), (slot, w), (pattern, 0), rays);
 }
 
 /// Adaptive AA, shared corners: rays through the corners of `grid`, a rectangle of the
@@ -300,9 +336,9 @@ fn corner_ray(scene: &Scene, ci: u32, lens: u32, count: u32, slot: u32, rays: &m
 pub fn generate_corner_grid(scene: &Scene, grid: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     rays.clear();
     let gw = grid.x1 - grid.x0;
-    for (slot, l, count) in lens.rays(ks) {
+    for (slot, ls, count) in lens.runs(ks) {
         let (cx, cy) = (grid.x0 + slot % gw, grid.y0 + slot / gw);
-        corner_ray(scene, corner_index(scene, cx, cy), l, count, slot, rays);
+        corner_rays(scene, corner_index(scene, cx, cy), ls, count, slot, rays);
     }
 }
 
@@ -312,10 +348,10 @@ pub fn generate_corner_grid(scene: &Scene, grid: &Tile, lens: Lens, ks: Range<u6
 pub fn generate_pixel_corners(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     rays.clear();
     let tw = tile.x1 - tile.x0;
-    for (slot, l, count) in lens.rays(ks) {
+    for (slot, ls, count) in lens.runs(ks) {
         let (p, c) = (slot / 4, slot % 4);
         let (x, y) = (tile.x0 + p % tw + (c & 1), tile.y0 + p / tw + (c >> 1));
-        corner_ray(scene, corner_index(scene, x, y), l, count, slot, rays);
+        corner_rays(scene, corner_index(scene, x, y), ls, count, slot, rays);
     }
 }
 
@@ -325,13 +361,13 @@ pub fn generate_centres(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, 
     rays.clear();
     let s = &scene.settings;
     let tw = tile.x1 - tile.x0;
-    for (slot, l, count) in lens.rays(ks) {
+    for (slot, ls, count) in lens.runs(ks) {
         let w = Vec3::splat(1.0 / count as f32);
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
         let pattern = hash(&[s.seed, pixel, dim::CENTRE]);
         let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-        push(scene, film, || cmj(l, count, pattern), slot, w, (pattern, l), rays);
+        lens_rays(scene, film, (ls, count, pattern), (slot, w), (pattern, 0), rays);
     }
 }
 
@@ -354,17 +390,24 @@ pub fn generate_refine(
     let s = &scene.settings;
     let n = 1u32 << level;
     let tw = tile.x1 - tile.x0;
-    for (i, j, per) in lens.rays(ks) {
+    for (i, js, per) in lens.runs(ks) {
         let slot = pixels[i as usize];
         let count = per >> level;
         let w = Vec3::splat(1.0 / (n as f32 * count as f32));
-        let (sample, l) = (j / count, j % count);
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
-        let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, hash(&[s.seed, pixel, level, dim::REFINE]));
         let key = hash(&[s.seed, pixel, level, dim::REFINE]);
-        let lens = || cmj(l, count, hash(&[s.seed, pixel, level, sample, dim::LENS]));
-        push(scene, film, lens, slot, w, (key, j), rays);
+        // Ray j of the pixel is lens ray j % count of its sample j / count: a run of
+        // one sample's lens rays at a time.
+        let mut j = js.start;
+        while j < js.end {
+            let (sample, l0) = (j / count, j % count);
+            let l1 = count.min(l0 + (js.end - j));
+            let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, key);
+            let pattern = hash(&[s.seed, pixel, level, sample, dim::LENS]);
+            lens_rays(scene, film, (l0..l1, count, pattern), (slot, w), (key, sample * count), rays);
+            j += l1 - l0;
+        }
     }
 }
 
@@ -413,6 +456,94 @@ mod tests {
                     assert_eq!(rays.weight(i), Vec3::splat(1.0 / spp as f32));
                 }
             }
+        }
+    }
+
+    #[test]
+    fn lens_rays_on_lanes_give_the_rays_of_the_scalar_formulas() {
+        use crate::scene::{load, SceneSource};
+        let sets = ["render.width=13", "render.height=7", "camera.aperture=0.1"].map(String::from);
+        let scene = load(&SceneSource::default_scene(), &sets).unwrap();
+        let s = &scene.settings;
+        let tile = Tile { x0: 2, y0: 1, x1: 11, y1: 6 };
+        let starts = [0u64, 1, 4, 4 + 70, 4 + 70 + 17, 4 + 70 + 17 + 33];
+        let bits = |q: &RayQueue, i: usize| {
+            let v = [q.origin(i), q.dir(i), q.weight(i)].map(|v| v.to_array().map(f32::to_bits));
+            (v, q.slot[i], q.key[i], q.sample[i], q.depth[i])
+        };
+        let check =
+            |name: &str, total: u64, gen: &dyn Fn(Range<u64>, &mut RayQueue), want: &dyn Fn(u64, &mut RayQueue)| {
+                // Ranges that start and end inside points and inside a 16-lane group.
+                for ks in [0..total, 3..total - 5, 17..total / 2 + 9] {
+                    let (mut got, mut expect) = (RayQueue::default(), RayQueue::default());
+                    gen(ks.clone(), &mut got);
+                    for k in ks.clone() {
+                        want(k, &mut expect);
+                    }
+                    assert_eq!(got.len(), expect.len(), "{name} {ks:?}");
+                    for i in 0..got.len() {
+                        assert_eq!(bits(&got, i), bits(&expect, i), "{name} {ks:?} ray {i}");
+                    }
+                }
+            };
+        let grid = Tile { x0: 1, y0: 0, x1: 6, y1: 3 };
+        for lens in [Lens::Fixed(70), Lens::Fixed(5), Lens::PerPoint(&starts)] {
+            let corner = |ci: u32, l: u32, count: u32, slot: u32, q: &mut RayQueue| {
+                let (cx, cy) = (ci % (s.width + 1), ci / (s.width + 1));
+                let pattern = hash(&[s.seed, ci, dim::CORNER]);
+                let w = Vec3::splat(1.0 / count as f32);
+                push(&scene, Vec2::new(cx as f32, cy as f32), || cmj(l, count, pattern), slot, w, (pattern, l), q);
+            };
+            let points = 5;
+            check(
+                "corner grid",
+                lens.total(points),
+                &|ks, q| generate_corner_grid(&scene, &grid, lens, ks, q),
+                &|k, q| {
+                    let (slot, l, count) = lens.split(k);
+                    corner(corner_index(&scene, grid.x0 + slot % 5, grid.y0 + slot / 5), l, count, slot, q);
+                },
+            );
+            check(
+                "pixel corners",
+                lens.total(points),
+                &|ks, q| generate_pixel_corners(&scene, &tile, lens, ks, q),
+                &|k, q| {
+                    let (slot, l, count) = lens.split(k);
+                    let (p, c) = (slot / 4, slot % 4);
+                    let (x, y) = (tile.x0 + p % 9 + (c & 1), tile.y0 + p / 9 + (c >> 1));
+                    corner(corner_index(&scene, x, y), l, count, slot, q);
+                },
+            );
+            check("centres", lens.total(points), &|ks, q| generate_centres(&scene, &tile, lens, ks, q), &|k, q| {
+                let (slot, l, count) = lens.split(k);
+                let (x, y) = (tile.x0 + slot % 9, tile.y0 + slot / 9);
+                let pattern = hash(&[s.seed, y * s.width + x, dim::CENTRE]);
+                let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+                push(&scene, film, || cmj(l, count, pattern), slot, Vec3::splat(1.0 / count as f32), (pattern, l), q);
+            });
+        }
+        // Refinement: 2^level samples per pixel, each with its lens rays.
+        let pixels = [0u32, 3, 4, 20, 44];
+        for (level, per) in [(1u32, 5u64), (2, 70), (3, 3)] {
+            let lens = Lens::Fixed(per << level);
+            let n = 1u32 << level;
+            check(
+                "refine",
+                lens.total(pixels.len()),
+                &|ks, q| generate_refine(&scene, &tile, &pixels, level, lens, ks, q),
+                &|k, q| {
+                    let (i, j, all) = lens.split(k);
+                    let (slot, count) = (pixels[i as usize], all >> level);
+                    let (sample, l) = (j / count, j % count);
+                    let (x, y) = (tile.x0 + slot % 9, tile.y0 + slot / 9);
+                    let pixel = y * s.width + x;
+                    let key = hash(&[s.seed, pixel, level, dim::REFINE]);
+                    let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, key);
+                    let lens = || cmj(l, count, hash(&[s.seed, pixel, level, sample, dim::LENS]));
+                    push(&scene, film, lens, slot, Vec3::splat(1.0 / (n * count) as f32), (key, j), q);
+                },
+            );
         }
     }
 

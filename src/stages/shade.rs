@@ -16,7 +16,7 @@ use crate::light::{
 };
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
 use crate::scene::{Light, Scene, ShadowMode};
-use crate::simd::{push_lanes, LaneIds, Word, LANES, V3};
+use crate::simd::{LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, diffuse_material, diffuse_surfaces, queued_surface};
 
 /// What the shade stage counted for the adaptive shadow test's stats.
@@ -244,25 +244,11 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
             (lr[k], lg[k], lb[k]) = (l.x, l.y, l.z);
         }
     }
-    let keep = &keep[..m];
+    let (o, wi, slot) = (o.lanes(), [wx, wy, wz], si.map(|p| q.slot[p as usize]));
     // Every lane kept (the usual group): whole vectors, no per-value push.
-    let put = |col: &mut Vec<f32>, v: &[f32; LANES]| {
-        if m == LANES {
-            push_lanes(col, *v, LANES);
-        } else {
-            col.extend(keep.iter().map(|&k| v[k]));
-        }
-    };
-    let (ox, oy, oz) = (o.x.to_array(), o.y.to_array(), o.z.to_array());
-    put(&mut shadow.ox, &ox);
-    put(&mut shadow.oy, &oy);
-    put(&mut shadow.oz, &oz);
-    put(&mut shadow.dx, &wx);
-    put(&mut shadow.dy, &wy);
-    put(&mut shadow.dz, &wz);
-    put(&mut shadow.tmax, &tmax);
-    put(&mut shadow.lr, &lr);
-    put(&mut shadow.lg, &lg);
-    put(&mut shadow.lb, &lb);
-    shadow.slot.extend(keep.iter().map(|&k| q.slot[si[k] as usize]));
+    if m == LANES {
+        shadow.push_lanes(o, wi, tmax, slot, [lr, lg, lb], LANES);
+    } else {
+        shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], &keep[..m]);
+    }
 }
