@@ -11,7 +11,9 @@ use wide::{f32x16, u32x16};
 
 use super::Tile;
 use crate::queue::RayQueue;
-use crate::sampling::{cmj, cmj_lanes, concentric_disk, dim, hash, sobol_owen, sobol_owen_lanes, CMJ_LANES_MAX};
+use crate::sampling::{
+    cmj, cmj_lanes, concentric_disk, concentric_disk_lanes, dim, hash, sobol_owen, sobol_owen_lanes, CMJ_LANES_MAX,
+};
 use crate::scene::Scene;
 use crate::simd::{iota, words, Real, Word, LANES, V3};
 
@@ -177,12 +179,8 @@ fn lens_rays(
         // Lanes past the last ray repeat it (a valid index) and are not written.
         let l = iota(l0).min(u32x16::splat(ls.end - 1));
         let (x, y, _) = cmj_lanes(l, count, pattern);
-        let (x, y) = (x.to_array(), y.to_array());
-        let mut disk = [[0.0; LANES]; 2];
-        for k in 0..n {
-            (disk[0][k], disk[1][k]) = concentric_disk(Vec2::new(x[k], y[k])).into();
-        }
-        let (o, dir) = thin_lens_lanes(scene, d, f32x16::from(disk[0]), f32x16::from(disk[1]));
+        let (disk_x, disk_y) = concentric_disk_lanes(x, y, n);
+        let (o, dir) = thin_lens_lanes(scene, d, disk_x, disk_y);
         let sample = words(l + u32x16::splat(base));
         rays.push_lanes(o.lanes(), dir.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], sample, n);
     }
@@ -247,21 +245,19 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
         let jw = words(j);
         if cam.aperture > 0.0 {
             // One lens ray per AA sample: the pixel's Sobol points on lanes (what
-            // `lens_sample` gives, bit for bit). The disk mapping stays ray by ray (its
-            // sine and cosine are libm's), the thin-lens rays on lanes.
-            let sobol = (dof == 1).then(|| {
-                let (x, y) = sobol_owen_lanes(j, u32x16::splat(lens_seed));
-                (x.to_array(), y.to_array())
-            });
-            let (aw, mut disk) = (words(aa), [[0.0; LANES]; 2]);
-            for k in 0..LANES {
-                let lens = match &sobol {
-                    Some((x, y)) => Vec2::new(x[k], y[k]),
-                    None => lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed),
-                };
-                (disk[0][k], disk[1][k]) = concentric_disk(lens).into();
-            }
-            let (o, d) = thin_lens_lanes(scene, d, f32x16::from(disk[0]), f32x16::from(disk[1]));
+            // `lens_sample` gives, bit for bit); several: each AA sample's CMJ pattern,
+            // lane by lane. The disk mapping and the thin-lens rays on lanes.
+            let (x, y) = if dof == 1 {
+                sobol_owen_lanes(j, u32x16::splat(lens_seed))
+            } else {
+                let (aw, mut lens) = (words(aa), [[0.0; LANES]; 2]);
+                for k in 0..LANES {
+                    (lens[0][k], lens[1][k]) = lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed).into();
+                }
+                (f32x16::from(lens[0]), f32x16::from(lens[1]))
+            };
+            let (disk_x, disk_y) = concentric_disk_lanes(x, y, count);
+            let (o, d) = thin_lens_lanes(scene, d, disk_x, disk_y);
             rays.push_lanes(o.lanes(), d.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], jw, count);
         } else {
             let o = cam.position.to_array().map(|x| [x; LANES]);
