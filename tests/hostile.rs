@@ -322,7 +322,7 @@ fn a_scene_that_can_show_nothing_renders_with_a_warning() {
 fn ctrl_c_in_adaptive_mode_writes_exactly_the_finished_tiles() {
     use wavetrace::tools::compare::load_linear;
     let case = Case::new();
-    let args = ["scene.toml", "--set", "render.aa.mode=adaptive", "--res", "240x240", "--threads", "2"];
+    let args = ["scene.toml", "--set", "render.aa.mode=adaptive", "--res", "800x800", "--threads", "2"];
     let start = std::time::Instant::now();
     let o = case.command(&args).args(["-o", "full.exr"]).output().unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
@@ -333,7 +333,8 @@ fn ctrl_c_in_adaptive_mode_writes_exactly_the_finished_tiles() {
 
     for fraction in [0.6, 0.8, 0.4, 0.9, 0.7, 0.5, 0.95, 0.3] {
         let _ = std::fs::remove_file(case.path("part.exr"));
-        let mut child = case.command(&args).args(["-o", "part.exr"]).stderr(Stdio::piped()).spawn().unwrap();
+        let child =
+            case.command(&args).args(["-o", "part.exr"]).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
         std::thread::sleep(std::time::Duration::from_secs_f64(full_seconds * fraction));
         let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
         let out = child.wait_with_output().unwrap();
@@ -370,6 +371,7 @@ fn ctrl_c_in_adaptive_mode_writes_exactly_the_finished_tiles() {
         assert_eq!(equal, claimed, "the finished pixels are exactly the ones the message counts: {err}");
         assert!(err.contains(&format!("of {total} pixels")), "{err}");
         if claimed > 0 && claimed < total {
+            eprintln!("interrupted at {fraction} of {full_seconds:.2} s: {claimed} of {total} pixels, all checked");
             return; // an interrupt inside the pixel pass, checked
         }
     }
