@@ -7,7 +7,7 @@
 
 use std::os::unix::fs::FileTypeExt;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 
 const BIN: &str = env!("CARGO_BIN_EXE_wavetrace");
 
@@ -320,6 +320,7 @@ fn a_scene_that_can_show_nothing_renders_with_a_warning() {
 #[test]
 #[cfg(feature = "exr")]
 fn ctrl_c_in_adaptive_mode_writes_exactly_the_finished_tiles() {
+    use std::process::Stdio;
     use wavetrace::tools::compare::load_linear;
     let case = Case::new();
     let args = ["scene.toml", "--set", "render.aa.mode=adaptive", "--res", "800x800", "--threads", "2"];
