@@ -111,17 +111,17 @@ pub fn max_threads() -> usize {
     cpus.saturating_mul(4).clamp(64, 1024)
 }
 
-/// Checks a worker-thread count from `source` (a flag or an environment variable):
-/// at least 1 and at most [`max_threads`], else a message naming the limit.
-pub fn check_threads(n: usize, source: &str) -> std::result::Result<usize, String> {
+/// Checks a worker-thread count (from a flag or an environment variable): at least 1
+/// and at most [`max_threads`], else a message naming the limit.
+pub fn check_threads(n: usize) -> std::result::Result<usize, String> {
     let max = max_threads();
     if n == 0 {
-        return Err(format!("{source}: must be at least 1"));
+        return Err("must be at least 1".into());
     }
     if n > max {
         let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
         return Err(format!(
-            "{source}: {n} threads is more than the limit of {max} (4 per CPU, {cpus} CPUs here, at least 64, at most 1024)"
+            "{n} threads is more than the limit of {max} (4 per CPU, {cpus} CPUs here, at least 64, at most 1024)"
         ));
     }
     Ok(n)
@@ -131,7 +131,7 @@ pub fn check_threads(n: usize, source: &str) -> std::result::Result<usize, Strin
 /// refused while parsing (exit 2) otherwise.
 pub fn thread_count(s: &str) -> std::result::Result<usize, String> {
     let n: usize = s.trim().parse().map_err(|_| format!("`{s}` is not a whole number of threads"))?;
-    check_threads(n, "the thread count").map_err(|e| e.replace("the thread count: ", ""))
+    check_threads(n)
 }
 
 /// An on/off switch (`--split-mixed on`); `true` and `false` are accepted too.

@@ -136,7 +136,9 @@ fn threads(flag: Option<usize>) -> Result<Option<usize>> {
     match std::env::var("SLURM_CPUS_PER_TASK") {
         Err(_) => Ok(None),
         Ok(v) => match v.trim().parse::<usize>() {
-            Ok(n) => super::check_threads(n, &format!("SLURM_CPUS_PER_TASK=`{v}`")).map(Some).map_err(Error::input),
+            Ok(n) => super::check_threads(n)
+                .map(Some)
+                .map_err(|e| Error::input(format!("SLURM_CPUS_PER_TASK=`{v}`: {e} (it sets the worker threads)"))),
             _ => Err(Error::input(format!("SLURM_CPUS_PER_TASK=`{v}` is not a thread count of at least 1"))),
         },
     }
