@@ -39,8 +39,9 @@ pub struct BenchArgs {
     /// Override a scene value by its dotted path (repeatable).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_parser = at_least_one::<usize>())]
+    /// Worker threads (default: all cores); at most 4 per CPU (a limit of at
+    /// least 64 and at most 1024).
+    #[arg(long, value_parser = super::thread_count)]
     threads: Option<usize>,
     /// Timed repetitions per set and kernel; the median is reported.
     #[arg(long, default_value_t = 5, value_parser = at_least_one::<usize>())]

@@ -5,7 +5,7 @@ use clap::Args;
 use std::path::PathBuf;
 
 use wavetrace::tools::merge::{assemble, coverage, read_tiles, stats};
-use wavetrace::tools::output::{check_folder, check_image_path, write_image, write_text};
+use wavetrace::tools::output::{check_distinct, check_image_path, check_output, is_stdout, write_image, write_text};
 use wavetrace::{Error, Result};
 
 use super::say;
@@ -24,7 +24,8 @@ pub struct MergeArgs {
     /// Write the image even when pixels are missing (they are black; the stats say which).
     #[arg(long)]
     allow_missing: bool,
-    /// Write the merged stats (rays and seconds summed, a row per tile) as JSON.
+    /// Write the merged stats (rays and seconds summed, a row per tile) as JSON (`-`:
+    /// standard output).
     #[arg(long, value_name = "PATH")]
     stats_json: Option<PathBuf>,
     /// Print nothing but errors.
@@ -38,8 +39,15 @@ pub fn run(args: MergeArgs) -> Result<i32> {
         check_image_path(out)?;
     }
     if let Some(p) = &args.stats_json {
-        check_folder(p)?;
+        check_output(p)?;
     }
+    // An output naming a tile would destroy the input it is made from; two outputs
+    // naming one file would keep only the last.
+    let mut outputs: Vec<(&str, &std::path::Path)> = Vec::new();
+    outputs.extend(args.output.iter().map(|p| ("-o", p.as_path())));
+    outputs.extend(args.stats_json.iter().map(|p| ("--stats-json", p.as_path())));
+    let inputs: Vec<(&str, &std::path::Path)> = args.tiles.iter().map(|p| ("the input tile", p.as_path())).collect();
+    check_distinct(&outputs, &inputs)?;
     let tiles = read_tiles(&args.tiles)?;
     let cov = coverage(&tiles)?;
     if args.missing {
@@ -69,7 +77,9 @@ pub fn run(args: MergeArgs) -> Result<i32> {
         eprintln!("warning: {} (written black)", cov.describe());
     }
     if !args.quiet {
-        say(&format!(
+        // With the stats JSON on stdout, the summary goes to stderr so the JSON stays whole.
+        let line = |t: &str| if args.stats_json.as_deref().is_some_and(is_stdout) { eprintln!("{t}") } else { say(t) };
+        line(&format!(
             "{} tiles, {} rays, {:.3} s summed -> {}",
             tiles.len(),
             merged.rays,

@@ -65,8 +65,8 @@ pub fn run(cli: Cli) -> Result<i32> {
     }
 }
 
-/// The value parser of counts that must be at least 1 (`--threads`, `--reps`,
-/// `--max-rays`, `--reference-spp`): one clap range, so every subcommand refuses 0 the
+/// The value parser of counts that must be at least 1 (`--reps`, `--max-rays`,
+/// `--reference-spp`; `--threads` has [`thread_count`]): one clap range, so every subcommand refuses 0 the
 /// same way, while parsing.
 pub fn at_least_one<T>() -> AtLeastOne<T> {
     AtLeastOne(std::marker::PhantomData)
@@ -99,6 +99,39 @@ where
                 .with_cmd(cmd)
         })
     }
+}
+
+/// The most worker threads a command accepts: 4 per CPU this process may use, at least
+/// 64 (so a thread count that tests determinism runs on any machine), at most 1024.
+/// Past a few per CPU more threads only add memory (each holds its own queues) and
+/// switching; an unbounded count (`--threads 100000`) spawned threads until the process
+/// was killed.
+pub fn max_threads() -> usize {
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+    cpus.saturating_mul(4).clamp(64, 1024)
+}
+
+/// Checks a worker-thread count (from a flag or an environment variable): at least 1
+/// and at most [`max_threads`], else a message naming the limit.
+pub fn check_threads(n: usize) -> std::result::Result<usize, String> {
+    let max = max_threads();
+    if n == 0 {
+        return Err("must be at least 1".into());
+    }
+    if n > max {
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        return Err(format!(
+            "{n} threads is more than the limit of {max} (4 per CPU, {cpus} CPUs here, at least 64, at most 1024)"
+        ));
+    }
+    Ok(n)
+}
+
+/// The value parser of `--threads` (render, sweep, bench): a count in 1..=[`max_threads`],
+/// refused while parsing (exit 2) otherwise.
+pub fn thread_count(s: &str) -> std::result::Result<usize, String> {
+    let n: usize = s.trim().parse().map_err(|_| format!("`{s}` is not a whole number of threads"))?;
+    check_threads(n)
 }
 
 /// An on/off switch (`--split-mixed on`); `true` and `false` are accepted too.

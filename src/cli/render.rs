@@ -4,7 +4,7 @@
 
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
@@ -15,11 +15,12 @@ use wavetrace::stats::{chrome_trace, Report, SceneReport};
 use wavetrace::tools::heatmap::{self, HeatmapKind};
 use wavetrace::tools::merge::{RenderId, TileHeader};
 use wavetrace::tools::output::{
-    check_folder, check_image_path, check_png_path, write_crop, write_image, write_png, write_text,
+    check_distinct, check_image_path, check_output, check_png_path, is_stdout, write_crop, write_image, write_png,
+    write_text,
 };
 use wavetrace::{render, Error, RenderOptions, Result};
 
-use super::{at_least_one, say, scene_source};
+use super::{say, scene_source};
 
 #[derive(Args, Debug, Default)]
 pub struct RenderArgs {
@@ -36,16 +37,27 @@ pub struct RenderArgs {
     /// Override a scene value by its dotted path, e.g. render.width=64 or objects.0.radius=2.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     sets: Vec<String>,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_parser = at_least_one::<usize>())]
+    /// Worker threads (default: all cores, or SLURM_CPUS_PER_TASK when set); at most 4 per
+    /// CPU (a limit of at least 64 and at most 1024).
+    #[arg(long, value_parser = super::thread_count)]
     threads: Option<usize>,
+    /// Samples per pixel: the scene's `render.aa.samples` (uniform anti-aliasing; an
+    /// imported scene's sampler count maps to it too). Adaptive mode takes its samples
+    /// from its levels and ignores it. The same as --set render.aa.samples=N.
+    #[arg(long, value_name = "N", value_parser = super::at_least_one::<u32>())]
+    spp: Option<u32>,
+    /// Image size WxH in pixels, e.g. 640x480: the same as --set render.width=W --set
+    /// render.height=H.
+    #[arg(long, value_name = "WxH", value_parser = resolution)]
+    res: Option<(u32, u32)>,
     /// Seed of every random decision (overrides render.seed).
     #[arg(long)]
     seed: Option<u32>,
     /// Print the per-stage statistics table.
     #[arg(long)]
     stats: bool,
-    /// Write the statistics as JSON to this path.
+    /// Write the statistics as JSON to this path (`-`: standard output; the summary line
+    /// and table then go to stderr).
     #[arg(long, value_name = "PATH")]
     stats_json: Option<PathBuf>,
     /// Write a debug image: aa=PATH (refined pixels green), penumbra=PATH (penumbra
@@ -53,7 +65,7 @@ pub struct RenderArgs {
     #[arg(long = "heatmap", value_name = "KIND=PATH", value_parser = heatmap_spec)]
     heatmaps: Vec<HeatmapSpec>,
     /// Write a Chrome trace-event JSON (chrome://tracing, Perfetto): one span per stage
-    /// per wave per thread.
+    /// per wave per thread (`-`: standard output).
     #[arg(long, value_name = "PATH")]
     trace: Option<PathBuf>,
     /// Leave out the BVH node/primitive counters (to measure their overhead).
@@ -74,6 +86,17 @@ pub struct RenderArgs {
     /// tile grid, e.g. --tile $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT.
     #[arg(long, value_name = "K/N", value_parser = crop_task)]
     tile: Option<Crop>,
+}
+
+/// `--res WxH`: two whole numbers of at least 1.
+fn resolution(s: &str) -> std::result::Result<(u32, u32), String> {
+    let bad = || format!("expected WxH (width x height in pixels, e.g. 640x480), got `{s}`");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    if w == 0 || h == 0 {
+        return Err(format!("`{s}`: width and height must be at least 1"));
+    }
+    Ok((w, h))
 }
 
 /// Four comma-separated numbers `x0,x1,y0,y1`.
@@ -113,7 +136,9 @@ fn threads(flag: Option<usize>) -> Result<Option<usize>> {
     match std::env::var("SLURM_CPUS_PER_TASK") {
         Err(_) => Ok(None),
         Ok(v) => match v.trim().parse::<usize>() {
-            Ok(n) if n >= 1 => Ok(Some(n)),
+            Ok(n) => super::check_threads(n)
+                .map(Some)
+                .map_err(|e| Error::input(format!("SLURM_CPUS_PER_TASK=`{v}`: {e} (it sets the worker threads)"))),
             _ => Err(Error::input(format!("SLURM_CPUS_PER_TASK=`{v}` is not a thread count of at least 1"))),
         },
     }
@@ -164,16 +189,52 @@ fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
     flag
 }
 
+/// The flags and paths of every output of a render, for [`check_distinct`].
+fn outputs(args: &RenderArgs) -> Vec<(String, &Path)> {
+    let mut v = vec![("-o".to_string(), args.output.as_path())];
+    let kind = |k: HeatmapKind| k.to_possible_value().map_or_else(String::new, |v| v.get_name().to_string());
+    v.extend(args.heatmaps.iter().map(|h| (format!("--heatmap {}", kind(h.kind)), h.path.as_path())));
+    v.extend(args.stats_json.iter().map(|p| ("--stats-json".to_string(), p.as_path())));
+    v.extend(args.trace.iter().map(|p| ("--trace".to_string(), p.as_path())));
+    v
+}
+
+/// Prints a line where the summary goes: stdout, or stderr when a JSON output has
+/// stdout, so the JSON stays whole.
+fn report_line(text: &str, json_on_stdout: bool) {
+    if json_on_stdout {
+        eprintln!("{text}");
+    } else {
+        say(text);
+    }
+}
+
+/// True when nothing in `scene` gives off light: no light with a non-zero emission and
+/// a black background. Such a scene renders black.
+fn shows_nothing(scene: &wavetrace::Scene) -> bool {
+    use wavetrace::scene::Light;
+    let lit = scene.lights.iter().any(|l| match l {
+        Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance.max_element() > 0.0,
+        Light::Point { intensity, .. } => intensity.max_element() > 0.0,
+    });
+    !lit && scene.background.max_element() <= 0.0
+}
+
 /// Renders; returns the exit status (0, or 130 when Ctrl-C cut the render short).
 pub fn run(args: RenderArgs) -> Result<i32> {
     // Every output is checked before any work, so bad paths cost nothing.
     check_image_path(&args.output)?;
     for p in args.stats_json.iter().chain(args.trace.iter()) {
-        check_folder(p)?;
+        check_output(p)?;
     }
     for h in &args.heatmaps {
         check_png_path(&h.path)?;
     }
+    let named = outputs(&args);
+    let named: Vec<(&str, &Path)> = named.iter().map(|(f, p)| (f.as_str(), *p)).collect();
+    let inputs: Vec<(&str, &Path)> = args.scene.iter().map(|p| ("the scene", p.as_path())).collect();
+    check_distinct(&named, &inputs)?;
+    let json_on_stdout = args.stats_json.iter().chain(args.trace.iter()).any(|p| is_stdout(p));
     let load_start = Instant::now();
     let mut source = scene_source(args.scene.as_ref())?;
     for d in &args.defines {
@@ -188,7 +249,16 @@ pub fn run(args: RenderArgs) -> Result<i32> {
         }
         source.defines.push((name.trim().to_string(), value.to_string()));
     }
-    let mut sets = args.sets.clone();
+    let mut sets = Vec::new();
+    // The shorthand flags go first, so an explicit --set of the same key wins.
+    if let Some(n) = args.spp {
+        sets.push(format!("render.aa.samples={n}"));
+    }
+    if let Some((w, h)) = args.res {
+        sets.push(format!("render.width={w}"));
+        sets.push(format!("render.height={h}"));
+    }
+    sets.extend(args.sets.iter().cloned());
     if let Some(seed) = args.seed {
         sets.push(format!("render.seed={seed}"));
     }
@@ -197,6 +267,12 @@ pub fn run(args: RenderArgs) -> Result<i32> {
         for note in &scene.info.notes {
             eprintln!("note: {note}");
         }
+    }
+    if shows_nothing(&scene) {
+        eprintln!(
+            "warning: the scene has no light that emits and a black background: the image will be black \
+             (add a light, an emissive mesh or a background colour)"
+        );
     }
     let load_seconds = load_start.elapsed().as_secs_f64();
     let (w, h) = (scene.settings.width, scene.settings.height);
@@ -225,21 +301,26 @@ pub fn run(args: RenderArgs) -> Result<i32> {
     if let Some(pb) = progress {
         pb.finish_and_clear();
     }
-    match crop {
-        None => write_image(&args.output, &out.image)?,
-        Some(c) => {
-            let task = match crop_spec {
-                Some(Crop::Task { k, n }) => Some((k, n)),
-                _ => None,
-            };
-            let (rays, seconds) = (out.stats.total_rays(), out.seconds);
-            let header = TileHeader { id: RenderId::of(&scene), width: w, height: h, crop: c, task, rays, seconds };
-            write_crop(&args.output, &out.image, (w, h), &c, &header.attributes())?
+    // A render stopped before any pixel tile finished has no pixel to show: an earlier
+    // file of that name is worth more than a black image.
+    let has_pixels = out.finished_pixels > 0;
+    if has_pixels {
+        match crop {
+            None => write_image(&args.output, &out.image)?,
+            Some(c) => {
+                let task = match crop_spec {
+                    Some(Crop::Task { k, n }) => Some((k, n)),
+                    _ => None,
+                };
+                let (rays, seconds) = (out.stats.total_rays(), out.seconds);
+                let header = TileHeader { id: RenderId::of(&scene), width: w, height: h, crop: c, task, rays, seconds };
+                write_crop(&args.output, &out.image, (w, h), &c, &header.attributes())?
+            }
         }
-    }
-    for h in &args.heatmaps {
-        let pic = heatmap::draw(h.kind, &out.image, &out.heat);
-        write_png(&h.path, pic.width, pic.height, &pic.rgb)?;
+        for h in &args.heatmaps {
+            let pic = heatmap::draw(h.kind, &out.image, &out.heat);
+            write_png(&h.path, pic.width, pic.height, &pic.rgb)?;
+        }
     }
 
     let info = &scene.info;
@@ -268,12 +349,27 @@ pub fn run(args: RenderArgs) -> Result<i32> {
     }
     if !args.quiet {
         if args.stats {
-            say(&report.table());
+            report_line(&report.table(), json_on_stdout);
         }
-        say(&format!("{} -> {}", report.summary(), args.output.display()));
+        if has_pixels {
+            report_line(&format!("{} -> {}", report.summary(), args.output.display()), json_on_stdout);
+        }
     }
     if out.partial {
-        eprintln!("interrupted: wrote the {} finished tiles to {}", out.stats.tiles, args.output.display());
+        let total = out.image.pixels.len() as u64;
+        if has_pixels {
+            eprintln!(
+                "interrupted: wrote the finished tiles, {} of {total} pixels ({:.1}%), to {}; the rest is black",
+                out.finished_pixels,
+                100.0 * out.finished_pixels as f64 / total.max(1) as f64,
+                args.output.display()
+            );
+        } else {
+            eprintln!(
+                "interrupted before any pixel tile finished (0 of {total} pixels): {} not written",
+                args.output.display()
+            );
+        }
         return Ok(EXIT_INTERRUPTED);
     }
     Ok(0)

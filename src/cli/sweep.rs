@@ -29,8 +29,9 @@ pub struct SweepArgs {
     /// Output folder (created if missing; its parent must exist).
     #[arg(short, long, default_value = "sweep")]
     output: PathBuf,
-    /// Worker threads per render (default: all cores).
-    #[arg(long, value_parser = at_least_one::<usize>())]
+    /// Worker threads per render (default: all cores); at most 4 per CPU (a limit of at
+    /// least 64 and at most 1024).
+    #[arg(long, value_parser = super::thread_count)]
     threads: Option<usize>,
     /// Print nothing but errors.
     #[arg(short, long)]

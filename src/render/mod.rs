@@ -92,6 +92,10 @@ pub struct RenderOutput {
     /// True when the render was cancelled before every tile was finished: unfinished
     /// tiles are black.
     pub partial: bool,
+    /// Pixels of the image (the crop) that finished pixel tiles cover: all of them
+    /// unless `partial`. Corner-grid and focus tiles do not count; no pixel is final
+    /// before its pixel tile is.
+    pub finished_pixels: u64,
 }
 
 /// One worker: its wavefront, its adaptive-AA buffers and the tile it is finishing.
@@ -226,10 +230,11 @@ fn pixel_pass(
     tiles: &[Tile],
     grid: Option<&[Vec3]>,
     blur: Option<CornerBlur>,
-) -> (PerThread, Vec<Vec3>, Heat) {
+) -> (PerThread, Vec<Vec3>, Heat, Vec<Tile>) {
     let s = &ctx.scene.settings;
     let n = (s.width * s.height) as usize;
     let result = Mutex::new((vec![Vec3::ZERO; n], Heat::zeroed(n)));
+    let finished = Mutex::new(Vec::new());
     let stats = for_tiles(
         ctx,
         tiles,
@@ -245,10 +250,11 @@ fn pixel_pass(
             let (img, heat) = &mut *r;
             copy_tile(img, s.width, tile, &wk.tile.out);
             heat.copy_tile(s.width, tile, &wk.tile.heat);
+            lock(&finished).push(*tile);
         },
     );
     let (pixels, heat) = result.into_inner().unwrap_or_else(|e| e.into_inner());
-    (stats, pixels, heat)
+    (stats, pixels, heat, finished.into_inner().unwrap_or_else(|e| e.into_inner()))
 }
 
 /// Splits each shared corner's heat equally between the pixels around it.
@@ -345,7 +351,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let (focus_stats, sharp, lens) = focus_pass(&ctx, &focus_tiles);
     let blur = s.dof_radius.is_some().then_some(CornerBlur { sharp: &sharp, lens: &lens });
     let (grid_stats, grid, grid_heat) = grid_pass(&ctx, &grid_tiles, blur.map(|b| b.lens));
-    let (main_stats, pixels, mut heat) = pixel_pass(&ctx, &pixel_tiles, shared_grid.then_some(&grid[..]), blur);
+    let (main_stats, pixels, mut heat, finished) =
+        pixel_pass(&ctx, &pixel_tiles, shared_grid.then_some(&grid[..]), blur);
     let seconds = start.elapsed().as_secs_f64();
     if shared_grid {
         share_corner_heat(&mut heat, &grid_heat, w, h);
@@ -353,11 +360,16 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
 
     let (stats, per_thread, spans) = merge_passes([focus_stats, grid_stats, main_stats]);
     let partial = stats.tiles < all_tiles as u64;
+    let inside = |t: &Tile| {
+        (t.x1.min(window.x1).saturating_sub(t.x0.max(window.x0)) as u64)
+            * (t.y1.min(window.y1).saturating_sub(t.y0.max(window.y0)) as u64)
+    };
+    let finished_pixels = finished.iter().map(inside).sum();
     let image = Image { width: w, height: h, pixels };
     let (image, heat) = if window.pixels() == image.pixels.len() {
         (image, heat)
     } else {
         (image.crop(&window), heat.crop(w, &window))
     };
-    Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial })
+    Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial, finished_pixels })
 }

@@ -240,3 +240,67 @@ fn a_cornell_box_written_as_mitsuba_writes_one_loads() {
         assert!(notes.contains(needle), "`{needle}` not in the notes:\n{notes}");
     }
 }
+
+#[test]
+fn a_duplicate_id_is_refused_naming_both_places() {
+    let f = Files::temp();
+    f.write("inc.xml", "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"wall\"/>\n</scene>\n");
+    let body = "<bsdf type=\"diffuse\" id=\"wall\"/>\n<include filename=\"inc.xml\"/>";
+    let msg = error_of(&f.write("dup.xml", xml_scene(body)), &[]);
+    // Line 7 of dup.xml first, then line 2 of inc.xml: both places, file:line:col each.
+    assert!(msg.contains("inc.xml:2:1: <bsdf> has duplicate id \"wall\""), "{msg}");
+    assert!(msg.contains("first given at") && msg.contains("dup.xml:7:1"), "{msg}");
+    // The same id on a shape and a BSDF is a clash too: ids are one namespace.
+    let body = "<bsdf type=\"diffuse\" id=\"a\"/>\n<shape type=\"sphere\" id=\"a\"/>";
+    let msg = error_of(&f.write("dup2.xml", xml_scene(body)), &[]);
+    assert!(msg.contains("dup2.xml:8:1") && msg.contains("dup2.xml:7:1") && msg.contains("duplicate id"), "{msg}");
+    // References by id are not definitions.
+    let body = "<bsdf type=\"diffuse\" id=\"b\"/>\n<shape type=\"sphere\"><ref id=\"b\"/></shape>\n\
+                <shape type=\"sphere\"><ref id=\"b\"/></shape>";
+    load_file(&f.write("refs.xml", xml_scene(body)));
+}
+
+#[test]
+fn a_dash_d_no_parameter_uses_is_refused_naming_the_parameters() {
+    let f = Files::temp();
+    let text = xml_scene(
+        "<default name=\"spp\" value=\"4\"/>\n<default name=\"unused\" value=\"1\"/>\n\
+         <shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>",
+    );
+    let path = f.write("p.xml", text);
+    let msg = error_of(&path, &[("r", "1"), ("sp", "4")]);
+    assert!(msg.contains("p.xml") && msg.contains("-D `sp=4`: the scene uses no `$sp`"), "{msg}");
+    assert!(msg.contains("its parameters: r, spp, unused"), "{msg}");
+    // A -D whose name a <default> declares but no `$` uses is unused as well.
+    let msg = error_of(&path, &[("r", "1"), ("spp", "8")]);
+    assert!(msg.contains("-D `spp=8`"), "{msg}");
+    // Used ones load.
+    try_load(&path, &[("r", "1")], &[]).unwrap();
+}
+
+#[test]
+fn every_unsupported_element_is_reported_in_one_run() {
+    let f = Files::temp();
+    let body = "<shape type=\"disk\"/>\n<emitter type=\"envmap\"/>\n<texture type=\"bitmap\"/>\n\
+                <bsdf type=\"roughplastic\" id=\"rp\"/>\n<shape type=\"cylinder\"><ref id=\"rp\"/></shape>\n\
+                <shape type=\"sphere\"><ref id=\"rp\"/></shape>";
+    let msg = error_of(&f.write("five.xml", xml_scene(body)), &[]);
+    assert!(msg.starts_with("5 problems in the scene:"), "{msg}");
+    for needle in [
+        "five.xml:7:1: <shape type=\"disk\">",
+        "five.xml:8:1: <emitter type=\"envmap\">",
+        "five.xml:9:1: <texture type=\"bitmap\">",
+        "five.xml:10:1: <bsdf type=\"roughplastic\">",
+        "five.xml:11:1: <shape type=\"cylinder\">",
+    ] {
+        assert!(msg.contains(needle), "`{needle}` not in: {msg}");
+    }
+    // The sphere's reference to the failed BSDF adds no second, misleading error.
+    assert!(!msg.contains("no <bsdf id"), "{msg}");
+    // Many: the first 20, then a count.
+    let many: String = (0..25).map(|_| "<shape type=\"disk\"/>\n").collect();
+    let msg = error_of(&f.write("many.xml", xml_scene(&many)), &[]);
+    assert!(msg.starts_with("25 problems"), "{msg}");
+    assert_eq!(msg.matches("<shape type=\"disk\">").count(), 20, "{msg}");
+    assert!(msg.ends_with("and 5 more"), "{msg}");
+}

@@ -92,46 +92,82 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported> {
         one_sided_noted: false,
     };
     let root = tree.root;
+    // Every top-level element is converted even after one fails, and the failures are
+    // reported together: a scene with five unsupported plugins takes one run to list
+    // them, not five edit-and-rerun rounds. Each element reports its first problem.
+    let mut errors = Vec::new();
     // Named BSDFs and shape groups first: Mitsuba resolves references to ids anywhere in
     // the file.
     for el in &root.kids {
         match el.tag.as_str() {
-            "bsdf" => {
-                let id = el.need("id")?.to_string();
-                let name = c.bsdf(el, Some(&id))?;
-                c.named.insert(id, name);
-            }
-            "shape" if el.attr("type") == Some("shapegroup") => {
-                c.groups.insert(el.need("id")?.to_string(), el.clone());
-            }
+            "bsdf" => match el.need("id") {
+                Ok(id) => {
+                    let id = id.to_string();
+                    // A BSDF that failed still answers its references, so they do not
+                    // add a second, misleading error.
+                    let name = c.bsdf(el, Some(&id)).unwrap_or_else(|e| {
+                        errors.push(e);
+                        id.clone()
+                    });
+                    c.named.insert(id, name);
+                }
+                Err(e) => errors.push(e),
+            },
+            "shape" if el.attr("type") == Some("shapegroup") => match el.need("id") {
+                Ok(id) => {
+                    c.groups.insert(id.to_string(), el.clone());
+                }
+                Err(e) => errors.push(e),
+            },
             _ => {}
         }
     }
     for el in &root.kids {
-        match el.tag.as_str() {
-            "bsdf" => {}
-            "shape" if el.attr("type") == Some("shapegroup") => {}
-            "sensor" => c.sensor(el)?,
-            "shape" => c.shape(el, &[])?,
-            "emitter" => c.emitter(el)?,
-            "integrator" => c.integrator(el)?,
-            "texture" | "medium" | "volume" | "phase" | "film" | "sampler" | "rfilter" => {
-                return Err(el.loc.err(format!(
-                    "{}: not supported at the top level (textures, media and volumes are outside the imported subset)",
-                    el.what()
-                )))
-            }
-            other => {
-                return Err(el.loc.err(format!(
-                    "<{other}>: unknown element; expected sensor, shape, bsdf, emitter, integrator, default, include or path"
-                )))
-            }
+        let done = match el.tag.as_str() {
+            "bsdf" => Ok(()),
+            "shape" if el.attr("type") == Some("shapegroup") => Ok(()),
+            "sensor" => c.sensor(el),
+            "shape" => c.shape(el, &[]),
+            "emitter" => c.emitter(el),
+            "integrator" => c.integrator(el),
+            "texture" | "medium" | "volume" | "phase" | "film" | "sampler" | "rfilter" => Err(el.loc.err(format!(
+                "{}: not supported at the top level (textures, media and volumes are outside the imported subset)",
+                el.what()
+            ))),
+            other => Err(el.loc.err(format!(
+                "<{other}>: unknown element; expected sensor, shape, bsdf, emitter, integrator, default, include or path"
+            ))),
+        };
+        if let Err(e) = done {
+            errors.push(e);
         }
+    }
+    if !errors.is_empty() {
+        return Err(collected(errors));
     }
     if !c.sensor {
         return Err(root.loc.err("the scene has no <sensor>"));
     }
     Ok(c.out)
+}
+
+/// Problems listed in one error, at most this many; the rest are counted.
+pub const MAX_LISTED_ERRORS: usize = 20;
+
+/// One error from several: a single one as it is; more as a count and one line each
+/// (each with its FILE:LINE:COL), up to [`MAX_LISTED_ERRORS`], then "and N more".
+fn collected(errors: Vec<crate::Error>) -> crate::Error {
+    if errors.len() == 1 {
+        return errors.into_iter().next().unwrap_or_else(|| crate::Error::input("no error"));
+    }
+    let mut msg = format!("{} problems in the scene:", errors.len());
+    for e in errors.iter().take(MAX_LISTED_ERRORS) {
+        msg.push_str(&format!("\n  {e}"));
+    }
+    if errors.len() > MAX_LISTED_ERRORS {
+        msg.push_str(&format!("\n  and {} more", errors.len() - MAX_LISTED_ERRORS));
+    }
+    crate::Error::input(msg)
 }
 
 struct Converter {

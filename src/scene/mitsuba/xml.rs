@@ -3,7 +3,7 @@
 //! `<path>` search folders, and the typed values of plugin parameters. Every element
 //! keeps its file, line and column for error messages.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
@@ -100,6 +100,12 @@ pub struct Tree {
 
 struct Reader {
     params: BTreeMap<String, String>,
+    /// Parameter names some `$name` used (an unused `-D` is refused, as Mitsuba does).
+    used: BTreeSet<String>,
+    /// Names of `<default>` parameters, for the message about an unused `-D`.
+    declared: BTreeSet<String>,
+    /// Where each object `id` was first given: ids are one namespace over all files.
+    ids: BTreeMap<String, Loc>,
     /// Canonical paths of the files being read, outermost first (include cycles).
     stack: Vec<PathBuf>,
     search: Vec<PathBuf>,
@@ -107,11 +113,33 @@ struct Reader {
 }
 
 /// Reads `path` and everything it includes. `defines` are `-D name=value` settings,
-/// which win over the file's `<default>` values.
+/// which win over the file's `<default>` values. A `-D` name that no `$name` uses is
+/// an error naming it and the scene's parameters: Mitsuba 3's parser refuses unused
+/// parameters too (`ParserConfig::unused_parameters`, an error by default), and a
+/// typo (`-D sp=4` for `$spp`) would otherwise change nothing silently. An object `id`
+/// given twice is an error naming both places, as in Mitsuba ("duplicate id").
 pub fn read(path: &Path, defines: &[(String, String)]) -> Result<Tree> {
-    let mut r =
-        Reader { params: defines.iter().cloned().collect(), stack: Vec::new(), search: Vec::new(), elements: 0 };
+    let mut r = Reader {
+        params: defines.iter().cloned().collect(),
+        used: BTreeSet::new(),
+        declared: BTreeSet::new(),
+        ids: BTreeMap::new(),
+        stack: Vec::new(),
+        search: Vec::new(),
+        elements: 0,
+    };
     let root = r.file(path, None)?;
+    for (name, value) in defines {
+        if !r.used.contains(name) {
+            let known: BTreeSet<&str> = r.used.iter().chain(&r.declared).map(String::as_str).collect();
+            let known: Vec<&str> = known.into_iter().collect();
+            return Err(Error::input(format!(
+                "{}: -D `{name}={value}`: the scene uses no `${name}` (its parameters: {})",
+                path.display(),
+                if known.is_empty() { "none".to_string() } else { known.join(", ") }
+            )));
+        }
+    }
     let mut search = r.search;
     search.push(path.parent().map(Path::to_path_buf).unwrap_or_default());
     Ok(Tree { root, search })
@@ -225,6 +253,17 @@ impl Reader {
         for a in node.attributes() {
             attrs.push((a.name().to_string(), self.substitute(a.value(), &here)?));
         }
+        let tag = node.tag_name().name();
+        // `<ref id>` and `<alias id>` name an object; every other `id` defines one.
+        if let Some((_, id)) = attrs.iter().find(|(k, _)| k == "id").filter(|_| tag != "ref" && tag != "alias") {
+            if let Some(first) = self.ids.get(id) {
+                return Err(here.err(format!(
+                    "<{tag}> has duplicate id \"{id}\" (first given at {}:{}:{})",
+                    first.file, first.line, first.col
+                )));
+            }
+            self.ids.insert(id.clone(), here.clone());
+        }
         let mut el =
             El { tag: node.tag_name().name().to_string(), attrs, kids: Vec::new(), loc: here, dir: dir.clone() };
         for child in node.children().filter(|c| c.is_element()) {
@@ -233,6 +272,7 @@ impl Reader {
                 "default" => {
                     let name = kid.need("name")?.to_string();
                     let value = kid.need("value")?.to_string();
+                    self.declared.insert(name.clone());
                     self.params.entry(name).or_insert(value);
                 }
                 "path" => {
@@ -254,7 +294,7 @@ impl Reader {
     }
 
     /// Replaces `$name` with the parameter's value; an unknown name is an error.
-    fn substitute(&self, v: &str, loc: &Loc) -> Result<String> {
+    fn substitute(&mut self, v: &str, loc: &Loc) -> Result<String> {
         if !v.contains('$') {
             return Ok(v.to_string());
         }
@@ -265,14 +305,15 @@ impl Reader {
             let tail = &rest[i + 1..];
             let end = tail.find(|c: char| !(c.is_ascii_alphanumeric() || c == '_')).unwrap_or(tail.len());
             let name = &tail[..end];
-            let value = self.params.get(name).ok_or_else(|| {
+            let value = self.params.get(name).cloned().ok_or_else(|| {
                 let known: Vec<&str> = self.params.keys().map(String::as_str).collect();
                 loc.err(format!(
                     "`${name}` has no value: no <default name=\"{name}\"> before it and no -D {name}=... (known: {})",
                     if known.is_empty() { "none".to_string() } else { known.join(", ") }
                 ))
             })?;
-            out.push_str(value);
+            out.push_str(&value);
+            self.used.insert(name.to_string());
             rest = &tail[end..];
         }
         out.push_str(rest);

@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use crate::film::Image;
 use crate::scene::{load, AaMode, SceneSource, Settings, ShadowMode};
 use crate::tools::compare::{load_linear, metrics, Metrics};
-use crate::tools::output::{check_folder, write_image, write_text};
+use crate::tools::output::{check_output, write_image, write_text};
 #[cfg(feature = "plot")]
 use crate::tools::plot::{scatter_plot, Axis, Series};
 use crate::{render, Error, RenderOptions, Result};
@@ -475,7 +475,7 @@ pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
         if cfg!(feature = "plot") { &[CSV_FILE, JSON_FILE, RAYS_PLOT, SECONDS_PLOT] } else { &[CSV_FILE, JSON_FILE] };
     let files: Vec<PathBuf> = names.iter().map(|f| opts.out_dir.join(f)).collect();
     for f in &files {
-        check_folder(f)?;
+        check_output(f)?;
     }
 
     let render_opts = RenderOptions { threads: opts.threads, ..Default::default() };
