@@ -4,7 +4,9 @@
 //! camera → intersect → shade → { shadow → film ; scatter → intersect → … }
 //!
 //! Adaptive AA adds `refine` (and `focus` for DOF-aware AA); adaptive shadows add
-//! `shadow_corner` and `penumbra`.
+//! `shadow_corner` and `penumbra`. A stage that traces rays writes them to a queue and
+//! hands the whole queue to the tracer (which picks packets or single rays); none
+//! traces a ray on its own.
 
 pub mod camera;
 pub mod film;
