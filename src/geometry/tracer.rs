@@ -9,7 +9,7 @@ use glam::Vec3;
 use wide::{f32x16, f32x4, f32x8};
 
 use super::order::{octant, packet_order, Order};
-use super::packet::{PacketConfig, PacketWork, Simd, MAX};
+use super::packet::{Columns, PacketConfig, PacketWork, Simd, MAX};
 use super::{Accel, Traversal};
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
 
@@ -227,7 +227,9 @@ impl<'a> Tracer<'a> {
                     };
                 }
             } else if shares_octant(&d[..k], cfg) {
-                self.accel.closest_packet::<S>(&o[..k], &d[..k], 0.0, cfg.min_active, &mut out, &mut pw);
+                let cols = consecutive(group, S::LANES)
+                    .map(|i| Columns([&rays.ox, &rays.oy, &rays.oz, &rays.dx, &rays.dy, &rays.dz].map(|v| &v[i..])));
+                self.accel.closest_packet::<S>(&o[..k], &d[..k], cols, 0.0, cfg.min_active, &mut out, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
                 // Lanes traced alone here are not counted (as before the tracer existed).
@@ -275,7 +277,10 @@ impl<'a> Tracer<'a> {
                     };
                 }
             } else if shares_octant(&d[..k], cfg) {
-                accel.occluded_packet::<S>(&o[..k], &d[..k], &t[..k], cfg.min_active, &mut blocked, &mut pw);
+                let cols = consecutive(group, S::LANES).map(|i| {
+                    Columns([&shadow.ox, &shadow.oy, &shadow.oz, &shadow.dx, &shadow.dy, &shadow.dz].map(|v| &v[i..]))
+                });
+                accel.occluded_packet::<S>(&o[..k], &d[..k], cols, &t[..k], cfg.min_active, &mut blocked, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
                 for l in 0..k {
@@ -307,6 +312,16 @@ fn sparse(p: usize, leave: Option<u32>, pw: &PacketWork, lanes: usize) -> bool {
         Some(min) if p == PROBE => pw.lanes * 100 < min as u64 * lanes as u64 * pw.steps,
         _ => false,
     }
+}
+
+/// The first ray of `group` when it is a full packet of `lanes` consecutive queue entries
+/// (camera rays, and octant-sorted rays of a one-octant run), whose lanes then load
+/// straight from the queue's columns.
+#[inline]
+fn consecutive(group: &[(u64, u32)], lanes: usize) -> Option<usize> {
+    let first = group[0].1;
+    (group.len() == lanes && group.iter().enumerate().all(|(l, &(_, i))| i == first + l as u32))
+        .then_some(first as usize)
 }
 
 /// Whether a group of directions goes through the packet kernel: more than one ray, and

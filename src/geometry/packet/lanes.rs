@@ -3,7 +3,7 @@
 use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node;
 
-use super::{Simd, MAX};
+use super::{Columns, Simd, MAX};
 use crate::geometry::bvh::CULL;
 use crate::geometry::shapes::{intersect_triangle, shear_axes, Shape};
 
@@ -32,20 +32,31 @@ pub(super) struct Lanes<'a, S> {
 }
 
 impl<'a, S: Simd> Lanes<'a, S> {
-    pub(super) fn new(o: &'a [Vec3], d: &'a [Vec3], slack: f32) -> Self {
-        // Scalar work is only the transpose; the shear axes (as masks), the permuted
-        // components and every division run on lanes. Selects copy bits and the
-        // divisions are correctly rounded, so the lanes hold the scalar rays' values.
-        let mut oa = [[0.0f32; MAX]; 3];
-        let mut da = [[0.0f32; MAX]; 3];
-        for (l, (o, d)) in o.iter().zip(d).enumerate() {
-            for j in 0..3 {
-                oa[j][l] = o[j];
-                da[j][l] = d[j];
+    /// The lanes of rays `o`, `d`; `cols`: the same rays as queue columns, for a full
+    /// packet of consecutive rays.
+    pub(super) fn new(o: &'a [Vec3], d: &'a [Vec3], cols: Option<Columns>, slack: f32) -> Self {
+        // Scalar work is only the transpose (none from columns); the shear axes (as
+        // masks), the permuted components and every division run on lanes. Selects copy
+        // bits and the divisions are correctly rounded, so the lanes hold the scalar
+        // rays' values.
+        let (origin, dir) = match cols {
+            Some(Columns([ox, oy, oz, dx, dy, dz])) if o.len() == S::LANES => {
+                let load3 = |a: [&[f32]; 3]| a.map(S::load_lanes);
+                (load3([ox, oy, oz]), load3([dx, dy, dz]))
             }
-        }
-        let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
-        let (origin, dir) = (load3(&oa), load3(&da));
+            _ => {
+                let mut oa = [[0.0f32; MAX]; 3];
+                let mut da = [[0.0f32; MAX]; 3];
+                for (l, (o, d)) in o.iter().zip(d).enumerate() {
+                    for j in 0..3 {
+                        oa[j][l] = o[j];
+                        da[j][l] = d[j];
+                    }
+                }
+                let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
+                (load3(&oa), load3(&da))
+            }
+        };
         let (zero, one, on) = (S::splat(0.0), S::splat(1.0), S::splat(f32::from_bits(u32::MAX)));
         let mut used = [0.0f32; MAX];
         used[..d.len()].fill(f32::from_bits(u32::MAX));

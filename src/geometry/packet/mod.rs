@@ -31,6 +31,13 @@ use wide::f32x16;
 use super::bvh::Accel;
 use super::order::Order;
 
+/// A full packet's rays as consecutive entries of their queue: the queue's origin x, y,
+/// z and direction x, y, z columns from the packet's first ray, each at least `LANES`
+/// long. The lanes then load straight from the queue instead of being transposed from
+/// the rays' values (which, written just before, stall the vector loads).
+#[derive(Clone, Copy, Debug)]
+pub struct Columns<'a>(pub [&'a [f32]; 6]);
+
 /// The SIMD type the renderer's packets use (chosen by measurement: docs/performance.md).
 pub type Packet = f32x16;
 

@@ -22,6 +22,8 @@ pub trait Simd:
     fn splat(x: f32) -> Self;
     /// The first `LANES` values of `a`.
     fn load(a: &[f32; MAX]) -> Self;
+    /// The first `LANES` values of `a` (at least that long).
+    fn load_lanes(a: &[f32]) -> Self;
     /// Writes the lanes to the front of `a`.
     fn store(self, a: &mut [f32; MAX]);
     /// Lane-wise minimum (no NaN handling: the kernels never produce NaN here).
@@ -64,6 +66,11 @@ macro_rules! simd {
             fn load(a: &[f32; MAX]) -> Self {
                 let mut v = [0.0f32; $n];
                 v.copy_from_slice(&a[..$n]);
+                <$t>::from(v)
+            }
+            #[inline(always)]
+            fn load_lanes(a: &[f32]) -> Self {
+                let v: [f32; $n] = a[..$n].try_into().expect("a slice of LANES values");
                 <$t>::from(v)
             }
             #[inline(always)]

@@ -4,7 +4,7 @@ use glam::Vec3;
 use wide::{f32x16, f32x4, f32x8};
 
 use super::lanes::{Axes, Lanes};
-use super::{PacketWork, Simd, MAX};
+use super::{Columns, PacketWork, Simd, MAX};
 use crate::geometry::bvh::{Accel, Traversal};
 use crate::geometry::shapes::{intersect_triangle, NO_LIGHT};
 use crate::geometry::{Primitive, Shape};
@@ -66,10 +66,27 @@ fn check<S: Simd>(accel: &Accel, min_active: u32) -> PacketWork {
             d.push(dir.normalize());
         }
         let mut out = [(0.0, 0); MAX];
-        accel.closest_packet::<S>(&o, &d, 0.0, min_active, &mut out, &mut work);
+        accel.closest_packet::<S>(&o, &d, None, 0.0, min_active, &mut out, &mut work);
         let tmax: Vec<f32> = (0..n).map(|_| 1.0 + rnd() * 4.0).collect();
         let mut occ = [false; MAX];
-        accel.occluded_packet::<S>(&o, &d, &tmax, min_active, &mut occ, &mut work);
+        accel.occluded_packet::<S>(&o, &d, None, &tmax, min_active, &mut occ, &mut work);
+        // The same rays as queue columns (a full packet's lanes load from them): the same
+        // answers, bit for bit.
+        let col = |f: fn(&Vec3) -> f32, v: &[Vec3]| v.iter().map(f).collect::<Vec<f32>>();
+        let c = [
+            col(|v| v.x, &o),
+            col(|v| v.y, &o),
+            col(|v| v.z, &o),
+            col(|v| v.x, &d),
+            col(|v| v.y, &d),
+            col(|v| v.z, &d),
+        ];
+        let cols = Some(Columns([&c[0][..], &c[1][..], &c[2][..], &c[3][..], &c[4][..], &c[5][..]]));
+        let (mut out_c, mut occ_c) = ([(0.0, 0); MAX], [false; MAX]);
+        accel.closest_packet::<S>(&o, &d, cols, 0.0, min_active, &mut out_c, &mut PacketWork::default());
+        accel.occluded_packet::<S>(&o, &d, cols, &tmax, min_active, &mut occ_c, &mut PacketWork::default());
+        let bits = |v: &[(f32, u32)]| v.iter().map(|&(t, p)| (t.to_bits(), p)).collect::<Vec<_>>();
+        assert_eq!((bits(&out_c[..n]), &occ_c[..n]), (bits(&out[..n]), &occ[..n]));
         for l in 0..n {
             let single = accel.closest::<false>(o[l], d[l], 0.0, f32::INFINITY, &mut Traversal::default());
             match single {
@@ -125,7 +142,7 @@ fn simd_kernels_equal_scalar_kernels_bit_for_bit() {
         Vec3::new(0.0, 0.0, -1.0),
         Vec3::new(0.3, -0.2, -1.0).normalize(),
     ];
-    let lanes = Lanes::<f32x8>::new(&o, &d, 0.0);
+    let lanes = Lanes::<f32x8>::new(&o, &d, None, 0.0);
     let mut t = [0.0; MAX];
     lanes.triangle(v0, v1, v2, 0xff).store(&mut t);
     for l in 0..8 {

@@ -4,7 +4,7 @@ use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node;
 
 use super::lanes::Lanes;
-use super::{lanes_of, PacketWork, Simd, MAX};
+use super::{lanes_of, Columns, PacketWork, Simd, MAX};
 use crate::geometry::bvh::{nearer, ray, subtree, tie_limit, Accel, NodeStack, Traversal, STACK};
 use crate::geometry::shapes::NO_LIGHT;
 
@@ -130,11 +130,14 @@ impl Accel {
     /// Closest hits of a packet of up to `S::LANES` rays (`o`, `d` of equal length) within
     /// `(tmin, ∞)`: `out[l]` is `(t, primitive)` or `(∞, u32::MAX)`. The same hits as
     /// [`Accel::closest`], primitives included (the tie rule of [`nearer`]). `min_active`:
-    /// see [`PacketConfig::min_active`](super::PacketConfig::min_active).
+    /// see [`PacketConfig::min_active`](super::PacketConfig::min_active). `cols`: the
+    /// same rays as queue columns, when they are a full packet of consecutive entries.
+    #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
     pub fn closest_packet<S: Simd>(
         &self,
         o: &[Vec3],
         d: &[Vec3],
+        cols: Option<Columns>,
         tmin: f32,
         min_active: u32,
         out: &mut [(f32, u32)],
@@ -150,7 +153,7 @@ impl Accel {
             }
             return;
         }
-        let lanes = Lanes::<S>::new(o, d, self.slack);
+        let lanes = Lanes::<S>::new(o, d, cols, self.slack);
         let mut tmax = [f32::NEG_INFINITY; MAX];
         tmax[..n].fill(f32::INFINITY);
         let mut best = [(f32::INFINITY, u32::MAX); MAX];
@@ -199,11 +202,13 @@ impl Accel {
     /// Any-hit tests of a packet of up to `S::LANES` shadow segments `(0, tmax[l])`:
     /// `out[l]` is true when a non-emitting primitive blocks lane l. Lanes stop as soon as
     /// they are blocked, and the packet when all are. The same answers as
-    /// [`Accel::occluded`].
+    /// [`Accel::occluded`]. `cols` as for [`Accel::closest_packet`].
+    #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
     pub fn occluded_packet<S: Simd>(
         &self,
         o: &[Vec3],
         d: &[Vec3],
+        cols: Option<Columns>,
         tmax: &[f32],
         min_active: u32,
         out: &mut [bool],
@@ -217,7 +222,7 @@ impl Accel {
             }
             return;
         }
-        let lanes = Lanes::<S>::new(o, d, self.slack);
+        let lanes = Lanes::<S>::new(o, d, cols, self.slack);
         let mut t = [f32::NEG_INFINITY; MAX];
         t[..n].copy_from_slice(tmax);
         let mut blocked = [false; MAX];
