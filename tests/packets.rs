@@ -115,7 +115,7 @@ fn check_width<S: Simd>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig
     let mut rng = Rng(99);
     let mut wrong = Vec::new();
     for (chunk, (o, d)) in o.chunks(S::LANES).zip(d.chunks(S::LANES)).enumerate() {
-        accel.closest_packet::<S>(o, d, 0.0, cfg.min_active, &mut out, &mut work);
+        accel.closest_packet::<S>(o, d, None, 0.0, cfg.min_active, &mut out, &mut work);
         let mut tmax = [0.0f32; MAX];
         let mut single = [None; MAX];
         for l in 0..o.len() {
@@ -125,7 +125,7 @@ fn check_width<S: Simd>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig
                 None => 1e3,
             };
         }
-        accel.occluded_packet::<S>(o, d, &tmax[..o.len()], cfg.min_active, &mut occ, &mut work);
+        accel.occluded_packet::<S>(o, d, None, &tmax[..o.len()], cfg.min_active, &mut occ, &mut work);
         for l in 0..o.len() {
             let ray = chunk * S::LANES + l;
             let same = match single[l] {
@@ -345,10 +345,18 @@ fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_or_wide_kernel() {
     let mut out = [(0.0f32, 0u32); MAX];
     let mut occ = [false; MAX];
     for (o, d) in o.chunks(<Packet as Simd>::LANES).zip(d.chunks(<Packet as Simd>::LANES)) {
-        accel.closest_packet::<Packet>(o, d, 0.0, PacketConfig::RENDER.min_active, &mut out, &mut work);
+        accel.closest_packet::<Packet>(o, d, None, 0.0, PacketConfig::RENDER.min_active, &mut out, &mut work);
         escaped += out[..o.len()].iter().filter(|h| h.1 == u32::MAX).count();
         let far = [4.0 * r; MAX];
-        accel.occluded_packet::<Packet>(o, d, &far[..o.len()], PacketConfig::RENDER.min_active, &mut occ, &mut work);
+        accel.occluded_packet::<Packet>(
+            o,
+            d,
+            None,
+            &far[..o.len()],
+            PacketConfig::RENDER.min_active,
+            &mut occ,
+            &mut work,
+        );
         unblocked += occ[..o.len()].iter().filter(|&&b| !b).count();
     }
     assert_eq!((escaped, unblocked), (0, 0), "of {n} rays from inside a closed mesh of {} triangles", f.len());
