@@ -10,14 +10,23 @@ use crate::queue::FilmQueue;
 /// (radiance near f32::MAX, found by fuzzing); below that the `min` changes no bit.
 pub fn accumulate(film: &FilmQueue, sums: &mut [Vec3]) -> usize {
     let mut dropped = 0;
-    for i in 0..film.len() {
-        let l = Vec3::new(film.r[i], film.g[i], film.b[i]);
-        if l.is_finite() {
-            let s = &mut sums[film.slot[i] as usize];
-            *s = (*s + l).min(Vec3::splat(f32::MAX));
-        } else {
-            dropped += 1;
+    let mut i = 0;
+    // A run of contributions to one slot (a pixel's samples come together) is summed in a
+    // register, in queue order, and stored once: the same additions, so the same bits,
+    // without a store and reload of the slot per contribution.
+    while i < film.len() {
+        let slot = film.slot[i];
+        let mut sum = sums[slot as usize];
+        while i < film.len() && film.slot[i] == slot {
+            let l = Vec3::new(film.r[i], film.g[i], film.b[i]);
+            if l.is_finite() {
+                sum = (sum + l).min(Vec3::splat(f32::MAX));
+            } else {
+                dropped += 1;
+            }
+            i += 1;
         }
+        sums[slot as usize] = sum;
     }
     dropped
 }
