@@ -2,7 +2,8 @@
 """The module map of src/ and the architecture rules it must keep.
 
 Prints which top-level modules each module uses (`crate::X` paths), then checks: no
-import cycle between top-level modules, no stage (src/stages/*.rs) using another stage,
+import cycle between top-level modules, no stage (src/stages/*.rs) using another stage
+or tracing a single ray (the tracer's `occluded_one`; stages hand whole queues to it),
 no file in src/ over 800 lines, no function in the driver (src/render/) over 60 lines,
 and no function with more than 6 parameters whose `allow(clippy::too_many_arguments)`
 does not state its reason in a comment. Exit 1 on a violation.
@@ -72,7 +73,7 @@ def code(text):
 
 
 def main():
-    uses, stage_uses, long_files, long_fns = {}, [], [], []
+    uses, stage_uses, long_files, long_fns, single_rays = {}, [], [], [], []
     stages = {f[:-3] for f in os.listdir(os.path.join(SRC, "stages")) if f.endswith(".rs") and f != "mod.rs"}
     for root, _, files in os.walk(SRC):
         for f in sorted(files):
@@ -108,6 +109,8 @@ def main():
                     others |= {p.strip().split("::")[0] for p in group.split(",") if p.strip()}
                 for o in sorted(others & stages - {me}):
                     stage_uses.append((me, o))
+                if re.search(r"\boccluded_one\b", body):
+                    single_rays.append(me)
 
     if "--graph" in sys.argv:
         for m in sorted(uses):
@@ -137,6 +140,9 @@ def main():
     for a, b in stage_uses:
         print(f"stage `{a}` uses stage `{b}`")
         ok = False
+    for me in single_rays:
+        print(f"stage `{me}` traces a single ray (occluded_one): queue the rays and trace the queue")
+        ok = False
     for msg in long_fns:
         print(msg)
         ok = False
@@ -145,7 +151,8 @@ def main():
         ok = False
     if ok:
         print(
-            f"modules ok: {len(uses)} top-level modules, no cycle, no stage using another, no file over {MAX_LINES} "
+            f"modules ok: {len(uses)} top-level modules, no cycle, no stage using another or tracing a single ray, "
+            f"no file over {MAX_LINES} "
             f"lines, no driver function over {MAX_DRIVER_FN} lines, no unexplained parameter list over {MAX_PARAMS}"
         )
     return 0 if ok else 1
