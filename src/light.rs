@@ -268,13 +268,15 @@ pub fn probe_count(light: &Light, probe: Probe) -> u32 {
 }
 
 /// Whether the adaptive shadow test probes `light` when uniform mode casts `samples`
-/// rays to it: an area light with fewer probe rays than samples. With as many probes as
-/// samples the test cannot cast fewer rays than uniform sampling (a lit or dark point
-/// pays the samples' count in probes, a penumbra point pays both), so such a light is
-/// sampled as in uniform mode, with uniform mode's rays and image.
+/// rays to it. A probed point costs P probes, plus the N samples when it lands in the
+/// penumbra, so probing saves rays while the penumbra fraction f < 1 − P/N; with P ≥ N it
+/// never can. The light is probed when P ≤ 0.8 N, which pays up to f = 0.2: the largest
+/// penumbra fraction measured on the project's scenes is 0.20 (`benches/shadow_breakeven.py`,
+/// docs/performance.md). Otherwise it is sampled as in uniform mode, with uniform mode's
+/// rays and image.
 pub fn probes_light(light: &Light, probe: Probe, samples: u32) -> bool {
     let probes = probe_count(light, probe);
-    probes > 0 && probes < samples
+    probes > 0 && 5 * probes as u64 <= 4 * samples as u64
 }
 
 /// The probe targets on area light `li` for a shading point whose path is named by `key`

@@ -159,7 +159,7 @@ pub struct Stats {
     /// Adaptive shadows: shadow rays uniform mode would cast for the same points.
     pub shadow_uniform_rays: u64,
     /// Adaptive shadows: (point, area light) pairs sampled uniformly because the light's
-    /// probes would cost as many rays as its samples.
+    /// probes would cost more than 0.8 of its samples (`light::probes_light`).
     pub shadow_uniform_fallback: u64,
     /// Penumbra early stopping: points that stopped before all their rays.
     pub penumbra_stopped: u64,
@@ -335,7 +335,7 @@ pub struct QueueReport {
     /// uniform_rays - rays (negative when adaptive cost more).
     pub saved: i64,
     /// Shadows: (point, area light) pairs that did not enter the test but were sampled
-    /// as in uniform mode, because the light's probes would cost as many rays as its
+    /// as in uniform mode, because the light's probes would cost more than 0.8 of its
     /// samples (they cost what uniform mode does, and are in neither count above).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub uniform_fallback: Option<u64>,
@@ -550,7 +550,7 @@ impl Report {
                     100.0 * q.saved as f64 / q.uniform_rays.max(1) as f64
                 );
                 if let Some(n) = q.uniform_fallback.filter(|&n| n > 0) {
-                    s += &format!("{name}: {n} more sampled uniformly (probes would cost as much as the samples)\n");
+                    s += &format!("{name}: {n} more sampled uniformly (probes would cost over 0.8 of the samples)\n");
                 }
             }
         }

@@ -80,7 +80,7 @@ fn embedded_default_is_the_file_in_scenes() {
 fn adaptive_shadows_never_cast_more_rays_than_uniform_on_the_project_scenes() {
     // Each scene with its own samples and probe set, shadows adaptive: probes plus
     // penumbra rays never exceed what uniform sampling casts for the same points (a light
-    // whose probes would cost its samples is sampled uniformly and counts in neither).
+    // whose probes would cost over 0.8 of its samples is sampled uniformly and counts in neither).
     let mut names = Vec::new();
     scene_files(Path::new(""), &mut names);
     names.sort();

@@ -649,15 +649,17 @@ fn probes_traced_as_a_queue_give_the_single_ray_answers() {
 
 #[test]
 fn a_light_whose_probes_cost_its_samples_is_sampled_as_in_uniform_mode() {
-    // 4 samples against the 4 corner probes (and 9 against the 3x3 grid): the shade stage
-    // queues no point and casts uniform mode's rays, bit for bit; the stats count the
-    // points. 5 samples against the 4 corners: probed.
+    // Probes P against samples N: the light is probed only when P <= 0.8 N. 4 corner
+    // probes against 4 samples, and the 9 of the 3x3 grid against 9 and 10: the shade
+    // stage queues no point and casts uniform mode's rays, bit for bit; the stats count
+    // the points. 4 against 5 and 9 against 12: probed.
     let extra = occluder(-5.0, -0.2);
     let xs = [3.0, -3.0, 0.0, 0.7];
     let list: Vec<_> =
         xs.iter().enumerate().map(|(i, &x)| (Vec3::new(x, 1.0, 0.0), DOWN, 10 + i as u32, Vec3::ONE, 0)).collect();
     let rays = wave(&list);
-    for (samples, probe, probed) in [(4, "corners", false), (9, "3x3", false), (5, "corners", true)] {
+    let cases = [(4, "corners", false), (9, "3x3", false), (10, "3x3", false), (5, "corners", true), (12, "3x3", true)];
+    for (samples, probe, probed) in cases {
         let sets = [format!("render.shadows.samples={samples}"), format!("render.shadows.probe=\"{probe}\"")];
         let uniform = quad_lit(&extra, &[&sets[0], &sets[1]]);
         let adaptive = quad_lit(&extra, &[&sets[0], &sets[1], ADAPTIVE]);

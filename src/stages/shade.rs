@@ -2,8 +2,8 @@
 //! the film queue, mirror or dielectric hits to the specular list for the scatter
 //! stage, and diffuse hits' direct lighting to the shadow queue (one ray per point
 //! light; per area light `shadows.samples` stratified rays in uniform mode, or one entry
-//! in the shadow-corner queue in adaptive mode when the light's probes cost fewer rays
-//! than its samples, else the uniform rays). Uniform shadow rays to quad lights are
+//! in the shadow-corner queue in adaptive mode when the light's probes cost at most 0.8
+//! of its samples, else the uniform rays). Uniform shadow rays to quad lights are
 //! computed on 16 lanes at a time, in the order and with the bits of the scalar loop.
 
 use glam::Vec3;
@@ -26,7 +26,7 @@ pub struct ShadeCounts {
     /// queue.
     pub uniform_equivalent: u64,
     /// (point, area light) pairs of adaptive mode sampled uniformly because the light's
-    /// probes would cost as many rays as its samples ([`probes_light`]).
+    /// probes would cost more than 0.8 of its samples ([`probes_light`]).
     pub uniform_fallback: u64,
 }
 
