@@ -50,61 +50,35 @@ impl<'a> Lens<'a> {
         }
     }
 
-    /// Rays `ks` in order, each as [`Lens::split`] gives it: one search for the first,
-    /// then a walk, since the driver hands out consecutive ranges.
-    pub fn rays(self, ks: Range<u64>) -> LensRays<'a> {
-        let (point, ray, count) = if ks.is_empty() { (0, 0, 0) } else { self.split(ks.start) };
-        LensRays { lens: self, left: ks.end.saturating_sub(ks.start), point, ray, count }
-    }
-}
-
-impl<'a> Lens<'a> {
     /// Rays `ks` as runs of one point each: (point, its rays in the run, the point's ray
-    /// count), in order; what [`Lens::rays`] walks, a point at a time.
+    /// count), in order; ray by ray, what [`Lens::split`] gives.
     pub fn runs(self, ks: Range<u64>) -> impl Iterator<Item = (u32, Range<u32>, u32)> + 'a {
-        let mut k = ks.start;
+        // One search for the first ray, then a walk (no division per run: a pinhole's
+        // runs are single rays).
+        let (mut point, mut ray, mut count) = if ks.is_empty() { (0, 0, 0) } else { self.split(ks.start) };
+        let mut left = ks.end.saturating_sub(ks.start);
         std::iter::from_fn(move || {
-            if k >= ks.end {
+            if left == 0 {
                 return None;
             }
-            let (point, ray, count) = self.split(k);
-            let n = ((count - ray) as u64).min(ks.end - k) as u32;
-            k += n as u64;
-            Some((point, ray..ray + n, count))
-        })
-    }
-}
-
-/// The iterator of [`Lens::rays`]: (point, ray of the point, the point's ray count).
-#[derive(Clone, Debug)]
-pub struct LensRays<'a> {
-    lens: Lens<'a>,
-    left: u64,
-    point: u32,
-    ray: u32,
-    count: u32,
-}
-
-impl Iterator for LensRays<'_> {
-    type Item = (u32, u32, u32);
-
-    #[inline]
-    fn next(&mut self) -> Option<(u32, u32, u32)> {
-        if self.left == 0 {
-            return None;
-        }
-        self.left -= 1;
-        let out = (self.point, self.ray, self.count);
-        self.ray += 1;
-        if self.ray == self.count && self.left > 0 {
-            self.point += 1;
-            self.ray = 0;
-            if let Lens::PerPoint(starts) = self.lens {
-                let p = self.point as usize;
-                self.count = (starts[p + 1] - starts[p]) as u32;
+            let n = ((count - ray) as u64).min(left) as u32;
+            let run = (point, ray..ray + n, count);
+            left -= n as u64;
+            if let Lens::PerPoint(starts) = self {
+                // The next point with rays.
+                while left > 0 {
+                    point += 1;
+                    count = (starts[point as usize + 1] - starts[point as usize]) as u32;
+                    if count > 0 {
+                        break;
+                    }
+                }
+            } else {
+                point += 1;
             }
-        }
-        Some(out)
+            ray = 0;
+            Some(run)
+        })
     }
 }
 
@@ -544,15 +518,16 @@ mod tests {
     }
 
     #[test]
-    fn lens_rays_walk_as_split_says() {
-        let starts = [0u64, 1, 4, 4 + 70, 4 + 70 + 2];
+    fn lens_runs_walk_as_split_says() {
+        // A point with no ray (the fourth) is skipped.
+        let starts = [0u64, 1, 4, 4 + 70, 4 + 70, 4 + 70 + 2];
         for lens in [Lens::Fixed(3), Lens::Fixed(1), Lens::PerPoint(&starts)] {
-            let total = lens.total(4);
+            let total = lens.total(5);
             for a in 0..total {
                 for b in a..=total.min(a + 9) {
-                    let walked: Vec<_> = lens.rays(a..b).collect();
                     let split: Vec<_> = (a..b).map(|k| lens.split(k)).collect();
-                    assert_eq!(walked, split, "{lens:?} {a}..{b}");
+                    let runs: Vec<_> = lens.runs(a..b).flat_map(|(p, rs, n)| rs.map(move |r| (p, r, n))).collect();
+                    assert_eq!(runs, split, "{lens:?} {a}..{b} in runs");
                 }
             }
         }
