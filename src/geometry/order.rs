@@ -83,6 +83,12 @@ pub fn packet_order(
             for i in 0..n {
                 start[octant(d(i)) as usize + 1] += 1;
             }
+            if let Some(k) = start[1..].iter().position(|&c| c == n).filter(|_| n > 0) {
+                // One octant (a shadow queue to one light above the scene): the order
+                // stays the queue's, without a second pass.
+                order.extend((0..n as u32).map(|i| (k as u64, i)));
+                return;
+            }
             for k in 1..9 {
                 start[k] += start[k - 1];
             }
@@ -97,6 +103,36 @@ pub fn packet_order(
             let (lo, hi) = accel.bounds();
             order.extend((0..n).map(|i| (coherence_key(o(i), d(i), lo, hi), i as u32)));
             order.sort_by_key(|e| e.0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::shapes::{Shape, NO_LIGHT};
+    use crate::geometry::Primitive;
+
+    #[test]
+    fn octant_order_is_a_stable_sort_by_octant() {
+        let sphere =
+            Primitive { shape: Shape::Sphere { center: Vec3::ZERO, radius: 1.0 }, material: 0, light: NO_LIGHT };
+        let accel = Accel::build(vec![sphere]);
+        let mut h = 7u32;
+        let mut rnd = || {
+            h = crate::sampling::mix(h);
+            crate::sampling::to_unit(h) - 0.5
+        };
+        // Mixed octants; one octant (the shortcut); empty.
+        let mixed: Vec<Vec3> = (0..300).map(|_| Vec3::new(rnd(), rnd(), rnd())).collect();
+        let one: Vec<Vec3> = (0..50).map(|_| Vec3::new(rnd().abs(), -rnd().abs() - 0.1, rnd().abs())).collect();
+        for dirs in [mixed, one, Vec::new()] {
+            let mut order = Vec::new();
+            packet_order(&accel, dirs.len(), |_| Vec3::ZERO, |i| dirs[i], Order::Octant, &mut order);
+            let mut want: Vec<(u64, u32)> =
+                (0..dirs.len() as u32).map(|i| (octant(dirs[i as usize]) as u64, i)).collect();
+            want.sort_by_key(|e| e.0);
+            assert_eq!(order, want);
         }
     }
 }
