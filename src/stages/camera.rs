@@ -65,12 +65,14 @@ impl<'a> Lens<'a> {
             let run = (point, ray..ray + n, count);
             left -= n as u64;
             if let Lens::PerPoint(starts) = self {
-                // The next point with rays.
-                while left > 0 {
-                    point += 1;
-                    count = (starts[point as usize + 1] - starts[point as usize]) as u32;
-                    if count > 0 {
-                        break;
+                // The next point with rays (there is one while rays are left).
+                if left > 0 {
+                    loop {
+                        point += 1;
+                        count = (starts[point as usize + 1] - starts[point as usize]) as u32;
+                        if count > 0 {
+                            break;
+                        }
                     }
                 }
             } else {
