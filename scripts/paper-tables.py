@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
-"""Renders the measured tables of docs/paper.md, docs/tradeoffs.md and docs/import.md with the
-current binary and prints them as markdown, command line first. Run from the repository root.
+"""Renders the measured tables of docs/paper.md, docs/tradeoffs.md, docs/import.md and docs/adaptive.md
+with the current binary and prints them as markdown, command line first. Run from the repository root.
 Renders use --threads 2 (the bunny timing: 1 thread, 9 runs); rays, RMSE, FLIP are exact, seconds not.
   --wavetrace  the binary (default: $WAVETRACE, else target/release/wavetrace)
   --work       images, stats JSON, sweeps and cached sweep references (default /tmp/paper-tables)
-  --runs       renders of each paper/import table row, interleaved; seconds: the median (default 1)
+  --runs       renders of each paper/import/adaptive table row, interleaved; seconds: the median (default 1)
   --res WxH    every scene at WxH instead of its own size: a quick check of the script only
 """
-import argparse, functools, json, os, shlex, statistics, subprocess, sys, time
+import argparse, functools, itertools, json, os, shlex, statistics, struct, subprocess, sys, time
 KINDS = [("camera", "cam"), ("aa_corner", "cor"), ("aa_refine", "ref"), ("dof_probe", "dp"),
          ("shadow", "sh"), ("shadow_corner", "sc"), ("penumbra", "pen"), ("secondary", "sec")]
 A = None  # the parsed arguments (main)
@@ -56,9 +56,10 @@ def groups(d, label):
         assert p["rays"] == g[label(p)][0]["rays"] and p["rmse"] == g[label(p)][0]["rmse"], label(p)
     return g
 
-def table(title, d, header, rows):
-    """Prints a title line, the sweep's reference (d: a sweep.json, or None), then the table."""
-    print(title + ":\n")
+def table(title, d, header, rows, ref=None):
+    """Prints a title line, the sweep's reference (d: a sweep.json, or None; ref: a line instead),
+    then the table."""
+    print(title + ":\n" + (f"\n{ref}\n" if ref else ""))
     if d:
         r = d["reference"]
         t = f", {sec(r['seconds'])} s" if r["rendered"] else " (cached)"
@@ -230,10 +231,137 @@ def import_():
     table("bunny.toml, flat against smooth (9 interleaved runs on 1 thread, medians)", None,
           ["", ">flat", ">smooth", ">ratio"], rows)
 
+# ---- docs/adaptive.md ------------------------------------------------------------------
+def read_exr(path):
+    """wavetrace's EXR output (tiled, one level, FLOAT or HALF channels, no or RLE compression):
+    returns width, height and {channel: values, row-major}."""
+    b, i, hd = open(path, "rb").read(), 8, {}
+    while b[i]:  # the header: name, type, size, value
+        j = b.index(0, i); k = b.index(0, j + 1); n, = struct.unpack_from("<i", b, k + 1)
+        hd[b[i:j].decode()], i = b[k + 5:k + 5 + n], k + 5 + n
+    chans, c, p = [], hd["channels"], 0
+    while c[p]:
+        q = c.index(0, p); chans.append((c[p:q].decode(), struct.unpack_from("<i", c, q + 1)[0])); p = q + 17
+    x0, y0, x1, y1 = struct.unpack("<4i", hd["dataWindow"])
+    w, h, (tw, th, _), comp = x1 - x0 + 1, y1 - y0 + 1, struct.unpack("<IIB", hd["tiles"]), hd["compression"][0]
+    assert comp in (0, 1), f"{path}: compression {comp}"
+    n, = struct.unpack("<i", hd["chunkCount"])
+    px = {name: [0.0] * (w * h) for name, _ in chans}
+    for off in struct.unpack_from(f"<{n}Q", b, i + 1):
+        tx, ty, _, _, size = struct.unpack_from("<5i", b, off)
+        d, cw, ch = b[off + 20:off + 20 + size], min(tw, w - tx * tw), min(th, h - ty * th)
+        if comp == 1 and size < ch * sum(cw * (2 if t == 1 else 4) for _, t in chans):  # RLE, predictor, halves
+            o, k = bytearray(), 0
+            while k < len(d):
+                r = d[k] - 256 if d[k] > 127 else d[k]
+                o += d[k + 1:k + 1 - r] if r < 0 else d[k + 1:k + 2] * (r + 1); k += 1 - r if r < 0 else 2
+            o = bytes(itertools.accumulate(o, lambda a, x: (a + x - 128) & 255))
+            d = bytearray(len(o)); d[0::2], d[1::2] = o[:(len(o) + 1) // 2], o[(len(o) + 1) // 2:]
+        k = 0
+        for y in range(ch):
+            for name, t in chans:
+                row = (ty * th + y) * w + tx * tw
+                px[name][row:row + cw] = struct.unpack_from(f"<{cw}{'e' if t == 1 else 'f'}", d, k)
+                k += cw * (2 if t == 1 else 4)
+    return w, h, px
+
+def differing(a, b, rel=1e-4):
+    """The fraction of pixels where images a and b (EXR paths) differ by more than rel (relative)
+    in some channel: points the probes misjudged, since everything else is the same sum."""
+    (w, h, pa), (_, _, pb) = read_exr(a), read_exr(b)
+    return sum(any(abs(pa[c][i] - pb[c][i]) > rel * max(abs(pa[c][i]), abs(pb[c][i]), 1e-6) for c in pa)
+               for i in range(w * h)) / (w * h)
+
+TINY_PHONG = lambda *mats: S(*(f"materials.{m}.specular=[1e-4,1e-4,1e-4]" for m in mats))  # lit: sampled
+ADS = lambda n, pr: S("render.shadows.mode=adaptive", f"render.shadows.samples={n}", f"render.shadows.probe={pr}")
+B = lambda text, bold: f"**{text}**" if bold else text
+PROBES = ("corners", "corners+center", "jittered", "3x3")
+
+def adaptive_table(tag, scene, rows, ref_args, head, cells, ref_text):
+    """rows: (name, label, args, bold). Renders the reference once and every row A.runs times
+    (EXR), compares each with the reference; prints the table. Returns name -> stats."""
+    ref = f"{A.work}/{tag}_ref.exr"
+    r = render_all([(f"{tag}_ref", scene, ref_args + ["-o", ref])], 1)[f"{tag}_ref"]
+    st = render_all([(n, scene, a + ["-o", f"{A.work}/{n}.exr"]) for n, _, a, _ in rows], A.runs)
+    for n, *_ in rows:
+        c = json.loads(wt("compare", f"{A.work}/{n}.exr", ref, "--json", out=True))
+        st[n]["name"], st[n]["rmse"] = n, c["rmse"]
+    table(f"{scene} ({A.runs} run(s) per row, median seconds)", None, head,
+          [(ours(B(lab, bold), st[n]),) + cells(st[n], bold) for n, lab, _, bold in rows],
+          f"Reference: {ref_text}: {mr(r['total_rays'])} M rays, {sec(r['seconds'])} s.")
+    return st
+
+def fooled_pixels(tag, scene, uniform, probes, mats):
+    """Fooled pixels per probe: adaptive against uniform with the same samples, with a tiny Phong
+    term on mats so that lit points sum the same samples instead of the analytic irradiance."""
+    ph = TINY_PHONG(*mats)
+    jobs = [(f"{tag}_phong_{x}", scene, ph + a + ["-o", f"{A.work}/{tag}_phong_{x}.exr"])
+            for x, a in [("uniform", uniform)] + [(pr, a) for pr, a in probes]]
+    render_all(jobs, 1)
+    u = f"{A.work}/{tag}_phong_uniform.exr"
+    return {pr: differing(f"{A.work}/{tag}_phong_{pr}.exr", u) for pr, _ in probes}
+
+def adaptive():
+    img = lambda kind, name: ["--heatmap", f"{kind}={A.work}/images/{name}.png"]
+    # edges.toml: adaptive anti-aliasing
+    AD, sc = S("render.aa.mode=adaptive"), "scenes/edges.toml"
+    rows = [(f"edges_u{n}", f"uniform {n} spp", UAA(n), 0) for n in (4, 16, 64)] + [
+        ("edges_ml2", "adaptive, eps 0.01, max_level 6, **min_level 2 (the paper's rule)**",
+         AD + S("render.aa.min_level=2"), 0),
+        ("edges_ml2_own", "same, corners not shared (the paper's 5 rays per pixel)",
+         AD + S("render.aa.min_level=2", "render.aa.share_corners=false"), 0),
+        ("edges_eps0.003", "adaptive, eps 0.003 (min_level 4, default)", AD + S("render.aa.eps=0.003"), 0),
+        ("edges_eps0.01", "adaptive, eps 0.01 (defaults: min_level 4, max_level 6)",
+         AD + img("aa", "edges_heat_aa") + img("rays", "edges_heat_rays"), 1),
+        ("edges_eps0.03", "adaptive, eps 0.03", AD + S("render.aa.eps=0.03"), 0),
+        ("edges_own", "adaptive, eps 0.01, corners not shared", AD + S("render.aa.share_corners=false"), 0)]
+    st = adaptive_table("edges", sc, rows, UAA(1024), ["setting", ">total rays", ">camera-level rays",
+                        ">seconds", ">RMSE"], lambda s, b: (B(f"{s['total_rays']:,}", b),
+                        B(f"{CAMERA(s['rays']):,}", b), f"{s['seconds']:.3f}", B(f"{s['rmse']:.6f}", b)),
+                        "uniform, 1024 samples per pixel")
+    print("\n".join(f"- {n}: {s['adaptive_aa']['refined']:,} pixels refined "
+                    f"({s['adaptive_aa']['refined'] / s['adaptive_aa']['entered']:.1%})"
+                    for n, s in st.items() if "adaptive_aa" in s))
+    # min_level 2: where refined pixels stop, from the same render cut at max_level 2..5
+    lv = render_all([(f"edges_ml2_max{m}", sc, AD + S("render.aa.min_level=2", f"render.aa.max_level={m}"))
+                     for m in range(2, 6)], 1)
+    rf = [lv[f"edges_ml2_max{m}"]["rays"]["aa_refine"] for m in range(2, 6)] + [st["edges_ml2"]["rays"]["aa_refine"]]
+    cast = [st["edges_ml2"]["adaptive_aa"]["refined"]] + [(b - a) >> m  # pixels that cast level m
+                                                          for m, (a, b) in enumerate(zip(rf, rf[1:]), 3)]
+    assert rf[0] == 4 * cast[0], "levels 2..5 must make the same decisions"
+    print("- min_level 2, refined pixels that stopped after level 2 (4 samples), 3 (12), 4 (28), 5 (60), "
+          "ran to 6 (124): " + ", ".join(f"{(a - b) / cast[0]:.1%}" for a, b in zip(cast, cast[1:] + [0])) + "\n")
+    # penumbra.toml: adaptive soft shadows
+    sc, US = "scenes/penumbra.toml", lambda n: S(f"render.shadows.samples={n}")
+    rows = [(f"pen_u{n}", f"uniform {n}", US(n), 0) for n in (16, 64, 128)] + [
+        (f"pen_{pr}", f"adaptive 128, probe `{pr}`" + (" (the paper's)" if pr == "corners" else " (default)"
+         if pr == "3x3" else ""), ADS(128, pr) + (img("penumbra", "pen_heat") if pr == "3x3" else []), pr == "3x3")
+        for pr in PROBES] + [("pen_3x3_64", "adaptive 64, probe `3x3`", ADS(64, "3x3"), 0)]
+    pts = lambda s: f"{s['adaptive_shadows']['refined']:,} of {s['adaptive_shadows']['entered']:,}" \
+        if s.get("adaptive_shadows") else ""
+    adaptive_table("pen", sc, rows, US(1024), ["setting", ">shadow rays", ">seconds", ">RMSE", ">penumbra points"],
+                   lambda s, b: (B(f"{SHADOW(s['rays']):,}", b), f"{s['seconds']:.3f}", B(f"{s['rmse']:.6f}", b),
+                                 pts(s)), "uniform shadows, 1024 samples, the same camera samples")
+    fp = fooled_pixels("pen", sc, US(128), [(pr, ADS(128, pr)) for pr in PROBES], ("floor", "block"))
+    print("- fooled pixels, adaptive 128 against uniform 128: " +
+          ", ".join(f"{pr} {f:.2%}" for pr, f in fp.items()) + "\n")
+    # fooled.toml: the paper's failure
+    sc, probe = "scenes/fooled.toml", lambda p: S(f"render.shadows.probe={p}")
+    UF = S("render.shadows.mode=uniform")
+    fp = fooled_pixels("fooled", sc, UF, [(p, probe(p)) for p in PROBES], ("white",))
+    rows = [("fooled_u64", "uniform 64", UF, 0)] + [(f"fooled_{p}", f"adaptive, `{p}`", probe(p), 0) for p in PROBES]
+    adaptive_table("fooled", sc, rows, UF + S("render.shadows.samples=1024"), ["setting", ">shadow rays",
+                   ">seconds", ">RMSE", ">penumbra points", ">fooled pixels"],
+                   lambda s, b: (f"{SHADOW(s['rays']):,}", f"{s['seconds']:.3f}", f"{s['rmse']:.6f}", pts(s),
+                                 "" if not s.get("adaptive_shadows") else
+                                 f"{fp[s['name'].removeprefix('fooled_')]:.1%}"), "uniform shadows, 1024 samples")
+    render_all([("fooled_uniform", sc, UF), ("fooled_corners", sc, probe("corners") +
+                img("penumbra", "fooled_heat_corners"))], 1)  # the page's images, in WORK/images
+
 def main():
     global A
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["paper", "tradeoffs", "import", "all"])
+    ap.add_argument("what", choices=["paper", "tradeoffs", "import", "adaptive", "all"])
     ap.add_argument("--wavetrace", default=os.environ.get("WAVETRACE", "target/release/wavetrace"))
     ap.add_argument("--work", default="/tmp/paper-tables")
     ap.add_argument("--runs", type=int, default=1)
@@ -241,7 +369,7 @@ def main():
     A, t0 = ap.parse_args(), time.time()
     os.makedirs(f"{A.work}/images", exist_ok=True)
     print("```sh\n" + shlex.join(["scripts/paper-tables.py"] + sys.argv[1:]) + "\n```\n")
-    for f in [paper, tradeoffs, import_]:
+    for f in [paper, tradeoffs, import_, adaptive]:
         if A.what in ("all", f.__name__.rstrip("_")):
             f()
     print(f"({A.what}: {time.time() - t0:.0f} s)", file=sys.stderr)
