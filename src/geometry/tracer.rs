@@ -168,8 +168,8 @@ impl<'a> Tracer<'a> {
         lit
     }
 
-    /// One shadow ray, alone whatever the kernel (the shadow-corner test stops caring
-    /// about a point's other probes only after tracing them, and they are few).
+    /// One shadow ray, alone whatever the kernel: the reference the queue kernels are
+    /// tested against (stages hand whole queues to [`Tracer::occluded`]).
     pub fn occluded_one(&mut self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         if self.count {
             self.one_occluded::<true>(o, d, tmax)
