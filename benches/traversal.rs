@@ -7,7 +7,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::Path;
-use wavetrace::geometry::packet::PacketConfig;
+use wavetrace::accel::packet::PacketConfig;
 use wavetrace::scene::{load, SceneSource};
 use wavetrace::tools::bench::{ray_sets, trace, Kernel, RENDER_MIN_LANES};
 

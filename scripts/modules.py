@@ -2,7 +2,10 @@
 """The module map of src/ and the architecture rules it must keep.
 
 Prints which top-level modules each module uses (`crate::X` paths), then checks: no
-import cycle between top-level modules, no stage (src/stages/*.rs) using another stage
+import cycle between top-level modules, nor between the modules of any folder (the
+sibling files and subfolders of `src/accel/`, `src/accel/wide/`, ...: a `crate::`,
+`super::` or `self::` path from anywhere below one sibling into another is an edge; a
+folder's own `mod.rs` is the parent, not a sibling), no stage (src/stages/*.rs) using another stage
 or tracing a single ray (the tracer's `occluded_one`; stages hand whole queues to it),
 no file in src/ over 800 lines, no function in the driver (src/render/) over 60 lines,
 and no function with more than 6 parameters whose `allow(clippy::too_many_arguments)`
@@ -72,8 +75,80 @@ def code(text):
     return re.sub(r'"(\\.|[^"\\])*"', '""', text)
 
 
+def module_path(rel):
+    """`accel/wide/walk.rs` -> ["accel", "wide", "walk"]; `accel/wide/mod.rs` -> ["accel", "wide"]."""
+    parts = rel[:-3].split(os.sep)
+    if parts[-1] == "mod" or (len(parts) == 1 and parts[0] in ("lib", "main")):
+        parts = parts[:-1]
+    return parts
+
+
+def referenced_paths(body, mp):
+    """The absolute module paths (lists) a file's code names through crate::, super:: and self::."""
+    out = []
+    for m in re.finditer(r"\b((?:crate|self|super)(?:::super)*)::(\{[^}]*\}|\w+(?:::\w+)*(?:::\{[^}]*\})?)", body):
+        head = m.group(1).split("::")
+        base = [] if head[0] == "crate" else list(mp) if head[0] == "self" else list(mp[:-1])
+        for _ in head[1:]:
+            base = base[:-1]
+        tail = m.group(2)
+        prefix, _, group = tail.partition("{")
+        prefix = [x for x in prefix.split("::") if x]
+        if group:
+            for item in group.rstrip("}").split(","):
+                item = item.strip().split(" as ")[0]
+                if item and item != "self":
+                    out.append(base + prefix + [x for x in item.split("::") if x])
+                elif item == "self":
+                    out.append(base + prefix)
+        else:
+            out.append(base + prefix)
+    return out
+
+
+def is_module(path):
+    """True when `path` (a list under src/) is a module file or folder."""
+    p = os.path.join(SRC, *path)
+    return bool(path) and (os.path.isfile(p + ".rs") or os.path.isdir(p))
+
+
+def folder_cycles(files):
+    """Import cycles among the sibling modules of every folder below src/ (the top level
+    is checked on its own). `files`: (rel path, code) pairs."""
+    edges = {}
+    for rel, body in files:
+        mp = module_path(rel)
+        for tp in referenced_paths(body, mp):
+            k = 0
+            while k < min(len(mp), len(tp)) and mp[k] == tp[k]:
+                k += 1
+            if k == 0 or k >= len(mp) or k >= len(tp) or not is_module(tp[: k + 1]):
+                continue
+            edges.setdefault(tuple(mp[:k]), {}).setdefault(mp[k], set()).add(tp[k])
+    cycles = []
+    for folder, graph in sorted(edges.items()):
+        state, stack = {}, []
+
+        def visit(m):
+            state[m] = "open"
+            stack.append(m)
+            for d in sorted(graph.get(m, ())):
+                if state.get(d) == "open":
+                    cycles.append("/".join(folder) + ": " + " -> ".join(stack[stack.index(d):] + [d]))
+                elif d not in state:
+                    visit(d)
+            stack.pop()
+            state[m] = "done"
+
+        for m in sorted(graph):
+            if m not in state:
+                visit(m)
+    return cycles
+
+
 def main():
     uses, stage_uses, long_files, long_fns, single_rays = {}, [], [], [], []
+    all_files = []
     stages = {f[:-3] for f in os.listdir(os.path.join(SRC, "stages")) if f.endswith(".rs") and f != "mod.rs"}
     for root, _, files in os.walk(SRC):
         for f in sorted(files):
@@ -85,6 +160,7 @@ def main():
             if text.count("\n") > MAX_LINES:
                 long_files.append((rel, text.count("\n")))
             body = code(text.split("#[cfg(test)]")[0])
+            all_files.append((rel, body))
             for name, line, length, params, above in functions(body):
                 if rel.startswith("render" + os.sep) and length > MAX_DRIVER_FN:
                     long_fns.append(f"{rel}:{line}: fn {name} is {length} lines (driver limit {MAX_DRIVER_FN})")
@@ -137,6 +213,9 @@ def main():
     for c in cycles:
         print("import cycle: " + " -> ".join(c))
         ok = False
+    for c in folder_cycles(all_files):
+        print("import cycle inside " + c)
+        ok = False
     for a, b in stage_uses:
         print(f"stage `{a}` uses stage `{b}`")
         ok = False
@@ -151,7 +230,7 @@ def main():
         ok = False
     if ok:
         print(
-            f"modules ok: {len(uses)} top-level modules, no cycle, no stage using another or tracing a single ray, "
+            f"modules ok: {len(uses)} top-level modules, no cycle between them or inside a folder, no stage using another or tracing a single ray, "
             f"no file over {MAX_LINES} "
             f"lines, no driver function over {MAX_DRIVER_FN} lines, no unexplained parameter list over {MAX_PARAMS}"
         )

@@ -9,10 +9,10 @@
 //! plots, the traversal benchmark) live in [`tools`].
 #![warn(missing_docs)]
 
+pub mod accel;
 pub mod color;
 pub mod error;
 pub mod film;
-pub mod geometry;
 pub mod light;
 pub mod queue;
 pub mod render;

@@ -1,13 +1,17 @@
-//! Lanes for the stages outside traversal: [`Word`] is a `u32` or 16 of them
-//! (`wide::u32x16`), [`Real`] an `f32` or 16 of them (`wide::f32x16`). A sample pattern
-//! or a ray formula written once, generic over them, runs ray by ray and 16 rays at a
-//! time with the same operations in the same order, so both give the same bits (Rust
-//! never fuses a multiply and an add on its own).
+//! The crate's one lane abstraction. [`Word`] is a `u32` or 16 of them (`wide::u32x16`),
+//! [`Real`] an `f32` or 4, 8 or 16 of them (`wide`'s `f32x4`, `f32x8`, `f32x16`). A sample
+//! pattern or a ray formula written once, generic over them, runs ray by ray and 16 rays
+//! at a time with the same operations in the same order, so both give the same bits (Rust
+//! never fuses a multiply and an add on its own). [`Vector`] adds to a `Real` what only
+//! vectors have: lane masks, loads and stores, the unchecked minimum and maximum; the
+//! traversal kernels (packets, wide nodes, leaf blocks) are written over it.
 
 use std::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Shl, Shr, Sub};
-use wide::{f32x16, i32x16, u32x16};
+use wide::{f32x16, f32x4, f32x8, i32x16, u32x16, u32x4, u32x8};
 
-/// Number of lanes of the vector instances.
+/// Lanes of the renderer's vectors: the stages' lane groups and the traversal's packets
+/// (chosen by measurement: docs/performance.md); also the widest [`Vector`], so arrays of
+/// `LANES` hold any vector's lanes.
 pub const LANES: usize = 16;
 
 /// 32-bit words: wrapping integer arithmetic and lane masks (all bits set or none).
@@ -224,47 +228,168 @@ impl Word for u32x16 {
     }
 }
 
-impl Real for f32x16 {
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        f32x16::splat(x)
-    }
-    #[inline(always)]
-    fn min(self, o: Self) -> Self {
-        f32x16::min(self, o)
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f32x16::sqrt(self)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        f32x16::abs(self)
-    }
-    #[inline(always)]
-    fn if_negative(test: Self, a: Self, b: Self) -> Self {
-        test.simd_lt(f32x16::ZERO).select(a, b)
-    }
-    #[inline(always)]
-    fn step(self, s: Self) -> Self {
-        // f32::next_up / next_down on the bits: NaN and the infinity in the step's
-        // direction stay, ±0 goes to the smallest subnormal of that sign, else the
-        // magnitude grows or shrinks by one unit in the last place.
-        let bits = self.to_bits();
-        let one = u32x16::splat(1);
-        let sign = u32x16::splat(0x8000_0000);
-        let abs = bits & !sign;
-        let zero = abs.simd_eq(u32x16::ZERO);
-        let positive = bits.simd_eq(abs);
-        let up = zero.select(one, positive.select(bits + one, bits - one));
-        let down = zero.select(sign | one, positive.select(bits - one, bits + one));
-        let nan = self.is_nan().to_bits();
-        let up = (nan | bits.simd_eq(u32x16::splat(f32::INFINITY.to_bits()))).select(bits, up);
-        let down = (nan | bits.simd_eq(u32x16::splat(f32::NEG_INFINITY.to_bits()))).select(bits, down);
-        let (gt, lt) = (s.simd_gt(f32x16::ZERO).to_bits(), s.simd_lt(f32x16::ZERO).to_bits());
-        f32x16::from_bits(gt.select(up, lt.select(down, bits)))
-    }
+/// [`Real`] for `wide`'s float vectors (`$u`: the unsigned words of the same width).
+macro_rules! real_vector {
+    ($t:ty, $u:ty) => {
+        impl Real for $t {
+            #[inline(always)]
+            fn splat(x: f32) -> Self {
+                <$t>::splat(x)
+            }
+            #[inline(always)]
+            fn min(self, o: Self) -> Self {
+                <$t>::min(self, o)
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                <$t>::sqrt(self)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn if_negative(test: Self, a: Self, b: Self) -> Self {
+                test.simd_lt(<$t>::ZERO).select(a, b)
+            }
+            #[inline(always)]
+            fn step(self, s: Self) -> Self {
+                // f32::next_up / next_down on the bits: NaN and the infinity in the step's
+                // direction stay, ±0 goes to the smallest subnormal of that sign, else the
+                // magnitude grows or shrinks by one unit in the last place.
+                let bits: $u = wide::bytemuck::cast(self);
+                let one = <$u>::splat(1);
+                let sign = <$u>::splat(0x8000_0000);
+                let abs = bits & !sign;
+                let zero = abs.simd_eq(<$u>::ZERO);
+                let positive = bits.simd_eq(abs);
+                let up = zero.select(one, positive.select(bits + one, bits - one));
+                let down = zero.select(sign | one, positive.select(bits - one, bits + one));
+                let nan: $u = wide::bytemuck::cast(self.is_nan());
+                let up = (nan | bits.simd_eq(<$u>::splat(f32::INFINITY.to_bits()))).select(bits, up);
+                let down = (nan | bits.simd_eq(<$u>::splat(f32::NEG_INFINITY.to_bits()))).select(bits, down);
+                let gt: $u = wide::bytemuck::cast(s.simd_gt(<$t>::ZERO));
+                let lt: $u = wide::bytemuck::cast(s.simd_lt(<$t>::ZERO));
+                wide::bytemuck::cast(gt.select(up, lt.select(down, bits)))
+            }
+        }
+    };
 }
+real_vector!(f32x4, u32x4);
+real_vector!(f32x8, u32x8);
+real_vector!(f32x16, u32x16);
+
+/// What float vectors add to [`Real`]: lane masks (a lane all ones or all zeros, as
+/// `Self`), loads and stores, and the traversal kernels' unchecked minimum and maximum.
+pub trait Vector: Real + BitAnd<Output = Self> + BitOr<Output = Self> {
+    /// Number of lanes (at most [`LANES`]).
+    const LANES: usize;
+    /// The first `Self::LANES` values of `a`.
+    fn load(a: &[f32; LANES]) -> Self;
+    /// The first `Self::LANES` values of `a` (at least that long).
+    fn load_lanes(a: &[f32]) -> Self;
+    /// Writes the lanes to the front of `a`.
+    fn store(self, a: &mut [f32; LANES]);
+    /// Lane-wise minimum without NaN handling (the kernels never produce NaN there).
+    fn fast_min(self, o: Self) -> Self;
+    /// Lane-wise maximum without NaN handling.
+    fn fast_max(self, o: Self) -> Self;
+    /// Mask of `self >= o`.
+    fn ge(self, o: Self) -> Self;
+    /// Mask of `self > o`.
+    fn gt(self, o: Self) -> Self;
+    /// Mask of `self < o`.
+    fn lt(self, o: Self) -> Self;
+    /// Mask of `self <= o`.
+    fn le(self, o: Self) -> Self;
+    /// Mask of `self == o`.
+    fn eq(self, o: Self) -> Self;
+    /// Mask of finite lanes.
+    fn finite(self) -> Self;
+    /// Mask of lanes with the sign bit set.
+    fn negative(self) -> Self;
+    /// Mask of NaN lanes.
+    fn nan(self) -> Self;
+    /// One bit per lane of a mask (lane 0 = bit 0).
+    fn bits(self) -> u32;
+    /// Lane-wise `mask ? t : f`.
+    fn select(mask: Self, t: Self, f: Self) -> Self;
+}
+
+/// [`Vector`] for `wide`'s float vectors of `$n` lanes.
+macro_rules! vector {
+    ($t:ty, $n:expr) => {
+        impl Vector for $t {
+            const LANES: usize = $n;
+            #[inline(always)]
+            fn load(a: &[f32; LANES]) -> Self {
+                let mut v = [0.0f32; $n];
+                v.copy_from_slice(&a[..$n]);
+                <$t>::from(v)
+            }
+            #[inline(always)]
+            fn load_lanes(a: &[f32]) -> Self {
+                let v: [f32; $n] = a[..$n].try_into().expect("a slice of LANES values");
+                <$t>::from(v)
+            }
+            #[inline(always)]
+            fn store(self, a: &mut [f32; LANES]) {
+                a[..$n].copy_from_slice(&self.to_array());
+            }
+            #[inline(always)]
+            fn fast_min(self, o: Self) -> Self {
+                <$t>::fast_min(self, o)
+            }
+            #[inline(always)]
+            fn fast_max(self, o: Self) -> Self {
+                <$t>::fast_max(self, o)
+            }
+            #[inline(always)]
+            fn ge(self, o: Self) -> Self {
+                self.simd_ge(o)
+            }
+            #[inline(always)]
+            fn gt(self, o: Self) -> Self {
+                self.simd_gt(o)
+            }
+            #[inline(always)]
+            fn lt(self, o: Self) -> Self {
+                self.simd_lt(o)
+            }
+            #[inline(always)]
+            fn le(self, o: Self) -> Self {
+                self.simd_le(o)
+            }
+            #[inline(always)]
+            fn eq(self, o: Self) -> Self {
+                self.simd_eq(o)
+            }
+            #[inline(always)]
+            fn finite(self) -> Self {
+                self.is_finite()
+            }
+            #[inline(always)]
+            fn negative(self) -> Self {
+                self.is_sign_negative()
+            }
+            #[inline(always)]
+            fn nan(self) -> Self {
+                self.is_nan()
+            }
+            #[inline(always)]
+            fn bits(self) -> u32 {
+                self.to_bitmask() as u32
+            }
+            #[inline(always)]
+            fn select(mask: Self, t: Self, f: Self) -> Self {
+                mask.select(t, f)
+            }
+        }
+    };
+}
+vector!(f32x4, 4);
+vector!(f32x8, 8);
+vector!(f32x16, 16);
 
 /// A vector of three coordinates, each a [`Real`]: glam's `Vec3` operations on lanes, in
 /// glam's order of operations.

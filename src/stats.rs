@@ -467,7 +467,7 @@ impl Report {
                     (rays > 0 && (c.nodes > 0 || c.packet_steps > 0)).then(|| {
                         let r = rays as f64;
                         let lanes = if c.packet_steps > 0 {
-                            c.packet_lanes as f64 / (crate::geometry::packet::LANES as u64 * c.packet_steps) as f64
+                            c.packet_lanes as f64 / (crate::simd::LANES as u64 * c.packet_steps) as f64
                         } else {
                             0.0
                         };

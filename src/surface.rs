@@ -6,9 +6,9 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use wide::f32x16;
 
-use crate::geometry::offset::{offset_lanes, offset_ray_origin};
-use crate::geometry::shapes::{quad_point, sphere_point, triangle_point, Shape};
-use crate::geometry::NO_LIGHT;
+use crate::accel::offset::{offset_lanes, offset_ray_origin};
+use crate::accel::shapes::{quad_point, sphere_point, triangle_point, Shape};
+use crate::accel::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
 use crate::scene::{Material, Scene};
 use crate::simd::{LaneIds, LANES, V3};

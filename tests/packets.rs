@@ -60,8 +60,9 @@ fn bvh_quality_changes_no_bit() {
 // Kernel equivalence on random rays, and closed meshes shot from inside.
 
 use glam::Vec3;
-use wavetrace::geometry::packet::{Packet, PacketConfig, PacketWork, Simd, MAX};
-use wavetrace::geometry::{Accel, Primitive, Shape, Traversal, NO_LIGHT};
+use wavetrace::accel::packet::{PacketConfig, PacketWork};
+use wavetrace::accel::{Accel, Primitive, Ray, Shape, Traversal, NO_LIGHT};
+use wavetrace::simd::{Vector, LANES};
 use wide::{f32x16, f32x4, f32x8};
 
 /// A deterministic uniform stream in [0, 1).
@@ -108,18 +109,18 @@ fn rays(accel: &Accel, n: usize, coherent: bool, seed: u32) -> (Vec<Vec3>, Vec<V
 /// (bit for bit: the kernels compute the same operations), the same primitive (on an
 /// exact tie in t, the lowest id: `nearer`); any-hit answers the same for segments ending
 /// around the closest hit.
-fn check_width<S: Simd>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig, label: &str) {
+fn check_width<S: Vector>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig, label: &str) {
     let mut work = PacketWork::default();
-    let mut out = [(0.0f32, 0u32); MAX];
-    let mut occ = [false; MAX];
+    let mut out = [(0.0f32, 0u32); LANES];
+    let mut occ = [false; LANES];
     let mut rng = Rng(99);
     let mut wrong = Vec::new();
     for (chunk, (o, d)) in o.chunks(S::LANES).zip(d.chunks(S::LANES)).enumerate() {
         accel.closest_packet::<S>(o, d, None, 0.0, cfg.min_active, &mut out, &mut work);
-        let mut tmax = [0.0f32; MAX];
-        let mut single = [None; MAX];
+        let mut tmax = [0.0f32; LANES];
+        let mut single = [None; LANES];
         for l in 0..o.len() {
-            single[l] = accel.closest::<false>(o[l], d[l], 0.0, f32::INFINITY, &mut Traversal::default());
+            single[l] = accel.closest::<false>(Ray::new(o[l], d[l], 0.0, f32::INFINITY), &mut Traversal::default());
             tmax[l] = match single[l] {
                 Some((t, _)) => t * (0.5 + rng.next()),
                 None => 1e3,
@@ -138,7 +139,7 @@ fn check_width<S: Simd>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConfig
             if !same {
                 wrong.push(format!("ray {ray}: packet {:?} scalar {:?}", out[l], single[l]));
             }
-            let blocked = accel.occluded::<false>(o[l], d[l], 0.0, tmax[l], &mut Traversal::default());
+            let blocked = accel.occluded::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
             if occ[l] != blocked {
                 wrong.push(format!("ray {ray}: any-hit packet {} scalar {blocked}", occ[l]));
             }
@@ -162,8 +163,8 @@ fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
     let mut wrong = Vec::new();
     let (mut cw, mut cs) = (Traversal::default(), Traversal::default());
     for (i, (&o, &d)) in o.iter().zip(d).enumerate() {
-        let single = accel.closest::<true>(o, d, 0.0, f32::INFINITY, &mut cs);
-        let wide = accel.closest_wide::<true>(o, d, 0.0, f32::INFINITY, &mut cw);
+        let single = accel.closest::<true>(Ray::new(o, d, 0.0, f32::INFINITY), &mut cs);
+        let wide = accel.closest_wide::<true>(Ray::new(o, d, 0.0, f32::INFINITY), &mut cw);
         let same = match (single, wide) {
             (Some((t, p)), Some((tw, q))) => tw.to_bits() == t.to_bits() && q == p,
             (None, None) => true,
@@ -173,8 +174,10 @@ fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
             wrong.push(format!("ray {i}: wide {wide:?} scalar {single:?}"));
         }
         let tmax = single.map_or(1e3, |(t, _)| t * (0.5 + rng.next()));
-        let (a, b) =
-            (accel.occluded::<false>(o, d, 0.0, tmax, &mut cs), accel.occluded_wide::<false>(o, d, 0.0, tmax, &mut cw));
+        let (a, b) = (
+            accel.occluded::<false>(Ray::new(o, d, 0.0, tmax), &mut cs),
+            accel.occluded_wide::<false>(Ray::new(o, d, 0.0, tmax), &mut cw),
+        );
         if a != b {
             wrong.push(format!("ray {i}: any-hit wide {b} scalar {a}"));
         }
@@ -342,13 +345,13 @@ fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_or_wide_kernel() {
     }
     let mut work = PacketWork::default();
     let (mut escaped, mut unblocked) = (0, 0);
-    let mut out = [(0.0f32, 0u32); MAX];
-    let mut occ = [false; MAX];
-    for (o, d) in o.chunks(<Packet as Simd>::LANES).zip(d.chunks(<Packet as Simd>::LANES)) {
-        accel.closest_packet::<Packet>(o, d, None, 0.0, PacketConfig::RENDER.min_active, &mut out, &mut work);
+    let mut out = [(0.0f32, 0u32); LANES];
+    let mut occ = [false; LANES];
+    for (o, d) in o.chunks(LANES).zip(d.chunks(LANES)) {
+        accel.closest_packet::<f32x16>(o, d, None, 0.0, PacketConfig::RENDER.min_active, &mut out, &mut work);
         escaped += out[..o.len()].iter().filter(|h| h.1 == u32::MAX).count();
-        let far = [4.0 * r; MAX];
-        accel.occluded_packet::<Packet>(
+        let far = [4.0 * r; LANES];
+        accel.occluded_packet::<f32x16>(
             o,
             d,
             None,
@@ -363,9 +366,11 @@ fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_or_wide_kernel() {
     assert!(work.steps > 0);
     // The wide BVH's single-ray kernel, on the same rays.
     let mut c = Traversal::default();
-    let escaped =
-        (0..n).filter(|&i| accel.closest_wide::<true>(o[i], d[i], 0.0, f32::INFINITY, &mut c).is_none()).count();
-    let unblocked = (0..n).filter(|&i| !accel.occluded_wide::<true>(o[i], d[i], 0.0, 4.0 * r, &mut c)).count();
+    let escaped = (0..n)
+        .filter(|&i| accel.closest_wide::<true>(Ray::new(o[i], d[i], 0.0, f32::INFINITY), &mut c).is_none())
+        .count();
+    let unblocked =
+        (0..n).filter(|&i| !accel.occluded_wide::<true>(Ray::new(o[i], d[i], 0.0, 4.0 * r), &mut c)).count();
     assert_eq!((escaped, unblocked), (0, 0), "wide kernel: of {n} rays from inside a closed mesh");
     assert!(c.nodes > 0);
 }
@@ -394,7 +399,7 @@ fn axis_parallel_rays_along_a_shared_edge_hit_the_wall_in_every_kernel() {
         }
     }
     for (&o, &d) in o.iter().zip(&d) {
-        let hit = accel.closest::<false>(o, d, 0.0, f32::INFINITY, &mut Traversal::default());
+        let hit = accel.closest::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut Traversal::default());
         assert!(hit.is_some_and(|h| (h.0 - 10.0).abs() < 1e-5), "ray from {o:?} along {d:?} missed the wall: {hit:?}");
         // Every primitive the triangle test says is hit was met, whichever box it sits in
         // (a ray along the shared edge runs in a face of both boxes): the answer is the
@@ -403,7 +408,10 @@ fn axis_parallel_rays_along_a_shared_edge_hit_the_wall_in_every_kernel() {
             .map(|id| (accel.prims[id as usize].shape.intersect(o, d, 0.0, f32::INFINITY), id))
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         assert_eq!(hit, brute, "ray from {o:?} along {d:?}");
-        assert!(accel.occluded::<false>(o, d, 0.0, 20.0, &mut Traversal::default()), "ray from {o:?} unblocked");
+        assert!(
+            accel.occluded::<false>(Ray::new(o, d, 0.0, 20.0), &mut Traversal::default()),
+            "ray from {o:?} unblocked"
+        );
     }
     check_wide(&accel, &o, &d, "wall");
     for cfg in [PacketConfig::RENDER, PacketConfig { min_active: 0, ..PacketConfig::RENDER }] {

@@ -10,7 +10,7 @@ mod support;
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use support::{closest, polygon_irradiance, FloorScene};
-use wavetrace::geometry::tracer::{Kernel, Tracer};
+use wavetrace::accel::tracer::{Kernel, Tracer};
 use wavetrace::light::probe_targets;
 use wavetrace::light::SHADOW_TMAX_SCALE;
 use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
@@ -209,9 +209,9 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
             );
             assert_eq!(lanes.ray[p], i);
             shapes[match scene.accel.prims[hits.prim[i as usize] as usize].shape {
-                wavetrace::geometry::shapes::Shape::Sphere { .. } => 0,
-                wavetrace::geometry::shapes::Shape::Quad { .. } => 1,
-                wavetrace::geometry::shapes::Shape::Triangle { .. } => 2,
+                wavetrace::accel::shapes::Shape::Sphere { .. } => 0,
+                wavetrace::accel::shapes::Shape::Quad { .. } => 1,
+                wavetrace::accel::shapes::Shape::Triangle { .. } => 2,
             }] += 1;
         }
     }
@@ -221,7 +221,7 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
 /// The scatter stage's rays, as the scalar functions give them: the reference the
 /// stage's lanes must equal bit for bit.
 fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -> RayQueue {
-    use wavetrace::geometry::offset::offset_ray_origin;
+    use wavetrace::accel::offset::offset_ray_origin;
     use wavetrace::scene::{Material, ReflectRatio};
     use wavetrace::stages::scatter::{fresnel, interface, reflect, refract};
     let mut next = RayQueue::default();
@@ -282,7 +282,7 @@ fn scatter_on_lanes_gives_the_scalar_functions_rays_bit_for_bit() {
         let scene = support::scene_in(dir, &text, &sets);
         let specular = |p: u32| {
             let prim = &scene.accel.prims[p as usize];
-            prim.light == wavetrace::geometry::NO_LIGHT && wavetrace::surface::diffuse_material(&scene, p).is_none()
+            prim.light == wavetrace::accel::NO_LIGHT && wavetrace::surface::diffuse_material(&scene, p).is_none()
         };
         let prims: Vec<usize> = (0..scene.accel.prims.len()).filter(|&p| specular(p as u32)).collect();
         let mut rays = RayQueue::default();

@@ -5,9 +5,10 @@
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
-use wavetrace::geometry::order::Order;
-use wavetrace::geometry::packet::{PacketConfig, LANES};
+use wavetrace::accel::order::Order;
+use wavetrace::accel::packet::PacketConfig;
 use wavetrace::scene::load;
+use wavetrace::simd::LANES;
 use wavetrace::tools::bench::{self, BenchOptions};
 use wavetrace::tools::bench_mesh;
 use wavetrace::{Error, Result};
@@ -27,7 +28,7 @@ pub struct BenchArgs {
     #[arg(long, value_name = "LEVEL", conflicts_with_all = ["scene", "sets"], value_parser = clap::value_parser!(u32).range(0..=10))]
     sphere: Option<u32>,
     /// With --mesh or --sphere: most primitives per BVH leaf (1 to 64).
-    #[arg(long, default_value_t = wavetrace::geometry::bvh::LEAF, value_parser = clap::value_parser!(u32).range(1..=64))]
+    #[arg(long, default_value_t = wavetrace::accel::MAX_LEAF, value_parser = clap::value_parser!(u32).range(1..=64))]
     leaf: u32,
     /// With --mesh or --sphere: the BVH build's quality (a scene sets `render.bvh`).
     #[arg(long, value_enum, default_value_t = Quality::High)]
@@ -97,7 +98,7 @@ impl KernelName {
     }
 }
 
-/// `--bvh`: [`BvhQuality`](wavetrace::geometry::bvh::BvhQuality) on the command line.
+/// `--bvh`: [`BvhQuality`](wavetrace::accel::BvhQuality) on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Quality {
     Medium,
@@ -105,10 +106,10 @@ pub enum Quality {
 }
 
 impl Quality {
-    fn quality(self) -> wavetrace::geometry::bvh::BvhQuality {
+    fn quality(self) -> wavetrace::accel::BvhQuality {
         match self {
-            Quality::Medium => wavetrace::geometry::bvh::BvhQuality::Medium,
-            Quality::High => wavetrace::geometry::bvh::BvhQuality::High,
+            Quality::Medium => wavetrace::accel::BvhQuality::Medium,
+            Quality::High => wavetrace::accel::BvhQuality::High,
         }
     }
 }

@@ -7,8 +7,8 @@ use std::time::Instant;
 
 use super::meter::Kind;
 use super::Worker;
+use crate::accel::Traversal;
 use crate::film::Tile;
-use crate::geometry::Traversal;
 use crate::queue::{IndexQueue, RefineQueue};
 use crate::scene::{AaMode, Scene};
 use crate::stages::camera::{self, Lens};

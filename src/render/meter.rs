@@ -5,9 +5,9 @@
 
 use std::time::Instant;
 
+use crate::accel::tracer::Tracer;
+use crate::accel::Traversal;
 use crate::film::SlotHeat;
-use crate::geometry::tracer::Tracer;
-use crate::geometry::Traversal;
 use crate::queue::WaveQueues;
 use crate::stages::penumbra::PenumbraCounts;
 use crate::stages::shade::ShadeCounts;

@@ -19,8 +19,8 @@ use adaptive::{AaState, CornerBlur};
 use meter::{Kind, Meter};
 use pipeline::Pipeline;
 
+use crate::accel::tracer::{Kernel, Tracer};
 use crate::film::{copy_tile, tiles, Heat, Image, SlotHeat, Tile, TileFilm, TILE};
-use crate::geometry::tracer::{Kernel, Tracer};
 use crate::scene::{AaMode, Light, Scene, ShadowMode};
 use crate::stages::camera;
 use crate::stats::{Span, Stats};

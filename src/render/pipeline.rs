@@ -8,8 +8,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::meter::{Kind, Meter};
+use crate::accel::tracer::{Coherence, Tracer};
 use crate::film::Accumulator;
-use crate::geometry::tracer::{Coherence, Tracer};
 use crate::queue::{RayQueue, WaveQueues};
 use crate::scene::{Scene, ShadowMode};
 use crate::stages::{film, focus, intersect, penumbra, scatter, shade, shadow, shadow_corner};

@@ -73,17 +73,6 @@ fn unit_angle(a: Vec3, b: Vec3) -> f32 {
     }
 }
 
-/// Reads a mesh file, OBJ or PLY by its extension (`.ply`, case-insensitive; anything
-/// else is read as OBJ).
-pub fn load_mesh(path: &Path) -> Result<MeshData, String> {
-    let ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
-    if ply {
-        super::ply::load_ply(path)
-    } else {
-        load_obj_mesh(path)
-    }
-}
-
 /// Reads the triangles of an OBJ file (faces fan-triangulated by tobj), in object space.
 /// Errors are messages to be placed after the field that named the file.
 pub fn load_obj(path: &Path) -> Result<Vec<[Vec3; 3]>, String> {

@@ -7,14 +7,14 @@ pub mod format;
 pub mod load;
 pub mod mesh;
 pub mod mitsuba;
-mod objects;
 pub mod ply;
+pub mod text;
 pub mod transform;
 
 use glam::{Vec2, Vec3};
 
-use crate::geometry::bvh::BvhQuality;
-use crate::geometry::Accel;
+use crate::accel::Accel;
+use crate::accel::BvhQuality;
 use crate::simd::{Real, V3};
 
 pub use load::{load, SceneSource};

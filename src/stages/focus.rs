@@ -12,7 +12,7 @@ use std::f32::consts::PI;
 use std::ops::Range;
 use wide::f32x16;
 
-use crate::geometry::NO_LIGHT;
+use crate::accel::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, MISS};
 use crate::scene::{Material, Scene};
 use crate::simd::{LaneIds, Real, LANES, V3};

@@ -4,7 +4,7 @@
 //! their rays coherent (camera rays keep their generation order; bounce rays are grouped
 //! by direction octant), a packet of mixed octants going one ray at a time.
 
-use crate::geometry::tracer::{Coherence, Tracer};
+use crate::accel::tracer::{Coherence, Tracer};
 use crate::queue::{HitQueue, RayQueue};
 
 /// Finds the closest hit of every ray in `rays`, in order, into `hits` (cleared first).

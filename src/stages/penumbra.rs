@@ -13,7 +13,7 @@
 //! The stage owns the whole loop (generate → batch → occlusion → record → resolve); it
 //! traces through the shadow stage's kernel, the tracer.
 
-use crate::geometry::tracer::Tracer;
+use crate::accel::tracer::Tracer;
 use crate::light::{area_light_samples, sample_grid, SHADOW_TMAX_SCALE};
 use crate::queue::{FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, SurfaceQueue};
 use crate::sampling::{dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};

@@ -11,7 +11,7 @@ use glam::Vec3;
 
 use wide::{f32x16, u32x16};
 
-use crate::geometry::offset::offset_lanes;
+use crate::accel::offset::offset_lanes;
 use crate::queue::{HitQueue, IndexQueue, RayQueue};
 use crate::sampling::hash_lanes;
 use crate::scene::{Material, ReflectRatio, Scene};

@@ -10,7 +10,7 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::geometry::NO_LIGHT;
+use crate::accel::NO_LIGHT;
 use crate::light::{
     emitted, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes, SHADOW_TMAX_SCALE,
 };

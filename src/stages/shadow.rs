@@ -6,7 +6,7 @@
 //! reach the film in queue order whatever the kernel, so the film sums in the same order
 //! and packets change no pixel's bits.
 
-use crate::geometry::tracer::Tracer;
+use crate::accel::tracer::Tracer;
 use crate::queue::{FilmQueue, ShadowQueue};
 
 /// Traces every shadow ray; those that reach their light add their contribution to

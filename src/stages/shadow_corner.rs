@@ -10,7 +10,7 @@
 
 use glam::Vec3;
 
-use crate::geometry::tracer::Tracer;
+use crate::accel::tracer::Tracer;
 use crate::light::{probe_count, probe_targets, SHADOW_TMAX_SCALE};
 use crate::queue::{FilmQueue, IndexQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue};
 use crate::sampling::hash;

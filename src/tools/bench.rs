@@ -19,15 +19,16 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
 
+use crate::accel::packet::PacketConfig;
+use crate::accel::tracer::{Coherence, Kernel as TracerKernel, Tracer, Width};
+use crate::accel::{Accel, Ray};
 use crate::error::{Error, Result};
 use crate::film::tiles;
-use crate::geometry::packet::{PacketConfig, LANES};
-use crate::geometry::tracer::{Coherence, Kernel as TracerKernel, Tracer, Width};
-use crate::geometry::Accel;
 use crate::light::uniform_shadow_rays;
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, to_unit};
 use crate::scene::Scene;
+use crate::simd::LANES;
 use crate::stages::{camera, intersect, shadow};
 use crate::surface::diffuse_surface;
 
@@ -336,7 +337,7 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                             hits.clear();
                             for i in 0..q.len() {
                                 let (t, p) = accel
-                                    .closest_obvhs(q.origin(i), q.dir(i), 0.0, f32::INFINITY)
+                                    .closest_obvhs(Ray::new(q.origin(i), q.dir(i), 0.0, f32::INFINITY))
                                     .unwrap_or((f32::INFINITY, crate::queue::MISS));
                                 hits.push(t, p);
                             }
@@ -355,7 +356,7 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                     (match tracer {
                         Some(tracer) => shadow::occlusion(tracer, q, film),
                         None => (0..q.len())
-                            .filter(|&i| !accel.occluded_obvhs(q.origin(i), q.dir(i), 0.0, q.tmax[i]))
+                            .filter(|&i| !accel.occluded_obvhs(Ray::new(q.origin(i), q.dir(i), 0.0, q.tmax[i])))
                             .count(),
                     }) as u64
                 },

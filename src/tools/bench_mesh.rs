@@ -16,11 +16,11 @@ use std::io::Write;
 use std::path::Path;
 
 use super::bench::{any_hit_set, closest_set, cosine_direction, RaySet};
+use crate::accel::offset::offset_ray_origin;
+use crate::accel::tracer::Coherence;
+use crate::accel::BvhQuality;
+use crate::accel::{Accel, Primitive, Ray, Shape, Traversal, NO_LIGHT};
 use crate::error::{Error, Result};
-use crate::geometry::bvh::BvhQuality;
-use crate::geometry::offset::offset_ray_origin;
-use crate::geometry::tracer::Coherence;
-use crate::geometry::{Accel, Primitive, Shape, Traversal, NO_LIGHT};
 use crate::sampling::{hash, to_unit};
 
 /// The acceleration structure over a bare triangle list (one material, no lights), with
@@ -152,14 +152,14 @@ pub fn mesh_ray_sets(accel: &Accel, side: usize) -> Vec<(&'static str, RaySet)> 
     let mut c0 = Traversal::default();
     let (mut shadow, mut bounce, mut bounce_shadow) = (Vec::new(), Vec::new(), Vec::new());
     for (i, &(o, d)) in camera.iter().enumerate() {
-        if let Some((t, prim)) = accel.closest_wide::<false>(o, d, 0.0, f32::INFINITY, &mut c0) {
+        if let Some((t, prim)) = accel.closest_wide::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c0) {
             let (p, n) = hit_point(accel, o, d, t, prim);
             shadow.push(to_light(i, p, 2));
             bounce.push((p, cosine_direction(n, u(i, 4), u(i, 5))));
         }
     }
     for (i, &(o, d)) in bounce.iter().enumerate() {
-        if let Some((t, prim)) = accel.closest_wide::<false>(o, d, 0.0, f32::INFINITY, &mut c0) {
+        if let Some((t, prim)) = accel.closest_wide::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c0) {
             bounce_shadow.push(to_light(i, hit_point(accel, o, d, t, prim).0, 6));
         }
     }
@@ -231,8 +231,10 @@ pub fn export(dir: &Path, accel: &Accel, sets: &[(&'static str, RaySet)]) -> Res
         write_npy(&file("dirs"), "<f4", &[n, 3], &f32_bytes(rays.iter().flat_map(|r| r.1.to_array())))?;
         write_npy(&file("tmax"), "<f4", &[n], &f32_bytes(rays.iter().map(|r| r.2)))?;
         if let RaySet::AnyHit(_) = set {
-            let blocked: Vec<u8> =
-                rays.iter().map(|&(o, d, t)| accel.occluded_wide::<false>(o, d, 0.0, t, &mut c) as u8).collect();
+            let blocked: Vec<u8> = rays
+                .iter()
+                .map(|&(o, d, t)| accel.occluded_wide::<false>(Ray::new(o, d, 0.0, t), &mut c) as u8)
+                .collect();
             write_npy(&file("blocked"), "|u1", &[n], &blocked)?;
             list += &format!("{name} anyhit\n");
         } else {
@@ -240,7 +242,7 @@ pub fn export(dir: &Path, accel: &Accel, sets: &[(&'static str, RaySet)]) -> Res
                 .iter()
                 .map(|&(o, d, _)| {
                     accel
-                        .closest_wide::<false>(o, d, 0.0, f32::INFINITY, &mut c)
+                        .closest_wide::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c)
                         .map_or((f32::INFINITY, -1), |(t, p)| (t, p as i32))
                 })
                 .collect();
@@ -277,12 +279,12 @@ mod tests {
     fn generated_sphere_is_closed_and_sized() {
         let tris = displaced_sphere(2);
         assert_eq!(tris.len(), 20 * 16);
-        let accel = mesh_accel(tris, crate::geometry::bvh::LEAF, BvhQuality::High);
+        let accel = mesh_accel(tris, crate::accel::MAX_LEAF, BvhQuality::High);
         let mut c = Traversal::default();
         for i in 0..2000 {
             let d = sphere_dir(u(i, 0), u(i, 1));
             assert!(
-                accel.closest_wide::<false>(Vec3::ZERO, d, 0.0, f32::INFINITY, &mut c).is_some(),
+                accel.closest_wide::<false>(Ray::new(Vec3::ZERO, d, 0.0, f32::INFINITY), &mut c).is_some(),
                 "ray {i} escaped"
             );
         }

@@ -12,8 +12,8 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use crate::accel::shapes::{Primitive, Shape};
 use crate::film::{copy_tile, split, Image, Tile};
-use crate::geometry::shapes::{Primitive, Shape};
 use crate::scene::Scene;
 use crate::{Error, Result};
 

@@ -5,7 +5,7 @@ use super::{num, vec_lit};
 use crate::support::{closest, one_ray, scene_in, step, step_all, Lcg};
 use glam::{DVec3, Vec3};
 use std::path::Path;
-use wavetrace::geometry::tracer::{Kernel, Tracer};
+use wavetrace::accel::tracer::{Kernel, Tracer};
 use wavetrace::queue::{FilmQueue, RayQueue, MISS};
 use wavetrace::stages::shadow;
 use wavetrace::Scene;

@@ -1,7 +1,7 @@
 //! Camera and transform conversions against hand-computed values.
 
 use glam::Vec3;
-use wavetrace::geometry::Shape;
+use wavetrace::accel::Shape;
 
 use crate::{load_file, Files};
 

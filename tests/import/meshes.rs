@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use std::f32::consts::PI;
-use wavetrace::geometry::Shape;
+use wavetrace::accel::Shape;
 use wavetrace::scene::mesh::vertex_normals;
 use wavetrace::scene::Light;
 

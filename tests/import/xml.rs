@@ -2,7 +2,7 @@
 //! line, column, the plugin and the supported list.
 
 use glam::Vec3;
-use wavetrace::geometry::Shape;
+use wavetrace::accel::Shape;
 use wavetrace::scene::{Light, Material};
 
 use crate::{error_of, load_file, try_load, xml_scene, Files};

@@ -14,9 +14,9 @@ pub use floor::{FloorScene, Quad, QuadLight, Sphere};
 
 use glam::Vec3;
 use std::path::Path;
+use wavetrace::accel::tracer::{Coherence, Kernel, Tracer};
+use wavetrace::accel::{Ray, Traversal};
 use wavetrace::film::Image;
-use wavetrace::geometry::tracer::{Coherence, Kernel, Tracer};
-use wavetrace::geometry::Traversal;
 use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue};
 use wavetrace::scene::{load, SceneSource};
 use wavetrace::stages::{intersect, scatter, shade};
@@ -132,7 +132,7 @@ pub fn step(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue) {
 
 /// The closest hit `(t, primitive)` of one ray, straight from the BVH.
 pub fn closest(scene: &Scene, o: Vec3, d: Vec3) -> Option<(f32, u32)> {
-    scene.accel.closest::<false>(o, d, 0.0, f32::INFINITY, &mut Traversal::default())
+    scene.accel.closest::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut Traversal::default())
 }
 
 /// A tiny deterministic generator for test directions and points.

@@ -185,7 +185,7 @@ impl Reader {
         if self.stack.len() >= MAX_INCLUDE_DEPTH {
             return Err(fail(format!("includes nest deeper than {MAX_INCLUDE_DEPTH} files")));
         }
-        let text = match crate::scene::load::read_text(path) {
+        let text = match crate::scene::text::read_text(path) {
             Ok(text) => text,
             // Not UTF-8: the error says where in the file; an include also says who named it.
             Err(Error::Input(msg)) => return Err(at.map_or(Error::Input(msg.clone()), |l| l.err(msg))),

@@ -3,9 +3,10 @@
 use glam::Vec3;
 use obvhs::bvh2::node::Bvh2Node;
 
-use super::{Columns, Simd, MAX};
-use crate::geometry::bvh::CULL;
-use crate::geometry::shapes::{intersect_triangle, shear_axes, Shape};
+use super::Columns;
+use crate::accel::shapes::{intersect_triangle, shear_axes, Shape};
+use crate::accel::CULL;
+use crate::simd::{Vector, LANES};
 
 /// How a triangle's vertex components are permuted into each lane's sheared frame.
 pub(super) enum Axes<S> {
@@ -31,7 +32,7 @@ pub(super) struct Lanes<'a, S> {
     slack: S,
 }
 
-impl<'a, S: Simd> Lanes<'a, S> {
+impl<'a, S: Vector> Lanes<'a, S> {
     /// The lanes of rays `o`, `d`; `cols`: the same rays as queue columns, for a full
     /// packet of consecutive rays.
     pub(super) fn new(o: &'a [Vec3], d: &'a [Vec3], cols: Option<Columns>, slack: f32) -> Self {
@@ -45,25 +46,25 @@ impl<'a, S: Simd> Lanes<'a, S> {
                 (load3([ox, oy, oz]), load3([dx, dy, dz]))
             }
             _ => {
-                let mut oa = [[0.0f32; MAX]; 3];
-                let mut da = [[0.0f32; MAX]; 3];
+                let mut oa = [[0.0f32; LANES]; 3];
+                let mut da = [[0.0f32; LANES]; 3];
                 for (l, (o, d)) in o.iter().zip(d).enumerate() {
                     for j in 0..3 {
                         oa[j][l] = o[j];
                         da[j][l] = d[j];
                     }
                 }
-                let load3 = |a: &[[f32; MAX]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
+                let load3 = |a: &[[f32; LANES]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
                 (load3(&oa), load3(&da))
             }
         };
         let (zero, one, on) = (S::splat(0.0), S::splat(1.0), S::splat(f32::from_bits(u32::MAX)));
-        let mut used = [0.0f32; MAX];
+        let mut used = [0.0f32; LANES];
         used[..d.len()].fill(f32::from_bits(u32::MAX));
         let used = S::load(&used);
         // `shear_axes` on lanes: kz is the axis of largest |d| (x over y over z on ties as
         // its comparisons decide); kx, ky follow it cyclically.
-        let ad = dir.map(|x| S::max(x, -x));
+        let ad = dir.map(|x| S::fast_max(x, -x));
         let x_over_y = ad[0].gt(ad[1]);
         let kz_x = x_over_y & ad[0].gt(ad[2]);
         let kz_y = S::select(x_over_y, zero, ad[1].gt(ad[2]));
@@ -86,7 +87,8 @@ impl<'a, S: Simd> Lanes<'a, S> {
             Axes::Mixed(is_x, is_y)
         };
         // `inv_dir` on lanes (1/x clamped to ±MAX); unused lanes get 1.
-        let inv = dir.map(|x| S::select(used, (one / x).max(S::splat(-f32::MAX)).min(S::splat(f32::MAX)), one));
+        let inv =
+            dir.map(|x| S::select(used, (one / x).fast_max(S::splat(-f32::MAX)).fast_min(S::splat(f32::MAX)), one));
         Lanes {
             o,
             d,
@@ -112,8 +114,8 @@ impl<'a, S: Simd> Lanes<'a, S> {
         for k in 0..3 {
             let t1 = (S::splat(min[k]) - self.origin[k]) * self.inv[k];
             let t2 = (S::splat(max[k]) - self.origin[k]) * self.inv[k];
-            near = near.max(t1.min(t2));
-            far = far.min(t1.max(t2));
+            near = near.fast_max(t1.fast_min(t2));
+            far = far.fast_min(t1.fast_max(t2));
         }
         let far = far * S::splat(WIDEN);
         let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(tmax * S::splat(CULL) + self.slack);
@@ -156,7 +158,7 @@ impl<'a, S: Simd> Lanes<'a, S> {
         if edge == 0 {
             return t;
         }
-        let mut a = [0.0; MAX];
+        let mut a = [0.0; LANES];
         t.store(&mut a);
         while edge != 0 {
             let l = edge.trailing_zeros() as usize;
@@ -172,7 +174,7 @@ impl<'a, S: Simd> Lanes<'a, S> {
         S::splat(a.x) * b[0] + S::splat(a.y) * b[1] + S::splat(a.z) * b[2]
     }
 
-    /// The sphere test for every lane: exactly [`intersect_sphere`](crate::geometry::shapes::intersect_sphere)'s
+    /// The sphere test for every lane: exactly [`intersect_sphere`](crate::accel::shapes::intersect_sphere)'s
     /// operations, so each lane's distance (infinity for a miss) is the scalar one.
     #[inline(always)]
     fn sphere(&self, center: Vec3, radius: f32, tmin: S, tmax: S) -> S {
@@ -200,7 +202,7 @@ impl<'a, S: Simd> Lanes<'a, S> {
         S::select(disc.lt(zero), inf, t)
     }
 
-    /// The parallelogram test for every lane: exactly [`intersect_quad`](crate::geometry::shapes::intersect_quad)'s
+    /// The parallelogram test for every lane: exactly [`intersect_quad`](crate::accel::shapes::intersect_quad)'s
     /// operations.
     #[inline(always)]
     fn quad(&self, corner: Vec3, u: Vec3, v: Vec3) -> S {

@@ -110,8 +110,8 @@ pub fn packet_order(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::shapes::{Shape, NO_LIGHT};
-    use crate::geometry::Primitive;
+    use crate::accel::shapes::{Shape, NO_LIGHT};
+    use crate::accel::Primitive;
 
     #[test]
     fn octant_order_is_a_stable_sort_by_octant() {

@@ -1,5 +1,5 @@
 //! Packet traversal of the obvhs `Bvh2`: a packet of rays (4, 8 or 16 lanes of `wide`; the
-//! renderer uses 16, [`Packet`]) walks the tree together; each node pair's boxes are
+//! renderer uses [`LANES`](crate::simd::LANES)) walks the tree together; each node pair's boxes are
 //! slab-tested for all lanes at once under an active-lane mask, and a leaf's primitives
 //! (watertight triangles after Woop, Benthin and Wald; spheres; parallelograms) are tested
 //! for all its lanes at once. When fewer than `min_active` lanes still enter a node pair,
@@ -12,23 +12,17 @@
 //! traversal's closest distance and blockers; only on exact ties in t may it report
 //! another primitive.
 //!
-//! Files: `simd` (the [`Simd`] trait over `wide`'s vectors), `lanes` (a packet's rays in
-//! SIMD form and the leaf kernels), `traverse` (the walk, [`Accel::closest_packet`],
-//! [`Accel::occluded_packet`]), `tests`.
+//! Files: `rays` (a packet's rays in SIMD form and the leaf kernels), `traverse` (the
+//! walk, [`closest`], [`occluded`]), `tests`.
 
-mod lanes;
-mod simd;
+mod rays;
 mod traverse;
 
 #[cfg(test)]
 mod tests;
 
-pub use simd::Simd;
+pub(crate) use traverse::{closest, occluded};
 
-use glam::Vec3;
-use wide::f32x16;
-
-use super::bvh::Accel;
 use super::order::Order;
 
 /// A full packet's rays as consecutive entries of their queue: the queue's origin x, y,
@@ -37,12 +31,6 @@ use super::order::Order;
 /// the rays' values (which, written just before, stall the vector loads).
 #[derive(Clone, Copy, Debug)]
 pub struct Columns<'a>(pub [&'a [f32]; 6]);
-
-/// The SIMD type the renderer's packets use (chosen by measurement: docs/performance.md).
-pub type Packet = f32x16;
-
-/// Rays per packet in the renderer.
-pub const LANES: usize = <Packet as Simd>::LANES;
 
 /// How a stage forms and traces packets; [`PacketConfig::RENDER`] is the renderer's
 /// choice, the other values exist to be measured (`wavetrace bench`).
@@ -65,9 +53,6 @@ impl PacketConfig {
     pub const RENDER: PacketConfig =
         PacketConfig { min_active: 0, bounce_order: Order::Octant, shadow_order: Order::Octant, split_mixed: true };
 }
-
-/// Most lanes of any supported packet width (arrays are sized for it).
-pub const MAX: usize = 16;
 
 /// Work counters of packet traversals.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -95,14 +80,4 @@ fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
             l
         })
     })
-}
-
-impl Accel {
-    /// Bounds of everything in the tree (zero-size at the origin when empty).
-    pub fn bounds(&self) -> (Vec3, Vec3) {
-        match self.bvh.as_ref().and_then(|b| b.nodes.first()) {
-            Some(root) => (root.aabb().min.into(), root.aabb().max.into()),
-            None => (Vec3::ZERO, Vec3::ZERO),
-        }
-    }
 }

@@ -3,11 +3,12 @@
 use glam::Vec3;
 use wide::{f32x16, f32x4, f32x8};
 
-use super::lanes::{Axes, Lanes};
-use super::{Columns, PacketWork, Simd, MAX};
-use crate::geometry::bvh::{Accel, Traversal};
-use crate::geometry::shapes::{intersect_triangle, NO_LIGHT};
-use crate::geometry::{Primitive, Shape};
+use super::rays::{Axes, Lanes};
+use super::{Columns, PacketWork};
+use crate::accel::shapes::{intersect_triangle, NO_LIGHT};
+use crate::accel::{Accel, Ray, Traversal};
+use crate::accel::{Primitive, Shape};
+use crate::simd::{Vector, LANES};
 
 /// A grid of small triangles (some sharing edges) and spheres.
 fn scene() -> Accel {
@@ -40,7 +41,7 @@ fn scene() -> Accel {
     Accel::build(prims)
 }
 
-fn check<S: Simd>(accel: &Accel, min_active: u32) -> PacketWork {
+fn check<S: Vector>(accel: &Accel, min_active: u32) -> PacketWork {
     let mut h = 12345u32;
     let mut rnd = || {
         h = crate::sampling::mix(h);
@@ -65,10 +66,10 @@ fn check<S: Simd>(accel: &Accel, min_active: u32) -> PacketWork {
             o.push(orig);
             d.push(dir.normalize());
         }
-        let mut out = [(0.0, 0); MAX];
+        let mut out = [(0.0, 0); LANES];
         accel.closest_packet::<S>(&o, &d, None, 0.0, min_active, &mut out, &mut work);
         let tmax: Vec<f32> = (0..n).map(|_| 1.0 + rnd() * 4.0).collect();
-        let mut occ = [false; MAX];
+        let mut occ = [false; LANES];
         accel.occluded_packet::<S>(&o, &d, None, &tmax, min_active, &mut occ, &mut work);
         // The same rays as queue columns (a full packet's lanes load from them): the same
         // answers, bit for bit.
@@ -82,13 +83,13 @@ fn check<S: Simd>(accel: &Accel, min_active: u32) -> PacketWork {
             col(|v| v.z, &d),
         ];
         let cols = Some(Columns([&c[0][..], &c[1][..], &c[2][..], &c[3][..], &c[4][..], &c[5][..]]));
-        let (mut out_c, mut occ_c) = ([(0.0, 0); MAX], [false; MAX]);
+        let (mut out_c, mut occ_c) = ([(0.0, 0); LANES], [false; LANES]);
         accel.closest_packet::<S>(&o, &d, cols, 0.0, min_active, &mut out_c, &mut PacketWork::default());
         accel.occluded_packet::<S>(&o, &d, cols, &tmax, min_active, &mut occ_c, &mut PacketWork::default());
         let bits = |v: &[(f32, u32)]| v.iter().map(|&(t, p)| (t.to_bits(), p)).collect::<Vec<_>>();
         assert_eq!((bits(&out_c[..n]), &occ_c[..n]), (bits(&out[..n]), &occ[..n]));
         for l in 0..n {
-            let single = accel.closest::<false>(o[l], d[l], 0.0, f32::INFINITY, &mut Traversal::default());
+            let single = accel.closest::<false>(Ray::new(o[l], d[l], 0.0, f32::INFINITY), &mut Traversal::default());
             match single {
                 Some((t, p)) => {
                     assert_eq!(out[l].0, t, "lane {l}");
@@ -97,7 +98,7 @@ fn check<S: Simd>(accel: &Accel, min_active: u32) -> PacketWork {
                 }
                 None => assert_eq!(out[l].1, u32::MAX),
             }
-            let blocked = accel.occluded::<false>(o[l], d[l], 0.0, tmax[l], &mut Traversal::default());
+            let blocked = accel.occluded::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
             assert_eq!(occ[l], blocked, "lane {l}");
         }
     }
@@ -143,7 +144,7 @@ fn simd_kernels_equal_scalar_kernels_bit_for_bit() {
         Vec3::new(0.3, -0.2, -1.0).normalize(),
     ];
     let lanes = Lanes::<f32x8>::new(&o, &d, None, 0.0);
-    let mut t = [0.0; MAX];
+    let mut t = [0.0; LANES];
     lanes.triangle(v0, v1, v2, 0xff).store(&mut t);
     for l in 0..8 {
         assert_eq!(t[l].to_bits(), intersect_triangle(v0, v1, v2, o[l], d[l]).to_bits(), "lane {l}");

@@ -9,9 +9,11 @@ use glam::Vec3;
 use wide::{f32x16, f32x4, f32x8};
 
 use super::order::{octant, packet_order, Order};
-use super::packet::{Columns, PacketConfig, PacketWork, Simd, MAX};
+use super::packet::{Columns, PacketConfig, PacketWork};
+use super::Ray;
 use super::{Accel, Traversal};
 use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
+use crate::simd::{Vector, LANES};
 
 /// SIMD width of a packet kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -193,7 +195,7 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    fn closest_packets<S: Simd>(
+    fn closest_packets<S: Vector>(
         &mut self,
         rays: &RayQueue,
         coherence: Coherence,
@@ -208,7 +210,7 @@ impl<'a> Tracer<'a> {
         let how = if coherence == Coherence::Camera { Order::Keep } else { cfg.bounce_order };
         packet_order(self.accel, n, |i| rays.origin(i), |i| rays.dir(i), how, &mut self.order);
         let mut pw = PacketWork::default();
-        let (mut o, mut d, mut out) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [(0.0f32, 0u32); MAX]);
+        let (mut o, mut d, mut out) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [(0.0f32, 0u32); LANES]);
         let leave = self.kernel.leave_packets(coherence);
         let mut alone = false;
         for (p, group) in self.order.chunks(S::LANES).enumerate() {
@@ -252,13 +254,13 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    fn occluded_packets<S: Simd>(&mut self, shadow: &ShadowQueue, cfg: PacketConfig) {
+    fn occluded_packets<S: Vector>(&mut self, shadow: &ShadowQueue, cfg: PacketConfig) {
         let accel = self.accel;
         packet_order(accel, shadow.len(), |i| shadow.origin(i), |i| shadow.dir(i), cfg.shadow_order, &mut self.order);
         self.blocked.resize(shadow.len(), false);
         let mut pw = PacketWork::default();
-        let (mut o, mut d, mut t) = ([Vec3::ZERO; MAX], [Vec3::ZERO; MAX], [0.0f32; MAX]);
-        let mut blocked = [false; MAX];
+        let (mut o, mut d, mut t) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [0.0f32; LANES]);
+        let mut blocked = [false; LANES];
         let leave = self.kernel.leave_packets(Coherence::Bounce);
         let mut alone = false;
         for (p, group) in self.order.chunks(S::LANES).enumerate() {
@@ -342,9 +344,9 @@ fn single_closest<const COUNT: bool>(
     work: &mut Traversal,
 ) -> (f32, u32) {
     let hit = if kernel.wide_singles() {
-        accel.closest_wide::<COUNT>(o, d, 0.0, f32::INFINITY, work)
+        accel.closest_wide::<COUNT>(Ray::new(o, d, 0.0, f32::INFINITY), work)
     } else {
-        accel.closest::<COUNT>(o, d, 0.0, f32::INFINITY, work)
+        accel.closest::<COUNT>(Ray::new(o, d, 0.0, f32::INFINITY), work)
     };
     hit.unwrap_or((f32::INFINITY, MISS))
 }
@@ -360,8 +362,8 @@ fn single_occluded<const COUNT: bool>(
     work: &mut Traversal,
 ) -> bool {
     if kernel.wide_singles() {
-        accel.occluded_wide::<COUNT>(o, d, 0.0, tmax, work)
+        accel.occluded_wide::<COUNT>(Ray::new(o, d, 0.0, tmax), work)
     } else {
-        accel.occluded::<COUNT>(o, d, 0.0, tmax, work)
+        accel.occluded::<COUNT>(Ray::new(o, d, 0.0, tmax), work)
     }
 }

@@ -1,5 +1,8 @@
 //! Loading a scene: TOML parsing, `--set` overrides, validation with file/line/field
-//! in every message, mesh loading, and the BVH build.
+//! in every message, mesh loading, and the BVH build. The objects and lights of a scene
+//! description become primitives in `objects`.
+
+mod objects;
 
 use glam::Vec3;
 use serde::Deserialize;
@@ -8,11 +11,12 @@ use std::path::{Path, PathBuf};
 
 use super::format::*;
 use super::mitsuba::xml::Loc;
-use super::objects::transform;
+pub use super::text::{line_col, read_text};
 use super::{AaMode, Camera, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
-use crate::geometry::bvh::BvhQuality;
-use crate::geometry::NO_LIGHT;
+use crate::accel::BvhQuality;
+use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
+use objects::transform;
 
 /// Largest coordinate, edge or radius magnitude: the squared length of a cross product of
 /// two edges, (4e9)⁴ = 2.6e38, must stay below f32::MAX (3.4e38), or normals and
@@ -173,27 +177,6 @@ impl Ctx<'_> {
         }
         in_table(self.doc.as_ref()?.as_table(), offset, &mut Vec::new())
     }
-}
-
-/// 1-based line and column of byte `offset` in `text`.
-pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rfind('\n').map_or(before.len(), |nl| before.len() - nl - 1) + 1;
-    (line, col)
-}
-
-/// Reads a text file (a scene, an include). Bytes that are not UTF-8 are an error that
-/// says where: `FILE:LINE:COL: not UTF-8 text (byte N)`.
-pub fn read_text(path: &Path) -> Result<String> {
-    let name = path.display();
-    let bytes = std::fs::read(path).map_err(|e| Error::input(format!("`{name}`: cannot read: {e}")))?;
-    String::from_utf8(bytes).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
-        let good = std::str::from_utf8(&e.as_bytes()[..at]).unwrap_or_default();
-        let (line, col) = line_col(good, at);
-        Error::input(format!("{name}:{line}:{col}: not UTF-8 text (byte {at})"))
-    })
 }
 
 /// Parses, overrides, validates and builds a scene. `sets` are `KEY=VALUE` overrides
@@ -647,13 +630,13 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         names.insert(name.as_str(), materials.len() as u32);
         materials.push(material(name, m, ctx)?);
     }
-    let (prims, lights, normals) = super::objects::objects(f, ctx, &names, &mut info)?;
+    let (prims, lights, normals) = objects::objects(f, ctx, &names, &mut info)?;
     // Only specular materials that some object uses give the scatter stage work.
     let has_specular = prims
         .iter()
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = prims.len();
-    let (accel, normals) = super::objects::build_accel(prims, normals, settings.bvh);
+    let (accel, normals) = objects::build_accel(prims, normals, settings.bvh);
     info.bvh_seconds = accel.build_seconds;
     Ok(Scene { settings, camera, background, materials, lights, accel, normals, has_specular, info })
 }

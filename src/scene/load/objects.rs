@@ -6,12 +6,13 @@ use glam::Vec3;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::format::*;
-use super::load::{available_memory, color, coord, edges, in_range, vec3, Ctx, MAX_COORD};
-use super::transform::Transform;
-use super::{Light, SceneInfo};
-use crate::geometry::bvh::{BvhQuality, LEAF};
-use crate::geometry::{Accel, Primitive, Shape, NO_LIGHT};
+use super::{available_memory, color, coord, edges, in_range, vec3, Ctx, MAX_COORD};
+use crate::accel::{Accel, Primitive, Shape, NO_LIGHT};
+use crate::accel::{BvhQuality, MAX_LEAF};
+use crate::scene::format::*;
+use crate::scene::mesh::{self, MeshData};
+use crate::scene::transform::Transform;
+use crate::scene::{Light, SceneInfo};
 use crate::Result;
 
 /// Per primitive (in build order): its three vertex normals, for smooth meshes.
@@ -144,7 +145,7 @@ pub(super) fn objects(
                 if outside_folder(&ctx.src.dir, &mesh_path) {
                     info.outside_paths.push(mesh_path.display().to_string());
                 }
-                let mesh = super::mesh::load_mesh(&mesh_path).map_err(fail)?;
+                let mesh = load_mesh(&mesh_path).map_err(fail)?;
                 let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
                 let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
                 let after = transform_opt(ctx, &path, transform)?;
@@ -170,7 +171,7 @@ pub(super) fn objects(
                 }
                 let vertex_normals = smooth.then(|| {
                     if mesh.normals.is_empty() {
-                        super::mesh::vertex_normals(&positions, &tris)
+                        mesh::vertex_normals(&positions, &tris)
                     } else {
                         // The file's normals follow the mesh: rotated with it, and through
                         // the inverse transpose of a non-uniform scale.
@@ -271,7 +272,7 @@ fn outside_folder(dir: &Path, path: &Path) -> bool {
 fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
     let (e1, e2) = (v1 - v0, v2 - v0);
     let n = e1.cross(e2);
-    let len = super::mesh::cross_length(n);
+    let len = mesh::cross_length(n);
     (len > 0.0 && len.is_finite()).then(|| Light::Triangle { v0, e1, e2, normal: n / len, area: 0.5 * len, radiance })
 }
 
@@ -282,13 +283,13 @@ fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
 /// normals table is empty and the build is the plain one.
 pub(super) fn build_accel(mut prims: Vec<Primitive>, normals: Normals, quality: BvhQuality) -> (Accel, Vec<[Vec3; 3]>) {
     if normals.iter().all(Option::is_none) {
-        return (Accel::build_with(prims, LEAF, quality), Vec::new());
+        return (Accel::build_with(prims, MAX_LEAF, quality), Vec::new());
     }
     let materials: Vec<u32> = prims.iter().map(|p| p.material).collect();
     for (i, p) in prims.iter_mut().enumerate() {
         p.material = i as u32;
     }
-    let mut accel = Accel::build_with(prims, LEAF, quality);
+    let mut accel = Accel::build_with(prims, MAX_LEAF, quality);
     let mut table = Vec::with_capacity(accel.prims.len());
     for p in &mut accel.prims {
         let i = p.material as usize;
@@ -296,4 +297,15 @@ pub(super) fn build_accel(mut prims: Vec<Primitive>, normals: Normals, quality: 
         table.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
     }
     (accel, table)
+}
+
+/// Reads a mesh file, OBJ or PLY by its extension (`.ply`, case-insensitive; anything
+/// else is read as OBJ).
+fn load_mesh(path: &Path) -> std::result::Result<MeshData, String> {
+    let ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+    if ply {
+        crate::scene::ply::load_ply(path)
+    } else {
+        mesh::load_obj_mesh(path)
+    }
 }

@@ -1,0 +1,360 @@
+//! The acceleration structure and the rules every kernel shares.
+//!
+//! [`Accel`] holds the primitives in leaf order and the trees over them: obvhs's binary
+//! tree (`bvh2/`: its build and the binary single-ray walk), the wide tree collapsed from
+//! it (`wide/`: the collapse, the node layout, the single-ray walk) and the packet walk
+//! over the binary tree (`packet/`). Every traversal entry point is a method of
+//! [`Accel`] here and takes a [`Ray`]; every kernel follows the rules defined here (the
+//! conservative box test [`slab`] with [`inv_dir`]'s reciprocals, the culling slack
+//! [`CULL`], the tie rule [`nearer`] with [`tie_limit`], boxes widened by one float), so
+//! all of them return the same hit, bit for bit, whatever the tree and the order they
+//! walk it in. Beside them: the shapes and their intersection (`shapes`), robust ray
+//! origins (`offset`), the order rays are cut into packets in (`order`) and the tracer
+//! context the stages call (`tracer`).
+
+pub mod bvh2;
+pub mod offset;
+pub mod order;
+pub mod packet;
+pub mod shapes;
+pub mod tracer;
+pub mod wide;
+
+pub use shapes::{Primitive, Shape, NO_LIGHT};
+
+use glam::Vec3;
+use obvhs::bvh2::Bvh2;
+use obvhs::BvhBuildParams;
+use std::time::Instant;
+
+use crate::simd::Vector;
+use wide::{Wide, WideBvh};
+
+/// Traversal work counters: what one or more traversals cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Traversal {
+    /// BVH nodes whose bounding box was tested.
+    pub nodes: u64,
+    /// Primitives whose intersection test ran.
+    pub prims: u64,
+    /// Packet traversals: node pairs tested for a packet (one SIMD test each, 16 lanes in
+    /// the renderer).
+    pub packet_steps: u64,
+    /// Active lanes summed over those tests (utilisation = lanes / (LANES · steps)).
+    pub packet_lanes: u64,
+    /// Rays traced in packets (the rest went one at a time).
+    pub packet_rays: u64,
+}
+
+/// Most primitives per leaf (obvhs's collapse may make leaves smaller; measured:
+/// docs/performance.md).
+pub const MAX_LEAF: u32 = 8;
+
+/// Conservative ray–box slab test: the far distance is widened by 1 + 2γ₃ (PBRT's
+/// bound on the rounding of the slab distances), so a ray through a box's edge or corner
+/// is never lost to rounding.
+#[inline(always)]
+pub(crate) fn slab(b: &obvhs::aabb::Aabb, ray: &SlabRay) -> f32 {
+    const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+    let t1 = (b.min - ray.origin) * ray.inv_direction;
+    let t2 = (b.max - ray.origin) * ray.inv_direction;
+    let tmin = t1.min(t2).max_element();
+    let tmax = t1.max(t2).min_element() * WIDEN;
+    if tmax >= tmin && tmax >= 0.0 {
+        tmin
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// The reciprocal of a ray direction's component for the slab tests: `1/x`, clamped to
+/// ±`f32::MAX` (a zero component gives ±MAX by its sign). Never NaN and never zero, so
+/// `(bound − origin) · inv` is never NaN (a bound on the origin's plane gives 0). obvhs's
+/// `Ray::new` clamps at ±1/ε instead, which is not conservative: a ray parallel to an axis
+/// passing within `t / 8.4·10⁶` inside a box's face (a camera ray exactly along −z, 10⁻⁶
+/// from a triangle's edge at distance 10) gets a slab interval on that axis ending before
+/// its hit, and the box is skipped; every kernel builds its rays with this instead.
+#[inline(always)]
+pub(crate) fn inv_dir(x: f32) -> f32 {
+    (1.0 / x).clamp(-f32::MAX, f32::MAX)
+}
+
+/// A ray segment: the distances `(tmin, tmax)` along `dir` from `origin`, both bounds
+/// exclusive. What every traversal entry point takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Where the ray starts.
+    pub origin: Vec3,
+    /// Its direction (any length; distances are in its units).
+    pub dir: Vec3,
+    /// Hits at or before this distance are ignored.
+    pub tmin: f32,
+    /// Hits at or past this distance are ignored.
+    pub tmax: f32,
+}
+
+impl Ray {
+    /// The segment `(tmin, tmax)` of the ray from `origin` along `dir`.
+    #[inline(always)]
+    pub fn new(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Ray {
+        Ray { origin, dir, tmin, tmax }
+    }
+
+    /// The whole ray, `(0, ∞)`: what camera and bounce rays search.
+    #[inline(always)]
+    pub fn infinite(origin: Vec3, dir: Vec3) -> Ray {
+        Ray::new(origin, dir, 0.0, f32::INFINITY)
+    }
+
+    /// The ray with [`inv_dir`]'s reciprocals, as the slab tests and obvhs take it.
+    #[inline(always)]
+    pub(crate) fn slab(self) -> SlabRay {
+        let d = self.dir;
+        SlabRay {
+            origin: self.origin.into(),
+            direction: d.into(),
+            inv_direction: glam::Vec3A::new(inv_dir(d.x), inv_dir(d.y), inv_dir(d.z)),
+            tmin: self.tmin,
+            tmax: self.tmax,
+        }
+    }
+}
+
+/// A ray as obvhs and the box tests take it: with its direction's reciprocals.
+pub(crate) type SlabRay = obvhs::ray::Ray;
+
+/// The bound to test a primitive against in a closest-hit search that has found `best`
+/// so far (`(∞, u32::MAX)` before any hit) along a ray whose limit is now `tmax`: `tmax`
+/// itself before a hit (exclusive, as callers ask); after one (`tmax` = its distance),
+/// the next float up, so a primitive hit at exactly that distance is found too and
+/// [`nearer`] can rule on the tie.
+#[inline(always)]
+pub(crate) fn tie_limit(best: (f32, u32), tmax: f32) -> f32 {
+    if best.1 == u32::MAX {
+        tmax
+    } else {
+        tmax.next_up()
+    }
+}
+
+/// The closest-hit rule of every kernel: a hit at `t` (below [`tie_limit`]) by primitive
+/// `id` replaces `best` when nearer, or exactly as near with a lower id. So the answer is
+/// the lowest-id primitive at the closest distance whatever order a traversal (binary,
+/// wide, packet; any tree) meets them in; exact ties happen where surfaces meet, on two
+/// walls' shared edge, and the primitive decides the normal and material.
+#[inline(always)]
+pub(crate) fn nearer(t: f32, id: u32, best: (f32, u32)) -> bool {
+    t < best.0 || (t == best.0 && id < best.1)
+}
+
+/// A box is skipped only when its entry distance exceeds the ray's current `tmax` by more
+/// than `tmax · (CULL − 1) + Accel::slack`. The entry distance and a primitive's hit
+/// distance round independently, so a primitive lying on a face of its own box (every
+/// axis-aligned triangle) can have an entry distance past its hit distance: by ulps of t
+/// for distant hits, by ulps of the scene's coordinates for close ones. Culling at `tmax`
+/// exactly (as pbrt does) then loses that hit whenever a slightly farther one was found
+/// first, and the result depends on traversal order. The slack (2⁻¹⁶ of t, plus 2⁻¹⁶ of the
+/// scene's largest coordinate) costs a few extra box visits and keeps the scalar and packet
+/// traversals on the same hits.
+pub(crate) const CULL: f32 = 1.0 + 1.0 / 65536.0;
+
+/// Primitives reordered to the BVH's leaf order, with the BVH over them.
+pub struct Accel {
+    /// Primitives, in BVH order: a traversal's primitive id indexes this directly.
+    pub prims: Vec<Primitive>,
+    /// The binary tree (obvhs's), for packets and the binary single-ray walk.
+    pub(crate) bvh: Option<Bvh2>,
+    /// The same tree collapsed to [`Wide`] children per node, for single rays (`None`
+    /// when empty or not encodable: the binary traversal then serves).
+    pub(crate) wide: Option<WideBvh<Wide>>,
+    /// Depth of the tree (root = 1), which bounds the traversal stack.
+    pub(crate) depth: usize,
+    /// Absolute culling slack (see [`CULL`]).
+    pub(crate) slack: f32,
+    /// Seconds the BVH build took.
+    pub build_seconds: f64,
+}
+
+/// Widens every node's box by one float outward on each side. A ray parallel to an axis
+/// (a zero direction component, reciprocal ±`f32::MAX`: [`inv_dir`]) that runs exactly in
+/// a box's face plane gets `(bound − o) · inv` = 0 for that face: kept when it is the near
+/// face, skipped when it is the far one. The triangle test still reports hits on that
+/// face (on an edge two triangles share), so which of them a ray along a shared edge met
+/// depended on which box the tree put each in. Widened, a face that primitives touch is
+/// never exactly in the ray's plane on the wrong side, the box is kept, and every kernel
+/// meets every primitive the ray touches, whatever the tree. Parents contain their
+/// children's widened boxes (rounding outward is monotone).
+fn widen_boxes(bvh: &mut Bvh2) {
+    for node in &mut bvh.nodes {
+        let b = node.aabb();
+        let out = |v: glam::Vec3A, up: bool| {
+            glam::Vec3A::from(v.to_array().map(|x| if up { x.next_up() } else { x.next_down() }))
+        };
+        let widened = obvhs::aabb::Aabb { min: out(b.min, false), max: out(b.max, true) };
+        node.set_aabb(widened);
+    }
+}
+
+/// How much time the BVH build spends on the tree's quality (the names are Embree's
+/// `RTC_BUILD_QUALITY_*`). Every kernel's answers are the same either way, bit for bit;
+/// only the build's and the traversal's times differ (measured: docs/performance.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BvhQuality {
+    /// obvhs's medium preset: the build 0.55–0.75× as long as `High`'s, incoherent rays
+    /// through the wide kernel up to 11% slower on the scanned meshes.
+    Medium,
+    /// obvhs's slow preset (a wider PLOC search, more reinsertion).
+    #[default]
+    High,
+}
+
+impl Accel {
+    /// Builds the BVH over `prims` (which may be empty) with leaves of at most [`MAX_LEAF`]
+    /// primitives, at [`BvhQuality::High`].
+    pub fn build(prims: Vec<Primitive>) -> Accel {
+        Accel::build_with(prims, MAX_LEAF, BvhQuality::High)
+    }
+
+    /// [`Accel::build`] with leaves of at most `max_leaf` primitives (1 to 64; the SAH
+    /// decides below that) and the given quality.
+    pub fn build_with(prims: Vec<Primitive>, max_leaf: u32, quality: BvhQuality) -> Accel {
+        let start = Instant::now();
+        if prims.is_empty() {
+            return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
+        }
+        let preset = match quality {
+            BvhQuality::Medium => BvhBuildParams::medium_build(),
+            BvhQuality::High => BvhBuildParams::slow_build(),
+        };
+        // The slow preset's pre-splitting, which `build_bvh2` does not do, would duplicate
+        // primitive references.
+        let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), pre_split: false, ..preset };
+        let (mut bvh, mut fine) = bvh2::build(&prims, &params);
+        widen_boxes(&mut bvh);
+        widen_boxes(&mut fine);
+        // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
+        // mesh (found by fuzzing) builds deeper trees, which take obvhs's traversal (see
+        // `STACK`), so give it a stack that holds them, as obvhs's own insertion does.
+        bvh.max_depth = (bvh.depth(0) + 1).max(bvh.max_depth);
+        #[cfg(debug_assertions)]
+        bvh.validate(&prims, false, params.pre_split);
+        // Reorder once so traversal needs no primitive_indices indirection.
+        let prims: Vec<Primitive> = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
+        let depth = bvh.depth(0);
+        let root = bvh.nodes[0].aabb();
+        let scale = Vec3::from(root.min).abs().max(Vec3::from(root.max).abs()).max_element();
+        let slack = if scale.is_finite() { scale / 65536.0 } else { 0.0 };
+        // The one-primitive-leaf tree indexes the input order; point it at the reordered
+        // primitives, whose ids the wide kernel returns.
+        let mut id_of = vec![0u32; prims.len()];
+        for (new, &old) in bvh.primitive_indices.iter().enumerate() {
+            id_of[old as usize] = new as u32;
+        }
+        for i in &mut fine.primitive_indices {
+            *i = id_of[*i as usize];
+        }
+        let wide = WideBvh::build(&fine, &prims, params.max_prims_per_leaf);
+        Accel { prims, bvh: Some(bvh), wide, depth, slack, build_seconds: start.elapsed().as_secs_f64() }
+    }
+
+    /// Bytes of the acceleration structure beside the primitives: the binary nodes, the
+    /// wide nodes and the primitives themselves, in that order.
+    pub fn bytes(&self) -> [usize; 3] {
+        [
+            self.bvh.as_ref().map_or(0, |b| b.nodes.len() * std::mem::size_of::<obvhs::bvh2::node::Bvh2Node>()),
+            self.wide.as_ref().map_or(0, WideBvh::bytes),
+            self.prims.len() * std::mem::size_of::<Primitive>(),
+        ]
+    }
+
+    /// Bounds of everything in the tree (zero-size at the origin when empty).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match self.bvh.as_ref().and_then(|b| b.nodes.first()) {
+            Some(root) => (root.aabb().min.into(), root.aabb().max.into()),
+            None => (Vec3::ZERO, Vec3::ZERO),
+        }
+    }
+
+    /// Closest hit along `ray`: `(t, primitive index)`, or `None`; one ray through the
+    /// binary tree. Counts its work in `c` when `COUNT`.
+    #[inline]
+    pub fn closest<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
+        bvh2::closest::<COUNT>(self, ray, c)
+    }
+
+    /// True when some non-emitting primitive blocks `ray`'s segment; stops at the first
+    /// blocker. Area lights never block shadow rays. One ray through the binary tree.
+    #[inline]
+    pub fn occluded<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
+        bvh2::occluded::<COUNT>(self, ray, c)
+    }
+
+    /// [`Accel::closest`] through the wide BVH (one ray, all of a node's children in one
+    /// SIMD test): the same hit bit for bit.
+    #[inline]
+    pub fn closest_wide<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
+        match &self.wide {
+            Some(w) => w.closest::<COUNT>(&self.prims, self.slack, ray, c),
+            None => self.closest::<COUNT>(ray, c),
+        }
+    }
+
+    /// [`Accel::occluded`] through the wide BVH: the same answer.
+    #[inline]
+    pub fn occluded_wide<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
+        match &self.wide {
+            Some(w) => w.occluded::<COUNT>(&self.prims, self.slack, ray, c),
+            None => self.occluded::<COUNT>(ray, c),
+        }
+    }
+
+    /// [`Accel::closest`] through obvhs's own single-ray traversal: the fallback for
+    /// binary trees too deep for the fixed stack, and a reference the benchmarks compare
+    /// with (it may differ on ties within rounding: see [`CULL`]).
+    pub fn closest_obvhs(&self, ray: Ray) -> Option<(f32, u32)> {
+        bvh2::closest_obvhs(self, ray)
+    }
+
+    /// [`Accel::occluded`] through obvhs's own any-hit traversal.
+    pub fn occluded_obvhs(&self, ray: Ray) -> bool {
+        bvh2::occluded_obvhs(self, ray)
+    }
+
+    /// Closest hits of a packet of up to `S::LANES` rays (`o`, `d` of equal length) within
+    /// `(tmin, ∞)`, walked together through the binary tree: `out[l]` is `(t, primitive)`
+    /// or `(∞, u32::MAX)`, the same hits as [`Accel::closest`]. `min_active`: see
+    /// [`PacketConfig::min_active`](packet::PacketConfig::min_active). `cols`: the same
+    /// rays as queue columns, when they are a full packet of consecutive entries.
+    #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
+    #[inline]
+    pub fn closest_packet<S: Vector>(
+        &self,
+        o: &[Vec3],
+        d: &[Vec3],
+        cols: Option<packet::Columns>,
+        tmin: f32,
+        min_active: u32,
+        out: &mut [(f32, u32)],
+        work: &mut packet::PacketWork,
+    ) {
+        packet::closest::<S>(self, o, d, cols, tmin, min_active, out, work)
+    }
+
+    /// Any-hit tests of a packet of up to `S::LANES` shadow segments `(0, tmax[l])`:
+    /// `out[l]` is true when a non-emitting primitive blocks lane l, the same answers as
+    /// [`Accel::occluded`]. `cols` as for [`Accel::closest_packet`].
+    #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
+    #[inline]
+    pub fn occluded_packet<S: Vector>(
+        &self,
+        o: &[Vec3],
+        d: &[Vec3],
+        cols: Option<packet::Columns>,
+        tmax: &[f32],
+        min_active: u32,
+        out: &mut [bool],
+        work: &mut packet::PacketWork,
+    ) {
+        packet::occluded::<S>(self, o, d, cols, tmax, min_active, out, work)
+    }
+}
