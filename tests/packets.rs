@@ -61,6 +61,7 @@ fn bvh_quality_changes_no_bit() {
 
 use glam::Vec3;
 use wavetrace::accel::packet::{PacketConfig, PacketWork};
+use wavetrace::accel::wide::INTERLEAVE;
 use wavetrace::accel::{Accel, Primitive, Ray, Shape, Traversal, NO_LIGHT};
 use wavetrace::simd::{Vector, LANES};
 use wide::{f32x16, f32x4, f32x8};
@@ -190,6 +191,51 @@ fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
         &wrong[..wrong.len().min(5)]
     );
     assert!(o.is_empty() || cw.nodes > 0, "{label}: the wide kernel ran");
+    check_interleaved(accel, o, d, label);
+}
+
+/// The interleaved kernel (rays walked [`INTERLEAVE`] at a time, finishing out of order)
+/// against the wide kernel one ray at a time: the same hits and blockers, bit for bit,
+/// and the same work counted.
+fn check_interleaved(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
+    let n = o.len();
+    let (mut ci, mut cw) = (Traversal::default(), Traversal::default());
+    let mut hits = vec![None; n];
+    let mut seen = vec![0u32; n];
+    let ray = |i: usize| Ray::new(o[i], d[i], 0.0, f32::INFINITY);
+    accel.closest_many::<true>(n, ray, |i, h| (hits[i], seen[i]) = (h, seen[i] + 1), &mut ci);
+    let tmax: Vec<f32> =
+        (0..n).map(|i| hits[i].map_or(1e3, |(t, _): (f32, u32)| t * (0.25 + (i % 7) as f32 * 0.15))).collect();
+    let mut blocked = vec![false; n];
+    accel.occluded_many::<true>(
+        n,
+        |i| Ray::new(o[i], d[i], 0.0, tmax[i]),
+        |i, b| (blocked[i], seen[i]) = (b, seen[i] + 2),
+        &mut ci,
+    );
+    let mut wrong = Vec::new();
+    for i in 0..n {
+        let single = accel.closest_wide::<true>(ray(i), &mut cw);
+        let occluded = accel.occluded_wide::<true>(Ray::new(o[i], d[i], 0.0, tmax[i]), &mut cw);
+        let same = match (single, hits[i]) {
+            (Some((t, p)), Some((u, q))) => t.to_bits() == u.to_bits() && p == q,
+            (None, None) => true,
+            _ => false,
+        };
+        if !same || occluded != blocked[i] || seen[i] != 3 {
+            wrong.push(format!(
+                "ray {i}: interleaved {:?} {} (answered {}) wide {single:?} {occluded}",
+                hits[i], blocked[i], seen[i]
+            ));
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "{label}, interleaved: {} of {n} rays differ: {:?}",
+        wrong.len(),
+        &wrong[..wrong.len().min(5)]
+    );
+    assert_eq!((ci.nodes, ci.prims), (cw.nodes, cw.prims), "{label}: the interleaved walks do the single walks' work");
 }
 
 fn check_accel(accel: &Accel, n: usize, label: &str) {
@@ -311,7 +357,7 @@ fn icosphere(levels: u32, c: Vec3, r: f32) -> (Vec<Vec3>, Vec<[usize; 3]>) {
 }
 
 #[test]
-fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_or_wide_kernel() {
+fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_wide_or_interleaved_kernel() {
     let (c, r) = (Vec3::new(0.3, -0.2, 0.1), 1.7);
     let (v, f) = icosphere(4, c, r);
     let accel = Accel::build(
@@ -372,6 +418,15 @@ fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_or_wide_kernel() {
     let unblocked =
         (0..n).filter(|&i| !accel.occluded_wide::<true>(Ray::new(o[i], d[i], 0.0, 4.0 * r), &mut c)).count();
     assert_eq!((escaped, unblocked), (0, 0), "wide kernel: of {n} rays from inside a closed mesh");
+    let (mut escaped, mut unblocked) = (0, 0);
+    accel.closest_many::<false>(
+        n,
+        |i| Ray::new(o[i], d[i], 0.0, f32::INFINITY),
+        |_, h| escaped += h.is_none() as usize,
+        &mut c,
+    );
+    accel.occluded_many::<false>(n, |i| Ray::new(o[i], d[i], 0.0, 4.0 * r), |_, b| unblocked += !b as usize, &mut c);
+    assert_eq!((escaped, unblocked), (0, 0), "interleaved kernel: of {n} rays from inside a closed mesh");
     assert!(c.nodes > 0);
 }
 
@@ -418,5 +473,37 @@ fn axis_parallel_rays_along_a_shared_edge_hit_the_wall_in_every_kernel() {
         check_width::<f32x4>(&accel, &o, &d, cfg, "wall");
         check_width::<f32x8>(&accel, &o, &d, cfg, "wall");
         check_width::<f32x16>(&accel, &o, &d, cfg, "wall");
+    }
+}
+
+/// The renderer's hybrid kernel on incoherent queues, with the interleaved walk forced on
+/// (the tree is small, so the cache rule alone would not take it) and off: the same hits
+/// and blockers as the wide kernel one ray at a time.
+#[test]
+fn hybrid_tracer_with_and_without_interleaving_equals_the_wide_kernel() {
+    use wavetrace::accel::tracer::{Coherence, Kernel, Tracer};
+    use wavetrace::queue::{HitQueue, RayQueue, ShadowQueue};
+    let mut accel =
+        mesh_accel(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/stanford-bunny.obj"));
+    let (o, d) = rays(&accel, 5000, false, 11);
+    let mut rays_q = RayQueue::default();
+    let mut shadow = ShadowQueue::default();
+    for (i, (&o, &d)) in o.iter().zip(&d).enumerate() {
+        rays_q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0);
+        shadow.push(o, d, 0.05 + (i % 13) as f32 * 0.02, i as u32, Vec3::ONE);
+    }
+    let answers = |accel: &Accel, kernel: Kernel| {
+        let mut tracer = Tracer::new(accel, kernel, true);
+        let mut hits = HitQueue::default();
+        tracer.closest(&rays_q, Coherence::Bounce, &mut hits);
+        let blocked = tracer.occluded(&shadow).to_vec();
+        (hits.t.iter().map(|t| t.to_bits()).collect::<Vec<_>>(), hits.prim.clone(), blocked)
+    };
+    let expect = answers(&accel, Kernel::Wide);
+    assert!(expect.2.iter().any(|&b| b) && expect.2.iter().any(|&b| !b), "some shadow rays blocked, some not");
+    for interleave in [false, true] {
+        accel.interleave = interleave;
+        assert!(answers(&accel, Kernel::HYBRID) == expect, "hybrid, interleave {interleave}");
+        assert!(answers(&accel, Kernel::Interleaved) == expect, "interleaved kernel");
     }
 }

@@ -173,6 +173,34 @@ pub struct Accel {
     pub(crate) slack: f32,
     /// Seconds the BVH build took.
     pub build_seconds: f64,
+    /// Whether incoherent queues walk interleaved ([`Accel::closest_many`]) rather than
+    /// one ray at a time: when the wide tree is larger than the last-level cache
+    /// ([`last_level_cache`]). Interleaving overlaps memory loads at the cost of more
+    /// work per step, so it pays only where the walks wait on memory (measured:
+    /// docs/performance.md). Either way the answers are the same.
+    pub interleave: bool,
+}
+
+/// Bytes of this machine's largest CPU cache (Linux sysfs; 32 MiB where it cannot be read).
+pub fn last_level_cache() -> usize {
+    let read =
+        |k: usize, f: &str| std::fs::read_to_string(format!("/sys/devices/system/cpu/cpu0/cache/index{k}/{f}")).ok();
+    let size = |s: String| {
+        let s = s.trim();
+        let (n, unit) = s.split_at(s.find(|c: char| !c.is_ascii_digit()).unwrap_or(s.len()));
+        let n: usize = n.parse().ok()?;
+        Some(
+            n * match unit {
+                "K" => 1 << 10,
+                "M" => 1 << 20,
+                _ => 1,
+            },
+        )
+    };
+    (0..8)
+        .filter_map(|k| Some((read(k, "level")?.trim().parse::<u32>().ok()?, size(read(k, "size")?)?)))
+        .max()
+        .map_or(32 << 20, |(_, bytes)| bytes)
 }
 
 /// Widens every node's box by one float outward on each side. A ray parallel to an axis
@@ -220,7 +248,7 @@ impl Accel {
     pub fn build_with(prims: Vec<Primitive>, max_leaf: u32, quality: BvhQuality) -> Accel {
         let start = Instant::now();
         if prims.is_empty() {
-            return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0 };
+            return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0, interleave: false };
         }
         let preset = match quality {
             BvhQuality::Medium => BvhBuildParams::medium_build(),
@@ -254,7 +282,8 @@ impl Accel {
             *i = id_of[*i as usize];
         }
         let wide = WideBvh::build(&fine, &prims, params.max_prims_per_leaf);
-        Accel { prims, bvh: Some(bvh), wide, depth, slack, build_seconds: start.elapsed().as_secs_f64() }
+        let interleave = wide.as_ref().is_some_and(|w| w.bytes() > last_level_cache());
+        Accel { prims, bvh: Some(bvh), wide, depth, slack, build_seconds: start.elapsed().as_secs_f64(), interleave }
     }
 
     /// Bytes of the acceleration structure beside the primitives: the binary nodes, the
@@ -305,6 +334,39 @@ impl Accel {
         match &self.wide {
             Some(w) => w.occluded::<COUNT>(&self.prims, self.slack, ray, c),
             None => self.occluded::<COUNT>(ray, c),
+        }
+    }
+
+    /// [`Accel::closest`] of `n` rays (`ray(i)`), walked [`INTERLEAVE`](wide::INTERLEAVE)
+    /// at a time through the wide BVH so that their memory loads overlap: `out(i, hit)`
+    /// for every ray, in the order they finish, each the same hit as alone.
+    #[inline]
+    pub fn closest_many<const COUNT: bool>(
+        &self,
+        n: usize,
+        ray: impl Fn(usize) -> Ray,
+        mut out: impl FnMut(usize, Option<(f32, u32)>),
+        c: &mut Traversal,
+    ) {
+        match &self.wide {
+            Some(w) => w.closest_many::<COUNT>(&self.prims, self.slack, n, ray, out, c),
+            None => (0..n).for_each(|i| out(i, self.closest::<COUNT>(ray(i), c))),
+        }
+    }
+
+    /// [`Accel::occluded`] of `n` rays, interleaved as [`Accel::closest_many`] walks them:
+    /// `out(i, blocked)` for every ray, in the order they finish.
+    #[inline]
+    pub fn occluded_many<const COUNT: bool>(
+        &self,
+        n: usize,
+        ray: impl Fn(usize) -> Ray,
+        mut out: impl FnMut(usize, bool),
+        c: &mut Traversal,
+    ) {
+        match &self.wide {
+            Some(w) => w.occluded_many::<COUNT>(&self.prims, self.slack, n, ray, out, c),
+            None => (0..n).for_each(|i| out(i, self.occluded::<COUNT>(ray(i), c))),
         }
     }
 

@@ -33,14 +33,18 @@ pub enum Kernel {
     Scalar,
     /// One ray at a time over the wide BVH (all of a node's children in one SIMD test).
     Wide,
+    /// Rays walked [`INTERLEAVE`](super::wide::INTERLEAVE) at a time over the wide BVH,
+    /// their memory loads overlapped ([`Accel::closest_many`]).
+    Interleaved,
     /// Packets of `width` lanes, formed and traced as `cfg` says (their lone rays over the
     /// binary BVH).
     Packet(Width, PacketConfig),
     /// Chosen per queue by measured coherence: camera rays in packets; bounce and shadow
     /// queues start in packets, and when their first [`PROBE`] packets keep fewer than
     /// `min_lanes` percent of their lanes active on average, the rest of the queue goes
-    /// one ray at a time over the wide BVH. Lone rays (and packets that mix octants) take
-    /// the wide BVH too.
+    /// over the wide BVH: interleaved ([`Kernel::Interleaved`]) when the tree outgrows the
+    /// last-level cache ([`Accel::interleave`]), else one ray at a time. Lone rays (and
+    /// packets that mix octants) take the wide BVH one at a time.
     Hybrid {
         /// Lanes per packet.
         width: Width,
@@ -77,7 +81,7 @@ impl Kernel {
 
     /// Whether single rays (alone, or falling out of packets) take the wide BVH.
     fn wide_singles(self) -> bool {
-        matches!(self, Kernel::Wide | Kernel::Hybrid { .. })
+        matches!(self, Kernel::Wide | Kernel::Interleaved | Kernel::Hybrid { .. })
     }
 }
 
@@ -128,10 +132,16 @@ impl<'a> Tracer<'a> {
     /// Finds the closest hit of every ray in `rays`, in order, into `hits` (cleared first).
     pub fn closest(&mut self, rays: &RayQueue, coherence: Coherence, hits: &mut HitQueue) {
         let packets = match self.kernel {
-            Kernel::Scalar | Kernel::Wide => None,
+            Kernel::Scalar | Kernel::Wide | Kernel::Interleaved => None,
             Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
         };
         match packets {
+            None if self.kernel == Kernel::Interleaved => {
+                hits.clear();
+                hits.t.resize(rays.len(), f32::INFINITY);
+                hits.prim.resize(rays.len(), MISS);
+                self.closest_interleaved(rays, 0..rays.len(), hits);
+            }
             None if self.count => self.closest_single::<true>(rays, hits),
             None => self.closest_single::<false>(rays, hits),
             Some((Width::X4, cfg)) => self.closest_packets::<f32x4>(rays, coherence, cfg, hits),
@@ -145,10 +155,14 @@ impl<'a> Tracer<'a> {
     pub fn occluded(&mut self, shadow: &ShadowQueue) -> &[bool] {
         self.blocked.clear();
         let packets = match self.kernel {
-            Kernel::Scalar | Kernel::Wide => None,
+            Kernel::Scalar | Kernel::Wide | Kernel::Interleaved => None,
             Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
         };
         match packets {
+            None if self.kernel == Kernel::Interleaved => {
+                self.blocked.resize(shadow.len(), false);
+                self.occluded_interleaved(shadow, 0..shadow.len());
+            }
             None if self.count => self.occluded_single::<true>(shadow),
             None => self.occluded_single::<false>(shadow),
             Some((Width::X4, cfg)) => self.occluded_packets::<f32x4>(shadow, cfg),
@@ -212,14 +226,20 @@ impl<'a> Tracer<'a> {
         let mut pw = PacketWork::default();
         let (mut o, mut d, mut out) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [(0.0f32, 0u32); LANES]);
         let leave = self.kernel.leave_packets(coherence);
+        let order = std::mem::take(&mut self.order);
         let mut alone = false;
-        for (p, group) in self.order.chunks(S::LANES).enumerate() {
+        for (p, group) in order.chunks(S::LANES).enumerate() {
+            if sparse(p, leave, &pw, S::LANES) && self.accel.interleave {
+                // Incoherent, and the tree outgrows the cache: the rest walks interleaved.
+                self.closest_interleaved(rays, order[p * S::LANES..].iter().map(|&(_, i)| i as usize), hits);
+                break;
+            }
+            alone = alone || sparse(p, leave, &pw, S::LANES);
             for (l, &(_, i)) in group.iter().enumerate() {
                 o[l] = rays.origin(i as usize);
                 d[l] = rays.dir(i as usize);
             }
             let k = group.len();
-            alone = alone || sparse(p, leave, &pw, S::LANES);
             if alone {
                 for l in 0..k {
                     out[l] = if self.count {
@@ -244,7 +264,39 @@ impl<'a> Tracer<'a> {
                 hits.prim[i as usize] = out[l].1;
             }
         }
+        self.order = order;
         self.add_packet_work(pw);
+    }
+
+    /// Closest hits of the rays `ids` of `rays`, interleaved, into their entries of `hits`
+    /// (already sized).
+    fn closest_interleaved(&mut self, rays: &RayQueue, ids: impl ExactSizeIterator<Item = usize>, hits: &mut HitQueue) {
+        let ids: Vec<usize> = ids.collect();
+        let ray = |k: usize| Ray::infinite(rays.origin(ids[k]), rays.dir(ids[k]));
+        let out = |k: usize, hit: Option<(f32, u32)>| {
+            let (t, prim) = hit.unwrap_or((f32::INFINITY, MISS));
+            hits.t[ids[k]] = t;
+            hits.prim[ids[k]] = prim;
+        };
+        if self.count {
+            self.accel.closest_many::<true>(ids.len(), ray, out, &mut self.work);
+        } else {
+            self.accel.closest_many::<false>(ids.len(), ray, out, &mut self.work);
+        }
+    }
+
+    /// Any-hit tests of the shadow rays `ids` of `shadow`, interleaved, into their entries
+    /// of the blocked flags (already sized).
+    fn occluded_interleaved(&mut self, shadow: &ShadowQueue, ids: impl ExactSizeIterator<Item = usize>) {
+        let ids: Vec<usize> = ids.collect();
+        let ray = |k: usize| Ray::new(shadow.origin(ids[k]), shadow.dir(ids[k]), 0.0, shadow.tmax[ids[k]]);
+        let blocked = &mut self.blocked;
+        let out = |k: usize, b: bool| blocked[ids[k]] = b;
+        if self.count {
+            self.accel.occluded_many::<true>(ids.len(), ray, out, &mut self.work);
+        } else {
+            self.accel.occluded_many::<false>(ids.len(), ray, out, &mut self.work);
+        }
     }
 
     fn occluded_single<const COUNT: bool>(&mut self, shadow: &ShadowQueue) {
@@ -262,14 +314,20 @@ impl<'a> Tracer<'a> {
         let (mut o, mut d, mut t) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [0.0f32; LANES]);
         let mut blocked = [false; LANES];
         let leave = self.kernel.leave_packets(Coherence::Bounce);
+        let order = std::mem::take(&mut self.order);
         let mut alone = false;
-        for (p, group) in self.order.chunks(S::LANES).enumerate() {
+        for (p, group) in order.chunks(S::LANES).enumerate() {
+            if sparse(p, leave, &pw, S::LANES) && accel.interleave {
+                // Incoherent, and the tree outgrows the cache: the rest walks interleaved.
+                self.occluded_interleaved(shadow, order[p * S::LANES..].iter().map(|&(_, i)| i as usize));
+                break;
+            }
+            alone = alone || sparse(p, leave, &pw, S::LANES);
             let k = group.len();
             for (l, &(_, i)) in group.iter().enumerate() {
                 let i = i as usize;
                 (o[l], d[l], t[l]) = (shadow.origin(i), shadow.dir(i), shadow.tmax[i]);
             }
-            alone = alone || sparse(p, leave, &pw, S::LANES);
             if alone {
                 for l in 0..k {
                     blocked[l] = if self.count {
@@ -293,6 +351,7 @@ impl<'a> Tracer<'a> {
                 self.blocked[i as usize] = blocked[l];
             }
         }
+        self.order = order;
         self.add_packet_work(pw);
     }
 

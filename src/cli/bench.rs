@@ -73,11 +73,11 @@ pub struct BenchArgs {
     /// Time by the process's CPU time, not the wall clock (for a shared, loaded machine).
     #[arg(long)]
     cpu_time: bool,
-    /// The kernels to measure, comma separated: scalar, packet, wide, hybrid (default:
+    /// The kernels to measure, comma separated: scalar, packet, wide, interleaved, hybrid (default:
     /// all four; their answers are checked against the first one listed).
     #[arg(long, value_enum, value_delimiter = ',', hide_possible_values = true)]
     kernels: Vec<KernelName>,
-    /// Print JSON: {"bvh_build_seconds", "primitives", "bytes_per_primitive", "threads", "clock",
+    /// Print JSON: {"bvh_build_seconds", "primitives", "bytes_per_primitive", "threads", "renderer_kernel", "clock",
     /// "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
     #[arg(long)]
     json: bool,
@@ -89,6 +89,7 @@ pub enum KernelName {
     Scalar,
     Packet,
     Wide,
+    Interleaved,
     Hybrid,
 }
 

@@ -58,7 +58,10 @@ pub struct BenchOptions {
 }
 
 /// The kernels `wavetrace bench` measures, by the names its table and JSON use.
-pub const KERNELS: [&str; 4] = ["scalar", "packet", "wide", "hybrid"];
+pub const KERNELS: [&str; 5] = ["scalar", "packet", "wide", "interleaved", "hybrid"];
+
+/// The kernel the renderer runs (`render.packets = true`), by its name in [`KERNELS`].
+pub const RENDERER_KERNEL: &str = "hybrid";
 
 impl Default for BenchOptions {
     fn default() -> Self {
@@ -133,6 +136,8 @@ pub struct BenchReport {
     pub bytes_per_primitive: [f64; 3],
     /// Worker threads.
     pub threads: usize,
+    /// The kernel the renderer runs ([`RENDERER_KERNEL`]).
+    pub renderer_kernel: &'static str,
     /// `"wall"` or `"cpu"`: which clock the Mrays/s figures divide by.
     pub clock: &'static str,
     /// One entry per set and kernel.
@@ -282,6 +287,8 @@ pub enum Kernel {
     Packet(usize, PacketConfig),
     /// One ray at a time over the wide BVH.
     Wide,
+    /// Rays interleaved over the wide BVH.
+    Interleaved,
     /// The renderer's hybrid with packets of this many lanes, leaving packets for a
     /// bounce or shadow queue below this lane utilisation (percent).
     Hybrid(usize, PacketConfig, u32),
@@ -303,6 +310,7 @@ impl Kernel {
             Kernel::Obvhs => None,
             Kernel::Scalar => Some(TracerKernel::Scalar),
             Kernel::Wide => Some(TracerKernel::Wide),
+            Kernel::Interleaved => Some(TracerKernel::Interleaved),
             Kernel::Packet(n, c) => Some(TracerKernel::Packet(width(n), c)),
             Kernel::Hybrid(n, cfg, min_lanes) => Some(TracerKernel::Hybrid { width: width(n), cfg, min_lanes }),
         }
@@ -369,12 +377,13 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
 }
 
 /// The kernels `wavetrace bench` measures, with their column names.
-fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 4] {
+fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 5] {
     [
         (KERNELS[0], Kernel::Scalar),
         (KERNELS[1], Kernel::Packet(opts.lanes, opts.packet)),
         (KERNELS[2], Kernel::Wide),
-        (KERNELS[3], Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
+        (KERNELS[3], Kernel::Interleaved),
+        (KERNELS[4], Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
     ]
 }
 
@@ -422,6 +431,7 @@ pub fn run(accel: &Accel, sets: &[(&'static str, RaySet)], opts: &BenchOptions) 
         primitives: accel.prims.len(),
         bytes_per_primitive: accel.bytes().map(|b| b as f64 / n),
         threads: opts.threads,
+        renderer_kernel: RENDERER_KERNEL,
         clock: if opts.cpu_time { "cpu" } else { "wall" },
         sets: out,
     })
@@ -456,7 +466,9 @@ impl BenchReport {
         let names: Vec<&str> = self.sets.iter().take(per).map(|r| r.kernel).collect();
         let scalar = names.iter().position(|&k| k == KERNELS[0]);
         let over: Vec<usize> = match scalar {
-            Some(_) => [KERNELS[2], KERNELS[3]].iter().filter_map(|k| names.iter().position(|n| n == k)).collect(),
+            Some(_) => {
+                [KERNELS[2], KERNELS[3], KERNELS[4]].iter().filter_map(|k| names.iter().position(|n| n == k)).collect()
+            }
             None => Vec::new(),
         };
         for k in &names {

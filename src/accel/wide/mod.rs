@@ -24,6 +24,8 @@
 mod collapse;
 mod walk;
 
+pub use walk::INTERLEAVE;
+
 use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};
 use wide::f32x8;
 
