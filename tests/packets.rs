@@ -61,7 +61,6 @@ fn bvh_quality_changes_no_bit() {
 
 use glam::Vec3;
 use wavetrace::accel::packet::{PacketConfig, PacketWork};
-use wavetrace::accel::wide::INTERLEAVE;
 use wavetrace::accel::{Accel, Primitive, Ray, Shape, Traversal, NO_LIGHT};
 use wavetrace::simd::{Vector, LANES};
 use wide::{f32x16, f32x4, f32x8};
@@ -194,7 +193,7 @@ fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
     check_interleaved(accel, o, d, label);
 }
 
-/// The interleaved kernel (rays walked [`INTERLEAVE`] at a time, finishing out of order)
+/// The interleaved kernel (rays walked `accel::wide::INTERLEAVE` at a time, finishing out of order)
 /// against the wide kernel one ray at a time: the same hits and blockers, bit for bit,
 /// and the same work counted.
 fn check_interleaved(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
