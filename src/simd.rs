@@ -257,7 +257,7 @@ macro_rules! real_vector {
                 // f32::next_up / next_down on the bits: NaN and the infinity in the step's
                 // direction stay, ±0 goes to the smallest subnormal of that sign, else the
                 // magnitude grows or shrinks by one unit in the last place.
-                let bits: $u = wide::bytemuck::cast(self);
+                let bits = self.to_bits();
                 let one = <$u>::splat(1);
                 let sign = <$u>::splat(0x8000_0000);
                 let abs = bits & !sign;
@@ -265,12 +265,11 @@ macro_rules! real_vector {
                 let positive = bits.simd_eq(abs);
                 let up = zero.select(one, positive.select(bits + one, bits - one));
                 let down = zero.select(sign | one, positive.select(bits - one, bits + one));
-                let nan: $u = wide::bytemuck::cast(self.is_nan());
+                let nan = self.is_nan().to_bits();
                 let up = (nan | bits.simd_eq(<$u>::splat(f32::INFINITY.to_bits()))).select(bits, up);
                 let down = (nan | bits.simd_eq(<$u>::splat(f32::NEG_INFINITY.to_bits()))).select(bits, down);
-                let gt: $u = wide::bytemuck::cast(s.simd_gt(<$t>::ZERO));
-                let lt: $u = wide::bytemuck::cast(s.simd_lt(<$t>::ZERO));
-                wide::bytemuck::cast(gt.select(up, lt.select(down, bits)))
+                let (gt, lt) = (s.simd_gt(<$t>::ZERO).to_bits(), s.simd_lt(<$t>::ZERO).to_bits());
+                <$t>::from_bits(gt.select(up, lt.select(down, bits)))
             }
         }
     };
