@@ -108,7 +108,10 @@ def wavetrace(args, source, export=None):
         cmd.append("--cpu-time")
     if export:
         cmd += ["--export-rays", export]
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True)
+    # The BVH build runs on rayon's global pool (obvhs's parallel build), sized by
+    # RAYON_NUM_THREADS: the same thread count as the traversal and as Embree's.
+    env = dict(os.environ, RAYON_NUM_THREADS=str(args.threads))
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True, env=env)
     return json.loads(out.stdout)
 
 
