@@ -125,24 +125,30 @@ def folder_cycles(files):
             if k == 0 or k >= len(mp) or k >= len(tp) or not is_module(tp[: k + 1]):
                 continue
             edges.setdefault(tuple(mp[:k]), {}).setdefault(mp[k], set()).add(tp[k])
-    cycles = []
-    for folder, graph in sorted(edges.items()):
-        state, stack = {}, []
+    return [
+        "/".join(folder) + ": " + " -> ".join(c) for folder, graph in sorted(edges.items()) for c in find_cycles(graph)
+    ]
 
-        def visit(m):
-            state[m] = "open"
-            stack.append(m)
-            for d in sorted(graph.get(m, ())):
-                if state.get(d) == "open":
-                    cycles.append("/".join(folder) + ": " + " -> ".join(stack[stack.index(d):] + [d]))
-                elif d not in state:
-                    visit(d)
-            stack.pop()
-            state[m] = "done"
 
-        for m in sorted(graph):
-            if m not in state:
-                visit(m)
+def find_cycles(graph):
+    """The cycles a depth-first search meets in `graph` (node -> set of nodes), each as the
+    list of its nodes with the first repeated at the end."""
+    cycles, state, stack = [], {}, []
+
+    def visit(m):
+        state[m] = "open"
+        stack.append(m)
+        for d in sorted(graph.get(m, ())):
+            if state.get(d) == "open":
+                cycles.append(stack[stack.index(d):] + [d])
+            elif d not in state:
+                visit(d)
+        stack.pop()
+        state[m] = "done"
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m)
     return cycles
 
 
@@ -192,25 +198,8 @@ def main():
         for m in sorted(uses):
             print(f"{m:10} -> {', '.join(sorted(uses[m])) or '(nothing)'}")
 
-    # Cycles: depth-first search over the top-level graph.
-    cycles, state, stack = [], {}, []
-
-    def visit(m):
-        state[m] = "open"
-        stack.append(m)
-        for d in sorted(uses.get(m, ())):
-            if state.get(d) == "open":
-                cycles.append(stack[stack.index(d):] + [d])
-            elif d not in state:
-                visit(d)
-        stack.pop()
-        state[m] = "done"
-
-    for m in sorted(uses):
-        if m not in state:
-            visit(m)
     ok = True
-    for c in cycles:
+    for c in find_cycles(uses):
         print("import cycle: " + " -> ".join(c))
         ok = False
     for c in folder_cycles(all_files):
