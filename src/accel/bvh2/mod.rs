@@ -97,11 +97,11 @@ pub(crate) fn subtree<const COUNT: bool>(
     }
 }
 
-/// obvhs's `build_bvh2` without its closing debug self-check, which asserts the tree is
+/// obvhs's `build_bvh2` (PLOC, reinsertion, leaf collapse) without its second
+/// reinsertion (below) and without its closing debug self-check, which asserts the tree is
 /// shallower than the default traversal stack before [`Accel::build_with`] can size the
-/// stack to the tree; the same steps in the same order, so the same tree. Also returns the
-/// tree as it stood before the leaf collapse (one primitive per leaf), from which the wide
-/// BVH chooses its own nodes and leaves.
+/// stack to the tree. Also returns the tree as it stood before the leaf collapse (one
+/// primitive per leaf), from which the wide BVH chooses its own nodes and leaves.
 pub(crate) fn build(prims: &[Primitive], params: &BvhBuildParams) -> (Bvh2, Bvh2) {
     let indices = (0..prims.len() as u32).collect();
     let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(prims.len()).build(
@@ -119,10 +119,12 @@ pub(crate) fn build(prims: &[Primitive], params: &BvhBuildParams) -> (Bvh2, Bvh2
         params.max_prims_per_leaf.clamp(1, 255),
         params.collapse_traversal_cost,
     );
-    let ratio = params.reinsertion_batch_ratio * params.post_collapse_reinsertion_batch_ratio_multiplier;
-    reinsertion.run(&mut bvh, ratio, None);
+    // obvhs's second reinsertion, after the collapse, is left out: it would serve only
+    // this tree, which only packets walk, and it cost a fifth of the build on sphere 8
+    // (2.23 -> 1.78 s) for camera packets within noise (docs/performance.md).
     (bvh, fine)
 }
+
 /// Stack-based walk of the obvhs `Bvh2` nodes from the root (children adjacent, nearer
 /// child first), counting work when `COUNT`. `leaf` tests a leaf's primitives, may shrink
 /// `ray.tmax`, and returns false to stop (any-hit).
