@@ -140,7 +140,7 @@ impl<'a> Tracer<'a> {
                 hits.clear();
                 hits.t.resize(rays.len(), f32::INFINITY);
                 hits.prim.resize(rays.len(), MISS);
-                self.closest_interleaved(rays, 0..rays.len(), hits);
+                self.closest_interleaved(rays, rays.len(), |k| k, hits);
             }
             None if self.count => self.closest_single::<true>(rays, hits),
             None => self.closest_single::<false>(rays, hits),
@@ -161,7 +161,7 @@ impl<'a> Tracer<'a> {
         match packets {
             None if self.kernel == Kernel::Interleaved => {
                 self.blocked.resize(shadow.len(), false);
-                self.occluded_interleaved(shadow, 0..shadow.len());
+                self.occluded_interleaved(shadow, shadow.len(), |k| k);
             }
             None if self.count => self.occluded_single::<true>(shadow),
             None => self.occluded_single::<false>(shadow),
@@ -229,12 +229,14 @@ impl<'a> Tracer<'a> {
         let order = std::mem::take(&mut self.order);
         let mut alone = false;
         for (p, group) in order.chunks(S::LANES).enumerate() {
-            if sparse(p, leave, &pw, S::LANES) && self.accel.interleave {
+            let leaving = sparse(p, leave, &pw, S::LANES);
+            if leaving && self.accel.interleave {
                 // Incoherent, and the tree outgrows the cache: the rest walks interleaved.
-                self.closest_interleaved(rays, order[p * S::LANES..].iter().map(|&(_, i)| i as usize), hits);
+                let rest = &order[p * S::LANES..];
+                self.closest_interleaved(rays, rest.len(), |k| rest[k].1 as usize, hits);
                 break;
             }
-            alone = alone || sparse(p, leave, &pw, S::LANES);
+            alone = alone || leaving;
             for (l, &(_, i)) in group.iter().enumerate() {
                 o[l] = rays.origin(i as usize);
                 d[l] = rays.dir(i as usize);
@@ -268,34 +270,32 @@ impl<'a> Tracer<'a> {
         self.add_packet_work(pw);
     }
 
-    /// Closest hits of the rays `ids` of `rays`, interleaved, into their entries of `hits`
-    /// (already sized).
-    fn closest_interleaved(&mut self, rays: &RayQueue, ids: impl ExactSizeIterator<Item = usize>, hits: &mut HitQueue) {
-        let ids: Vec<usize> = ids.collect();
-        let ray = |k: usize| Ray::infinite(rays.origin(ids[k]), rays.dir(ids[k]));
+    /// Closest hits of `n` rays of `rays`, the k-th being entry `id(k)`, interleaved, into
+    /// their entries of `hits` (already sized).
+    fn closest_interleaved(&mut self, rays: &RayQueue, n: usize, id: impl Fn(usize) -> usize, hits: &mut HitQueue) {
+        let ray = |k: usize| Ray::infinite(rays.origin(id(k)), rays.dir(id(k)));
         let out = |k: usize, hit: Option<(f32, u32)>| {
             let (t, prim) = hit.unwrap_or((f32::INFINITY, MISS));
-            hits.t[ids[k]] = t;
-            hits.prim[ids[k]] = prim;
+            hits.t[id(k)] = t;
+            hits.prim[id(k)] = prim;
         };
         if self.count {
-            self.accel.closest_many::<true>(ids.len(), ray, out, &mut self.work);
+            self.accel.closest_many::<true>(n, ray, out, &mut self.work);
         } else {
-            self.accel.closest_many::<false>(ids.len(), ray, out, &mut self.work);
+            self.accel.closest_many::<false>(n, ray, out, &mut self.work);
         }
     }
 
-    /// Any-hit tests of the shadow rays `ids` of `shadow`, interleaved, into their entries
-    /// of the blocked flags (already sized).
-    fn occluded_interleaved(&mut self, shadow: &ShadowQueue, ids: impl ExactSizeIterator<Item = usize>) {
-        let ids: Vec<usize> = ids.collect();
-        let ray = |k: usize| Ray::new(shadow.origin(ids[k]), shadow.dir(ids[k]), 0.0, shadow.tmax[ids[k]]);
+    /// Any-hit tests of `n` shadow rays of `shadow`, the k-th being entry `id(k)`,
+    /// interleaved, into their entries of the blocked flags (already sized).
+    fn occluded_interleaved(&mut self, shadow: &ShadowQueue, n: usize, id: impl Fn(usize) -> usize) {
+        let ray = |k: usize| Ray::new(shadow.origin(id(k)), shadow.dir(id(k)), 0.0, shadow.tmax[id(k)]);
         let blocked = &mut self.blocked;
-        let out = |k: usize, b: bool| blocked[ids[k]] = b;
+        let out = |k: usize, b: bool| blocked[id(k)] = b;
         if self.count {
-            self.accel.occluded_many::<true>(ids.len(), ray, out, &mut self.work);
+            self.accel.occluded_many::<true>(n, ray, out, &mut self.work);
         } else {
-            self.accel.occluded_many::<false>(ids.len(), ray, out, &mut self.work);
+            self.accel.occluded_many::<false>(n, ray, out, &mut self.work);
         }
     }
 
@@ -317,12 +317,14 @@ impl<'a> Tracer<'a> {
         let order = std::mem::take(&mut self.order);
         let mut alone = false;
         for (p, group) in order.chunks(S::LANES).enumerate() {
-            if sparse(p, leave, &pw, S::LANES) && accel.interleave {
+            let leaving = sparse(p, leave, &pw, S::LANES);
+            if leaving && accel.interleave {
                 // Incoherent, and the tree outgrows the cache: the rest walks interleaved.
-                self.occluded_interleaved(shadow, order[p * S::LANES..].iter().map(|&(_, i)| i as usize));
+                let rest = &order[p * S::LANES..];
+                self.occluded_interleaved(shadow, rest.len(), |k| rest[k].1 as usize);
                 break;
             }
-            alone = alone || sparse(p, leave, &pw, S::LANES);
+            alone = alone || leaving;
             let k = group.len();
             for (l, &(_, i)) in group.iter().enumerate() {
                 let i = i as usize;
