@@ -14,6 +14,7 @@ pub mod color;
 pub mod error;
 pub mod film;
 pub mod light;
+pub mod microfacet;
 pub mod queue;
 pub mod render;
 pub mod sampling;
@@ -22,6 +23,7 @@ pub mod simd;
 pub mod stages;
 pub mod stats;
 pub mod surface;
+pub mod texture;
 pub mod tools;
 
 pub use error::{Error, Result};

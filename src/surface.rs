@@ -10,7 +10,7 @@ use crate::accel::offset::{offset_lanes, offset_ray_origin};
 use crate::accel::shapes::{quad_point, sphere_point, triangle_point, Shape};
 use crate::accel::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
-use crate::scene::{Material, Scene};
+use crate::scene::{Color, Material, Scene};
 use crate::simd::{LaneIds, LANES, V3};
 
 /// Lambert plus normalised Phong: `color/π + specular·(n+2)/(2π)·max(0, r·wo)^n`,
@@ -87,7 +87,7 @@ pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Vec3, Vec3, f32)> {
         return None;
     }
     match scene.materials[prim.material as usize] {
-        Material::Diffuse { color, specular, shininess } => Some((color, specular, shininess)),
+        Material::Diffuse { color: Color::Rgb(color), specular, shininess } => Some((color, specular, shininess)),
         _ => None,
     }
 }

@@ -240,7 +240,7 @@ fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32
                 let n = if d.dot(ng) < 0.0 { ng } else { -ng };
                 next.push(offset_ray_origin(x, err, n), reflect(d, shading(n)), slot, w * color, depth, k1, sample);
             }
-            Material::Dielectric { ior, ratio, tint } => {
+            Material::Dielectric { ior, ratio, tint, .. } => {
                 let side = interface(d, ng, ior);
                 let n = side.normal;
                 let ns = shading(n);
@@ -257,7 +257,7 @@ fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32
                     next.push(offset_ray_origin(x, err, -n), t, slot, w * tint * (1.0 - c), depth, k2, sample);
                 }
             }
-            Material::Diffuse { .. } => unreachable!("only specular hits are listed"),
+            Material::Diffuse { .. } | Material::Conductor { .. } => unreachable!("only smooth mirrors and glass here"),
         }
     }
     next

@@ -239,8 +239,8 @@ pub struct BackgroundDesc {
 pub enum MaterialDesc {
     /// Lambertian with an optional normalised Phong highlight.
     Diffuse {
-        /// Albedo.
-        color: [f32; 3],
+        /// Albedo: an RGB triple or a texture.
+        color: ColorDesc,
         /// Phong specular reflectance (default 0).
         #[serde(default)]
         specular: [f32; 3],
@@ -263,7 +263,111 @@ pub enum MaterialDesc {
         /// Transmission tint (default white).
         #[serde(default = "white")]
         color: [f32; 3],
+        /// Rough glass: the microfacet distribution, "ggx" or "beckmann" (default
+        /// "beckmann", as Mitsuba's `roughdielectric`; only with a roughness).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        distribution: Option<String>,
+        /// Isotropic roughness (the distribution's alpha); absent: smooth glass.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha: Option<f32>,
+        /// Roughness along the surface's first tangent (with `alpha_v`, instead of `alpha`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha_u: Option<f32>,
+        /// Roughness along the second tangent.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha_v: Option<f32>,
     },
+    /// A metal: Fresnel reflection with a complex index of refraction, smooth (a mirror
+    /// tinted by Fresnel) or rough (a microfacet distribution).
+    Conductor {
+        /// Mitsuba's name of a measured metal ("Au", "Ag", "Al", "Cu", "Cr", ...), or
+        /// "none" for a perfect reflector; default "none" unless `eta` and `k` are given.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        material: Option<String>,
+        /// Real part of the index of refraction per RGB channel (with `k`, instead of
+        /// `material`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        eta: Option<[f32; 3]>,
+        /// Imaginary part (absorption) per channel.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        k: Option<[f32; 3]>,
+        /// Multiplies the Fresnel reflectance (Mitsuba's `specular_reflectance`): an RGB
+        /// triple or a texture (default white).
+        #[serde(default = "white_color")]
+        color: ColorDesc,
+        /// The microfacet distribution, "ggx" or "beckmann" (default "beckmann"; only
+        /// with a roughness).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        distribution: Option<String>,
+        /// Isotropic roughness; absent: a smooth conductor.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha: Option<f32>,
+        /// Roughness along the surface's first tangent (with `alpha_v`, instead of `alpha`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha_u: Option<f32>,
+        /// Roughness along the second tangent.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha_v: Option<f32>,
+    },
+}
+
+fn white_color() -> ColorDesc {
+    ColorDesc::Rgb(white())
+}
+
+/// A colour: an RGB triple, or a texture table looked up at the surface's UV.
+#[derive(Deserialize, Serialize, Debug, Clone, PartialEq)]
+#[serde(untagged)]
+pub enum ColorDesc {
+    /// `[r, g, b]`, linear.
+    Rgb([f32; 3]),
+    /// `{ type = "bitmap", ... }` or `{ type = "checkerboard", ... }`.
+    Texture(TextureDesc),
+}
+
+/// A texture in a colour's place.
+#[derive(Deserialize, Serialize, Debug, Clone, PartialEq)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+pub enum TextureDesc {
+    /// An image file (PNG, or EXR with the `exr` feature).
+    Bitmap {
+        /// Path relative to the scene file.
+        file: String,
+        /// Read the values as they are stored (default false: an 8-bit image is sRGB
+        /// and decoded to linear; EXR is always linear).
+        #[serde(default)]
+        raw: bool,
+        /// "repeat", "mirror" or "clamp" (default "repeat").
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        wrap: Option<String>,
+        /// "bilinear" or "nearest" (default "bilinear").
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        filter: Option<String>,
+        /// Applied to the UV before the lookup, as a transform list acting on (u, v, 0)
+        /// (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        to_uv: Option<Vec<TransformOp>>,
+    },
+    /// Two colours on alternating checks of the unit UV square (2×2 of them).
+    Checkerboard {
+        /// First colour (default 0.4, as Mitsuba).
+        #[serde(default = "checker0")]
+        color0: [f32; 3],
+        /// Second colour (default 0.2).
+        #[serde(default = "checker1")]
+        color1: [f32; 3],
+        /// Applied to the UV before the lookup (default: none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        to_uv: Option<Vec<TransformOp>>,
+    },
+}
+
+fn checker0() -> [f32; 3] {
+    [0.4; 3]
+}
+
+fn checker1() -> [f32; 3] {
+    [0.2; 3]
 }
 
 fn white() -> [f32; 3] {

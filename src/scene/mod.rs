@@ -15,7 +15,9 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::Accel;
 use crate::accel::BvhQuality;
+use crate::microfacet::Microfacet;
 use crate::simd::{Real, V3};
+use crate::texture::Texture;
 
 pub use load::{load, SceneSource};
 
@@ -169,13 +171,22 @@ pub enum ReflectRatio {
     Fresnel,
 }
 
+/// A colour of a material: a constant, or a texture looked up at the hit's UV.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Color {
+    /// Linear RGB.
+    Rgb(Vec3),
+    /// Index into [`Scene::textures`].
+    Texture(u32),
+}
+
 /// A material, validated.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Material {
     /// Lambert (color/π) plus normalised Phong `specular·(n+2)/(2π)·cos^n α`.
     Diffuse {
         /// Albedo.
-        color: Vec3,
+        color: Color,
         /// Phong reflectance.
         specular: Vec3,
         /// Phong exponent.
@@ -194,6 +205,19 @@ pub enum Material {
         ratio: ReflectRatio,
         /// Transmission tint.
         tint: Vec3,
+        /// Microfacet roughness; `None`: smooth.
+        roughness: Option<Microfacet>,
+    },
+    /// A metal: Fresnel reflectance of a complex index of refraction.
+    Conductor {
+        /// Real part of the index of refraction, per channel.
+        eta: Vec3,
+        /// Imaginary part, per channel.
+        k: Vec3,
+        /// Multiplies the Fresnel reflectance.
+        color: Color,
+        /// Microfacet roughness; `None`: smooth.
+        roughness: Option<Microfacet>,
     },
 }
 
@@ -274,6 +298,11 @@ pub struct Scene {
     /// Vertex normals of smooth-shaded triangles, indexed like `accel.prims` (all zero for
     /// a flat primitive); empty when no mesh is smooth.
     pub normals: Vec<[Vec3; 3]>,
+    /// Textures, indexed by [`Color::Texture`].
+    pub textures: Vec<Texture>,
+    /// Texture coordinates of the triangles' corners, indexed like `accel.prims` (zero for
+    /// a primitive without); empty when no textured material is on a mesh with UVs.
+    pub uvs: Vec<[Vec2; 3]>,
     /// True when some material is a mirror or dielectric (so the scatter stage has work).
     pub has_specular: bool,
     /// Load facts for the stats.

@@ -129,9 +129,9 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
         let prim = &scene.accel.prims[hits.prim[i as usize] as usize];
         mat[k] = match scene.materials[prim.material as usize] {
             Material::Mirror { color } => (1.0, 1.0, color, Some(true)),
-            Material::Dielectric { ior, ratio: ReflectRatio::Fixed(c), tint } => (ior, c, tint, Some(false)),
-            Material::Dielectric { ior, ratio: ReflectRatio::Fresnel, tint } => (ior, f32::NAN, tint, Some(false)),
-            Material::Diffuse { .. } => {
+            Material::Dielectric { ior, ratio: ReflectRatio::Fixed(c), tint, .. } => (ior, c, tint, Some(false)),
+            Material::Dielectric { ior, ratio: ReflectRatio::Fresnel, tint, .. } => (ior, f32::NAN, tint, Some(false)),
+            Material::Diffuse { .. } | Material::Conductor { .. } => {
                 debug_assert!(false, "diffuse hit in the specular list");
                 (1.0, 1.0, Vec3::ZERO, None)
             }

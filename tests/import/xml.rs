@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use wavetrace::accel::Shape;
-use wavetrace::scene::{Light, Material};
+use wavetrace::scene::{Color, Light, Material};
 
 use crate::{error_of, load_file, try_load, xml_scene, Files};
 
@@ -76,7 +76,7 @@ fn includes_resolve_relative_and_cycles_are_refused() {
     let scene = load_file(&f.write("main.xml", xml_scene(body)));
     assert_eq!(
         scene.materials,
-        vec![Material::Diffuse { color: Vec3::new(0.5, 0.0, 0.0), specular: Vec3::ZERO, shininess: 0.0 }]
+        vec![Material::Diffuse { color: Color::Rgb(Vec3::new(0.5, 0.0, 0.0)), specular: Vec3::ZERO, shininess: 0.0 }]
     );
     f.write("loop1.xml", "<scene version=\"3.0.0\"><include filename=\"loop2.xml\"/></scene>");
     f.write("loop2.xml", "<scene version=\"3.0.0\"><include filename=\"loop1.xml\"/></scene>");
@@ -124,7 +124,11 @@ fn bsdfs_map_to_materials() {
     assert!(mats.iter().any(|m| matches!(m, Material::Dielectric { ior, tint, .. } if *ior == 1.333 && *tint == Vec3::new(0.9, 0.8, 0.7))), "{mats:?}");
     assert!(mats.contains(&Material::Mirror { color: Vec3::splat(0.5) }), "{mats:?}");
     // No BSDF: Mitsuba's default, a diffuse of reflectance 0.5.
-    assert!(mats.contains(&Material::Diffuse { color: Vec3::splat(0.5), specular: Vec3::ZERO, shininess: 0.0 }));
+    assert!(mats.contains(&Material::Diffuse {
+        color: Color::Rgb(Vec3::splat(0.5)),
+        specular: Vec3::ZERO,
+        shininess: 0.0
+    }));
     // Mitsuba's diffuse is one-sided; wavetrace's is not: said once.
     let one_sided: Vec<_> = scene.info.notes.iter().filter(|n| n.contains("black from behind")).collect();
     assert_eq!(one_sided.len(), 1, "{:?}", scene.info.notes);

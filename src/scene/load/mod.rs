@@ -12,7 +12,9 @@ use std::path::{Path, PathBuf};
 use super::format::*;
 use super::mitsuba::xml::Loc;
 pub use super::text::{line_col, read_text};
-use super::{AaMode, Camera, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode};
+use super::{
+    AaMode, Camera, Color, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode,
+};
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
@@ -588,18 +590,21 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
 fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
     let p = |f: &str| format!("materials.{name}.{f}");
     Ok(match *m {
-        MaterialDesc::Diffuse { color: c, specular, shininess } => {
+        MaterialDesc::Diffuse { color: ref c, specular, shininess } => {
             if shininess < 0.0 {
                 return Err(ctx.fail(&p("shininess"), "must be >= 0"));
             }
             Material::Diffuse {
-                color: color(ctx, &p("color"), c)?,
+                color: match c {
+                    ColorDesc::Rgb(c) => Color::Rgb(color(ctx, &p("color"), *c)?),
+                    ColorDesc::Texture(_) => return Err(ctx.fail(&p("color"), "textures are not supported yet")),
+                },
                 specular: color(ctx, &p("specular"), specular)?,
                 shininess,
             }
         }
         MaterialDesc::Mirror { color: c } => Material::Mirror { color: color(ctx, &p("color"), c)? },
-        MaterialDesc::Dielectric { ior, ref reflect_ratio, color: c } => {
+        MaterialDesc::Dielectric { ior, ref reflect_ratio, color: c, .. } => {
             if ior <= 0.0 {
                 return Err(ctx.fail(&p("ior"), format!("{ior} must be > 0")));
             }
@@ -614,8 +619,9 @@ fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
                 Some(RatioDesc::Value(c)) if (0.0..=1.0).contains(c) => ReflectRatio::Fixed(*c),
                 Some(RatioDesc::Value(c)) => return Err(ctx.fail(&p("reflect_ratio"), format!("{c} is not in [0, 1]"))),
             };
-            Material::Dielectric { ior, ratio, tint: color(ctx, &p("color"), c)? }
+            Material::Dielectric { ior, ratio, tint: color(ctx, &p("color"), c)?, roughness: None }
         }
+        MaterialDesc::Conductor { .. } => return Err(ctx.fail(&p("type"), "conductors are not supported yet")),
     })
 }
 
@@ -638,7 +644,19 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     info.primitives = prims.len();
     let (accel, normals) = objects::build_accel(prims, normals, settings.bvh);
     info.bvh_seconds = accel.build_seconds;
-    Ok(Scene { settings, camera, background, materials, lights, accel, normals, has_specular, info })
+    Ok(Scene {
+        settings,
+        camera,
+        background,
+        materials,
+        lights,
+        accel,
+        normals,
+        textures: Vec::new(),
+        uvs: Vec::new(),
+        has_specular,
+        info,
+    })
 }
 
 #[cfg(test)]

@@ -478,7 +478,7 @@ impl Converter {
                     return Err(t.loc.err("<texture>: textures are not supported; give an <rgb> reflectance"));
                 }
                 let color = p.color("reflectance")?.unwrap_or([0.5; 3]);
-                Ok((MaterialDesc::Diffuse { color, specular: [0.0; 3], shininess: 0.0 }, false))
+                Ok((MaterialDesc::Diffuse { color: ColorDesc::Rgb(color), specular: [0.0; 3], shininess: 0.0 }, false))
             }
             "twosided" => {
                 let inner: Vec<&El> = el.kids.iter().filter(|k| k.tag == "bsdf").collect();
@@ -538,7 +538,18 @@ impl Converter {
                     }
                 }
                 let color = p.color("specular_transmittance")?.unwrap_or([1.0; 3]);
-                Ok((MaterialDesc::Dielectric { ior: int / ext, reflect_ratio: None, color }, false))
+                Ok((
+                    MaterialDesc::Dielectric {
+                        ior: int / ext,
+                        reflect_ratio: None,
+                        color,
+                        distribution: None,
+                        alpha: None,
+                        alpha_u: None,
+                        alpha_v: None,
+                    },
+                    false,
+                ))
             }
             _ => Err(unsupported(el, "bsdf", BSDFS)),
         }
@@ -554,7 +565,8 @@ impl Converter {
                 self.note_one_sided(el);
                 let name = "mitsuba-default-diffuse".to_string();
                 if !self.out.file.materials.contains_key(&name) {
-                    let d = MaterialDesc::Diffuse { color: [0.5; 3], specular: [0.0; 3], shininess: 0.0 };
+                    let d =
+                        MaterialDesc::Diffuse { color: ColorDesc::Rgb([0.5; 3]), specular: [0.0; 3], shininess: 0.0 };
                     self.out.file.materials.insert(name.clone(), d);
                 }
                 Ok(name)
