@@ -29,6 +29,8 @@ pub mod dim {
     /// Penumbra early stopping: the scramble of the progressive order of a point's
     /// light samples.
     pub const STOP_ORDER: u32 = 9;
+    /// Glossy surfaces: the microfacet normal sampled at a path's hit.
+    pub const GLOSS: u32 = 10;
     /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
     /// renderer's dimensions, which grow from 1).
     pub const BENCH: u32 = 100;

@@ -1,7 +1,7 @@
 //! Diffuse shading points: the surface a ray hit and its BRDF, computed in one place for
 //! the shade, shadow-corner and penumbra stages so that they agree bit for bit.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use wide::f32x16;
@@ -12,6 +12,7 @@ use crate::accel::NO_LIGHT;
 use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
 use crate::scene::{Color, Material, Scene};
 use crate::simd::{LaneIds, LANES, V3};
+use crate::texture::uv;
 
 /// Lambert plus normalised Phong: `color/π + specular·(n+2)/(2π)·max(0, r·wo)^n`,
 /// with `r` the mirror direction of `wi` about `n`.
@@ -81,14 +82,38 @@ pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
 /// The Lambert/Phong parameters (albedo, Phong reflectance, exponent) of primitive
 /// `prim` when it is a diffuse non-emitter, else `None`.
 #[inline]
-pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Vec3, Vec3, f32)> {
+pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> {
     let prim = scene.accel.prims.get(prim as usize)?;
     if prim.light != NO_LIGHT {
         return None;
     }
     match scene.materials[prim.material as usize] {
-        Material::Diffuse { color: Color::Rgb(color), specular, shininess } => Some((color, specular, shininess)),
+        Material::Diffuse { color, specular, shininess } => Some((color, specular, shininess)),
         _ => None,
+    }
+}
+
+/// The texture coordinates of point `x` on primitive `prim`, as Mitsuba 3 defines them:
+/// a sphere's (φ/2π, θ/π), a parallelogram's (a, b) for corner + a·u + b·v, a triangle's
+/// corner UVs interpolated (its barycentric (b1, b2) when its mesh has none).
+pub fn uv_at(scene: &Scene, prim: usize, x: Vec3) -> Vec2 {
+    match scene.accel.prims[prim].shape {
+        Shape::Sphere { center, .. } => uv::sphere(center, x),
+        Shape::Quad { corner, u, v } => uv::quad(corner, u, v, x),
+        Shape::Triangle { v0, v1, v2 } => {
+            let corners = scene.uvs.get(prim).copied().unwrap_or([Vec2::ZERO, Vec2::X, Vec2::Y]);
+            uv::triangle([v0, v1, v2], corners, x)
+        }
+    }
+}
+
+/// A material colour at point `x` of primitive `prim`: the constant, or the texture
+/// looked up at the point's UV ([`uv_at`]).
+#[inline]
+pub fn color_at(scene: &Scene, color: Color, prim: usize, x: Vec3) -> Vec3 {
+    match color {
+        Color::Rgb(c) => c,
+        Color::Texture(t) => scene.textures[t as usize].eval(uv_at(scene, prim, x)),
     }
 }
 
@@ -99,6 +124,7 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
     let prim = &scene.accel.prims[hits.prim[i] as usize];
     let d = rays.dir(i);
     let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
+    let color = color_at(scene, color, hits.prim[i] as usize, x);
     let ng = prim.shape.normal(x).normalize();
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = if ng.dot(d) < 0.0 { ng } else { -ng };
@@ -204,8 +230,14 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     let w = V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) }.lanes();
     // Albedo, Phong reflectance and exponent: seven columns filled in one pass.
     let (mut color, mut specular, mut shininess) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [0.0f32; LANES]);
+    let at = |v: &V3<f32x16>, k: usize| Vec3::new(v.x.as_array_ref()[k], v.y.as_array_ref()[k], v.z.as_array_ref()[k]);
     for (k, &i) in lanes.idx.iter().enumerate() {
-        let (c, sp, e) = diffuse_material(scene, hits.prim[i]).unwrap_or_default();
+        let (c, sp, e) = diffuse_material(scene, hits.prim[i]).unwrap_or((Color::Rgb(Vec3::ZERO), Vec3::ZERO, 0.0));
+        // Only a texture needs the point; a constant costs nothing more.
+        let c = match c {
+            Color::Rgb(c) => c,
+            textured => color_at(scene, textured, hits.prim[i] as usize, at(&p, k)),
+        };
         (color[0][k], color[1][k], color[2][k]) = (c.x, c.y, c.z);
         (specular[0][k], specular[1][k], specular[2][k]) = (sp.x, sp.y, sp.z);
         shininess[k] = e;

@@ -11,12 +11,13 @@ use glam::Vec3;
 
 use wide::{f32x16, u32x16};
 
-use crate::accel::offset::offset_lanes;
+use crate::accel::offset::{offset_lanes, offset_ray_origin};
+use crate::microfacet::{fresnel_conductor, rough_dielectric_split, tangents};
 use crate::queue::{HitQueue, IndexQueue, RayQueue};
-use crate::sampling::hash_lanes;
+use crate::sampling::{dim, hash, hash_lanes, sobol_owen};
 use crate::scene::{Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
-use crate::surface::{hit_lanes, shading_lanes, HitLanes};
+use crate::surface::{color_at, hit_lanes, shading_lanes, shading_normal, HitLanes};
 
 /// Mirror direction of `d` about the unit normal `n`.
 #[inline]
@@ -107,12 +108,134 @@ fn fresnel_lanes<R: Real>(cos_i: R, eta: R) -> (R, R) {
 }
 
 /// Spawns the reflection and refraction rays of every listed hit into `next` (cleared
-/// first), 16 hits at a time on lanes, in list order: a hit's reflection ray, then its
-/// refraction ray.
+/// first). Smooth mirrors and glass go 16 hits at a time on lanes, in list order: a
+/// hit's reflection ray, then its refraction ray. Conductors and rough glass
+/// ([`is_glossy`]) are sampled one hit at a time ([`glossy`]); in a group of 16 listed
+/// hits, their rays come first.
 pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &IndexQueue, next: &mut RayQueue) {
     next.clear();
+    // A scene without glossy materials never looks at the material twice.
+    if !scene.materials.iter().any(is_glossy) {
+        for ids in specular.index.chunks(LANES) {
+            scatter_lanes(scene, rays, hits, ids, next);
+        }
+        return;
+    }
     for ids in specular.index.chunks(LANES) {
-        scatter_lanes(scene, rays, hits, ids, next);
+        let (mut smooth, mut n) = ([0u32; LANES], 0);
+        for &i in ids {
+            let prim = &scene.accel.prims[hits.prim[i as usize] as usize];
+            let material = &scene.materials[prim.material as usize];
+            if is_glossy(material) {
+                glossy(scene, rays, hits, i as usize, material, next);
+            } else {
+                smooth[n] = i;
+                n += 1;
+            }
+        }
+        if n > 0 {
+            scatter_lanes(scene, rays, hits, &smooth[..n], next);
+        }
+    }
+}
+
+/// True for the materials [`glossy`] samples: conductors (smooth ones too, for their
+/// Fresnel reflectance and textures) and rough glass.
+pub fn is_glossy(m: &Material) -> bool {
+    matches!(m, Material::Conductor { .. } | Material::Dielectric { roughness: Some(_), .. })
+}
+
+/// A conductor's Fresnel reflectance; eta = k = 0 stands for Mitsuba's "none", a
+/// perfect reflector (the formula is 0/0 there at normal incidence).
+#[inline]
+fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    if eta == Vec3::ZERO && k == Vec3::ZERO {
+        Vec3::ONE
+    } else {
+        fresnel_conductor(cos_i.clamp(0.0, 1.0), eta, k)
+    }
+}
+
+/// The rays of one hit `i` on a conductor or rough glass: a conductor reflects (about
+/// the shading normal when smooth, about a visible microfacet normal when rough, with
+/// weight F·G1); rough glass samples one visible microfacet normal and traces both its
+/// reflection and its refraction, weighted F·G1 and (1 − F)·G1 ([`rough_dielectric_split`]).
+/// The microfacet sample is point (`sample`) of the path's Owen-scrambled Sobol
+/// sequence keyed by its `key` and [`dim::GLOSS`]: stratified over the pixel's samples.
+fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &Material, next: &mut RayQueue) {
+    let prim_id = hits.prim[i] as usize;
+    let prim = &scene.accel.prims[prim_id];
+    let d = rays.dir(i);
+    let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
+    let ng = prim.shape.normal(x).normalize();
+    let (w, slot, depth, key, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
+    let (key1, key2) = (hash(&[key, 1]), hash(&[key, 2]));
+    let u = sobol_owen(sample, hash(&[key, dim::GLOSS]));
+    // The origin of a ray leaving along `wo`: off the surface on wo's side.
+    let origin = |wo: Vec3| offset_ray_origin(x, err, if wo.dot(ng) > 0.0 { ng } else { -ng });
+    match *material {
+        Material::Conductor { eta, k, color, roughness } => {
+            // Conductors are two-sided, like the mirror: the side the ray arrived on.
+            let n = if d.dot(ng) < 0.0 { ng } else { -ng };
+            let ns = shading_normal(scene, prim_id, x, n);
+            let tint = w * color_at(scene, color, prim_id, x);
+            let Some(mf) = roughness else {
+                let f = conductor_fresnel(-d.dot(ns), eta, k);
+                next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, tint * f, depth, key1, sample);
+                return;
+            };
+            let frame = Frame::new(ns);
+            let wi = frame.to_local(-d);
+            if wi.z <= 0.0 {
+                return;
+            }
+            let m = mf.sample(wi, u);
+            let wo = reflect(-wi, m);
+            if wo.z <= 0.0 {
+                return;
+            }
+            let weight = conductor_fresnel(wi.dot(m), eta, k) * mf.smith_g1(wo, m);
+            let wo = frame.to_world(wo);
+            next.push(origin(wo), wo, slot, tint * weight, depth, key1, sample);
+        }
+        Material::Dielectric { ior, tint, roughness: Some(mf), .. } => {
+            // Rough glass is oriented by its outward normal; the split handles either side.
+            let frame = Frame::new(shading_normal(scene, prim_id, x, ng));
+            let split = rough_dielectric_split(&mf, ior, frame.to_local(-d), u);
+            if let Some((wo, weight)) = split.reflect {
+                let wo = frame.to_world(wo);
+                next.push(origin(wo), wo, slot, w * weight, depth, key1, sample);
+            }
+            if let Some((wo, weight)) = split.refract {
+                let wo = frame.to_world(wo);
+                next.push(origin(wo), wo, slot, w * tint * weight, depth, key2, sample);
+            }
+        }
+        Material::Diffuse { .. } | Material::Mirror { .. } | Material::Dielectric { roughness: None, .. } => {
+            debug_assert!(false, "not a glossy material");
+        }
+    }
+}
+
+/// An orthonormal shading frame: [`tangents`] of the normal, and the normal.
+struct Frame {
+    s: Vec3,
+    t: Vec3,
+    n: Vec3,
+}
+
+impl Frame {
+    fn new(n: Vec3) -> Frame {
+        let (s, t) = tangents(n);
+        Frame { s, t, n }
+    }
+
+    fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    fn to_world(&self, v: Vec3) -> Vec3 {
+        (self.s * v.x + self.t * v.y + self.n * v.z).normalize()
     }
 }
 
@@ -132,7 +255,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
             Material::Dielectric { ior, ratio: ReflectRatio::Fixed(c), tint, .. } => (ior, c, tint, Some(false)),
             Material::Dielectric { ior, ratio: ReflectRatio::Fresnel, tint, .. } => (ior, f32::NAN, tint, Some(false)),
             Material::Diffuse { .. } | Material::Conductor { .. } => {
-                debug_assert!(false, "diffuse hit in the specular list");
+                debug_assert!(false, "not a smooth mirror or glass");
                 (1.0, 1.0, Vec3::ZERO, None)
             }
         };

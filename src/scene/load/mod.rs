@@ -2,6 +2,7 @@
 //! in every message, mesh loading, and the BVH build. The objects and lights of a scene
 //! description become primitives in `objects`.
 
+mod materials;
 mod objects;
 
 use glam::Vec3;
@@ -13,7 +14,7 @@ use super::format::*;
 use super::mitsuba::xml::Loc;
 pub use super::text::{line_col, read_text};
 use super::{
-    AaMode, Camera, Color, Material, PenumbraStop, Probe, ReflectRatio, Scene, SceneInfo, Settings, ShadowMode,
+    AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode,
 };
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
@@ -587,62 +588,26 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
     })
 }
 
-fn material(name: &str, m: &MaterialDesc, ctx: &Ctx) -> Result<Material> {
-    let p = |f: &str| format!("materials.{name}.{f}");
-    Ok(match *m {
-        MaterialDesc::Diffuse { color: ref c, specular, shininess } => {
-            if shininess < 0.0 {
-                return Err(ctx.fail(&p("shininess"), "must be >= 0"));
-            }
-            Material::Diffuse {
-                color: match c {
-                    ColorDesc::Rgb(c) => Color::Rgb(color(ctx, &p("color"), *c)?),
-                    ColorDesc::Texture(_) => return Err(ctx.fail(&p("color"), "textures are not supported yet")),
-                },
-                specular: color(ctx, &p("specular"), specular)?,
-                shininess,
-            }
-        }
-        MaterialDesc::Mirror { color: c } => Material::Mirror { color: color(ctx, &p("color"), c)? },
-        MaterialDesc::Dielectric { ior, ref reflect_ratio, color: c, .. } => {
-            if ior <= 0.0 {
-                return Err(ctx.fail(&p("ior"), format!("{ior} must be > 0")));
-            }
-            let ratio = match reflect_ratio {
-                None => ReflectRatio::Fresnel,
-                Some(RatioDesc::Name(s)) if s == "fresnel" => ReflectRatio::Fresnel,
-                Some(RatioDesc::Name(s)) => {
-                    return Err(
-                        ctx.fail(&p("reflect_ratio"), format!("\"{s}\" is neither a number in [0, 1] nor \"fresnel\""))
-                    )
-                }
-                Some(RatioDesc::Value(c)) if (0.0..=1.0).contains(c) => ReflectRatio::Fixed(*c),
-                Some(RatioDesc::Value(c)) => return Err(ctx.fail(&p("reflect_ratio"), format!("{c} is not in [0, 1]"))),
-            };
-            Material::Dielectric { ior, ratio, tint: color(ctx, &p("color"), c)?, roughness: None }
-        }
-        MaterialDesc::Conductor { .. } => return Err(ctx.fail(&p("type"), "conductors are not supported yet")),
-    })
-}
-
 fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     let settings = settings(&f.render, &f.camera, ctx)?;
     let mut info = SceneInfo::default();
     let camera = camera(&f.camera, settings.width, settings.height, ctx)?;
     let background = color(ctx, "background.color", f.background.color)?;
     let mut names: BTreeMap<&str, u32> = BTreeMap::new();
-    let mut materials = Vec::new();
+    let (mut materials, mut textures) = (Vec::new(), materials::Textures::default());
     for (name, m) in &f.materials {
         names.insert(name.as_str(), materials.len() as u32);
-        materials.push(material(name, m, ctx)?);
+        materials.push(materials::material(name, m, ctx, &mut textures)?);
     }
-    let (prims, lights, normals) = objects::objects(f, ctx, &names, &mut info)?;
+    let built = objects::objects(f, ctx, &names, &materials, &mut info)?;
     // Only specular materials that some object uses give the scatter stage work.
-    let has_specular = prims
+    let has_specular = built
+        .prims
         .iter()
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
-    info.primitives = prims.len();
-    let (accel, normals) = objects::build_accel(prims, normals, settings.bvh);
+    info.primitives = built.prims.len();
+    let lights = built.lights.clone();
+    let (accel, objects::CornerTables { normals, uvs }) = objects::build_accel(built, settings.bvh);
     info.bvh_seconds = accel.build_seconds;
     Ok(Scene {
         settings,
@@ -652,8 +617,8 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         lights,
         accel,
         normals,
-        textures: Vec::new(),
-        uvs: Vec::new(),
+        textures: textures.list,
+        uvs,
         has_specular,
         info,
     })

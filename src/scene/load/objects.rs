@@ -1,8 +1,8 @@
 //! Lights and objects of a scene description: shapes with their transforms, OBJ and PLY
-//! meshes with their smooth normals and emission, turned into primitives and lights; and
-//! the BVH build that keeps the normals in its primitive order.
+//! meshes with their smooth normals, UVs and emission, turned into primitives and lights;
+//! and the BVH build that keeps the per-corner data in its primitive order.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -12,64 +12,45 @@ use crate::accel::{BvhQuality, MAX_LEAF};
 use crate::scene::format::*;
 use crate::scene::mesh::{self, MeshData};
 use crate::scene::transform::Transform;
-use crate::scene::{Light, SceneInfo};
+use crate::scene::{Color, Light, Material, SceneInfo};
 use crate::Result;
 
-/// Per primitive (in build order): its three vertex normals, for smooth meshes.
-type Normals = Vec<Option<[Vec3; 3]>>;
+/// The primitives and lights of a scene description, with what its triangles carry per
+/// corner: vertex normals of smooth meshes and texture coordinates of textured meshes,
+/// one entry per primitive (`None` where there is nothing).
+#[derive(Default)]
+pub(super) struct Built {
+    /// Primitives, in description order.
+    pub(super) prims: Vec<Primitive>,
+    /// Lights.
+    pub(super) lights: Vec<Light>,
+    /// Per primitive: its three vertex normals, for smooth meshes.
+    normals: Vec<Option<[Vec3; 3]>>,
+    /// Per primitive: its three corners' UVs, for meshes with UVs under a texture.
+    uvs: Vec<Option<[Vec2; 3]>>,
+}
 
-/// The primitives, lights and vertex normals of the scene's `[[lights]]` and
-/// `[[objects]]`; `names` maps material names to indices.
+impl Built {
+    /// Adds a primitive with its per-corner data.
+    fn push(&mut self, prim: Primitive, normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>) {
+        self.prims.push(prim);
+        self.normals.push(normals);
+        self.uvs.push(uvs);
+    }
+}
+
+/// The primitives and lights of the scene's `[[lights]]` and `[[objects]]`; `names` maps
+/// material names to indices into `materials`.
 pub(super) fn objects(
     f: &SceneFile,
     ctx: &Ctx,
     names: &BTreeMap<&str, u32>,
+    materials: &[Material],
     info: &mut SceneInfo,
-) -> Result<(Vec<Primitive>, Vec<Light>, Normals)> {
-    let mut prims = Vec::new();
-    let mut lights = Vec::new();
-    // Per primitive (in `prims` order): its three vertex normals, for smooth meshes.
-    let mut normals: Normals = Vec::new();
+) -> Result<Built> {
+    let mut b = Built::default();
     for (i, l) in f.lights.iter().enumerate() {
-        let path = format!("lights.{i}");
-        let li = lights.len() as u32;
-        match l {
-            LightDesc::Quad { corner, edge_u, edge_v, radiance, transform } => {
-                let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
-                let n = u.cross(v);
-                prims.push(Primitive { shape: Shape::Quad { corner, u, v }, material: 0, light: li });
-                lights.push(Light::Quad {
-                    corner,
-                    u,
-                    v,
-                    normal: n.normalize(),
-                    area: n.length(),
-                    radiance: color(ctx, &format!("{path}.radiance"), *radiance)?,
-                });
-            }
-            LightDesc::Triangle { v0, v1, v2, radiance, transform } => {
-                let t = transform_opt(ctx, &path, transform)?;
-                let mut vs = [Vec3::ZERO; 3];
-                for (k, p) in [v0, v1, v2].into_iter().enumerate() {
-                    let field = format!("{path}.v{k}");
-                    vs[k] = coord(ctx, &field, t.point(coord(ctx, &field, vec3(*p))?))?;
-                }
-                let radiance = color(ctx, &format!("{path}.radiance"), *radiance)?;
-                let light = triangle_light(vs, radiance)
-                    .ok_or_else(|| ctx.fail(&format!("{path}.v2"), "the triangle has zero area"))?;
-                prims.push(Primitive {
-                    shape: Shape::Triangle { v0: vs[0], v1: vs[1], v2: vs[2] },
-                    material: 0,
-                    light: li,
-                });
-                lights.push(light);
-            }
-            LightDesc::Point { position, intensity } => lights.push(Light::Point {
-                position: coord(ctx, &format!("{path}.position"), vec3(*position))?,
-                intensity: color(ctx, &format!("{path}.intensity"), *intensity)?,
-            }),
-        }
-        normals.resize(prims.len(), None);
+        light(ctx, &format!("lights.{i}"), l, &mut b)?;
     }
     for (i, o) in f.objects.iter().enumerate() {
         let path = format!("objects.{i}");
@@ -86,124 +67,187 @@ pub(super) fn objects(
         };
         match o {
             ObjectDesc::Sphere { center, radius, material, transform } => {
-                // Numbers are checked finite before this point, so `<=` catches every bad radius.
-                if *radius <= 0.0 {
-                    return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
-                }
-                coord(ctx, &format!("{path}.radius"), Vec3::splat(*radius))?;
-                coord(ctx, &format!("{path}.center"), vec3(*center))?;
-                let (mut c, mut r) = (vec3(*center), *radius);
-                if let Some(ops) = transform {
-                    let tp = format!("{path}.transform");
-                    let t = self::transform(ctx, &tp, ops)?;
-                    let s = t.uniform_scale().ok_or_else(|| {
-                        ctx.fail(&tp, "a sphere takes only a uniform scale (with rotations and translations)")
-                    })?;
-                    c = coord(ctx, &tp, t.point(c))?;
-                    r = coord(ctx, &tp, Vec3::splat(r * s))?.x;
-                }
-                // A sphere below its centre's rounding step has no point but the centre in
-                // f32: every hit point rounds onto it and has no normal (found by fuzzing:
-                // NaN rays). 2^-20 of the centre's largest coordinate is 8 of its ulps.
-                let least = c.abs().max_element() / (1u32 << 20) as f32;
-                if r <= least {
-                    let field = if transform.is_some() { "transform" } else { "radius" };
-                    return Err(ctx.fail(
-                        &format!("{path}.{field}"),
-                        format!(
-                            "radius {r:e} is below the precision of the centre {c}: it must exceed 2^-20 of the centre's largest coordinate ({least:e})"
-                        ),
-                    ));
-                }
-                let material = lookup(material)?;
-                prims.push(Primitive { shape: Shape::Sphere { center: c, radius: r }, material, light: NO_LIGHT });
+                let shape = sphere(ctx, &path, *center, *radius, transform)?;
+                b.push(Primitive { shape, material: lookup(material)?, light: NO_LIGHT }, None, None);
             }
             ObjectDesc::Quad { corner, edge_u, edge_v, material, transform } => {
                 let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
                 let material = lookup(material)?;
-                prims.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT });
+                b.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT }, None, None);
             }
-            ObjectDesc::Mesh {
-                file,
-                material,
-                scale,
-                rotate_y,
-                translate,
-                transform,
-                smooth,
-                emission,
-                flip_normals,
-            } => {
+            ObjectDesc::Mesh { emission, material, .. } => {
                 let emission = emission.map(|e| color(ctx, &format!("{path}.emission"), e)).transpose()?;
                 let material = if emission.is_some() { 0 } else { lookup(material)? };
-                if *scale <= 0.0 {
-                    return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
-                }
-                let mesh_path = ctx.src.dir.join(file);
-                let fail = |e: String| ctx.fail(&format!("{path}.file"), e);
-                check_mesh_size(&mesh_path).map_err(fail)?;
-                if outside_folder(&ctx.src.dir, &mesh_path) {
-                    info.outside_paths.push(mesh_path.display().to_string());
-                }
-                let mesh = load_mesh(&mesh_path).map_err(fail)?;
-                let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
-                let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
-                let after = transform_opt(ctx, &path, transform)?;
-                let xf = |p: Vec3| {
-                    let p = rot * (p * *scale) + t;
-                    if transform.is_some() {
-                        after.point(p)
-                    } else {
-                        p
-                    }
-                };
-                let positions: Vec<Vec3> = mesh.positions.iter().map(|&p| xf(p)).collect();
-                if let Some(v) = positions.iter().find(|v| !in_range(**v)) {
-                    let field = if transform.is_some() { "transform" } else { "scale" };
-                    return Err(ctx.fail(
-                        &format!("{path}.{field}"),
-                        format!("a vertex lands at {v} after the mesh's transform: beyond ±{MAX_COORD:e}"),
-                    ));
-                }
-                let mut tris = mesh.triangles.clone();
-                if *flip_normals {
-                    tris.iter_mut().for_each(|t| t.swap(1, 2));
-                }
-                let vertex_normals = smooth.then(|| {
-                    if mesh.normals.is_empty() {
-                        mesh::vertex_normals(&positions, &tris)
-                    } else {
-                        // The file's normals follow the mesh: rotated with it, and through
-                        // the inverse transpose of a non-uniform scale.
-                        let lin = Transform { m: glam::DMat4::from_quat(rot.as_dquat()) }.m;
-                        let whole = Transform { m: after.m * lin };
-                        let sign = if *flip_normals { -1.0 } else { 1.0 };
-                        mesh.normals.iter().map(|&n| sign * whole.normal(n)).collect()
-                    }
-                });
-                for tri in &tris {
-                    let [v0, v1, v2] = tri.map(|k| positions[k as usize]);
-                    if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
-                        info.degenerate_triangles += 1;
-                        continue;
-                    }
-                    info.triangles += 1;
-                    let light = match emission {
-                        Some(radiance) => {
-                            // Non-zero area was checked just above.
-                            lights.push(triangle_light([v0, v1, v2], radiance).unwrap_or_else(|| unreachable!()));
-                            lights.len() as u32 - 1
-                        }
-                        None => NO_LIGHT,
-                    };
-                    prims.push(Primitive { shape: Shape::Triangle { v0, v1, v2 }, material, light });
-                    normals.push(vertex_normals.as_ref().map(|n| tri.map(|k| n[k as usize])));
-                }
+                let textured = emission.is_none() && has_texture(&materials[material as usize]);
+                mesh_object(ctx, &path, o, (material, emission, textured), &mut b, info)?;
             }
         }
-        normals.resize(prims.len(), None);
     }
-    Ok((prims, lights, normals))
+    Ok(b)
+}
+
+/// True when a material looks up a texture (so its meshes keep their UVs).
+fn has_texture(m: &Material) -> bool {
+    matches!(
+        m,
+        Material::Diffuse { color: Color::Texture(_), .. } | Material::Conductor { color: Color::Texture(_), .. }
+    )
+}
+
+/// One `[[lights]]` entry: its light, and for an area light its primitive.
+fn light(ctx: &Ctx, path: &str, l: &LightDesc, b: &mut Built) -> Result<()> {
+    let li = b.lights.len() as u32;
+    match l {
+        LightDesc::Quad { corner, edge_u, edge_v, radiance, transform } => {
+            let (corner, u, v) = quad_geometry(ctx, path, *corner, *edge_u, *edge_v, transform)?;
+            let n = u.cross(v);
+            b.push(Primitive { shape: Shape::Quad { corner, u, v }, material: 0, light: li }, None, None);
+            b.lights.push(Light::Quad {
+                corner,
+                u,
+                v,
+                normal: n.normalize(),
+                area: n.length(),
+                radiance: color(ctx, &format!("{path}.radiance"), *radiance)?,
+            });
+        }
+        LightDesc::Triangle { v0, v1, v2, radiance, transform } => {
+            let t = transform_opt(ctx, path, transform)?;
+            let mut vs = [Vec3::ZERO; 3];
+            for (k, p) in [v0, v1, v2].into_iter().enumerate() {
+                let field = format!("{path}.v{k}");
+                vs[k] = coord(ctx, &field, t.point(coord(ctx, &field, vec3(*p))?))?;
+            }
+            let radiance = color(ctx, &format!("{path}.radiance"), *radiance)?;
+            let light = triangle_light(vs, radiance)
+                .ok_or_else(|| ctx.fail(&format!("{path}.v2"), "the triangle has zero area"))?;
+            let shape = Shape::Triangle { v0: vs[0], v1: vs[1], v2: vs[2] };
+            b.push(Primitive { shape, material: 0, light: li }, None, None);
+            b.lights.push(light);
+        }
+        LightDesc::Point { position, intensity } => b.lights.push(Light::Point {
+            position: coord(ctx, &format!("{path}.position"), vec3(*position))?,
+            intensity: color(ctx, &format!("{path}.intensity"), *intensity)?,
+        }),
+    }
+    Ok(())
+}
+
+/// A sphere's shape after its transform, checked.
+fn sphere(ctx: &Ctx, path: &str, center: [f32; 3], radius: f32, xf: &Option<Vec<TransformOp>>) -> Result<Shape> {
+    // Numbers are checked finite before this point, so `<=` catches every bad radius.
+    if radius <= 0.0 {
+        return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
+    }
+    coord(ctx, &format!("{path}.radius"), Vec3::splat(radius))?;
+    coord(ctx, &format!("{path}.center"), vec3(center))?;
+    let (mut c, mut r) = (vec3(center), radius);
+    if let Some(ops) = xf {
+        let tp = format!("{path}.transform");
+        let t = self::transform(ctx, &tp, ops)?;
+        let s = t
+            .uniform_scale()
+            .ok_or_else(|| ctx.fail(&tp, "a sphere takes only a uniform scale (with rotations and translations)"))?;
+        c = coord(ctx, &tp, t.point(c))?;
+        r = coord(ctx, &tp, Vec3::splat(r * s))?.x;
+    }
+    // A sphere below its centre's rounding step has no point but the centre in f32:
+    // every hit point rounds onto it and has no normal (found by fuzzing: NaN rays).
+    // 2^-20 of the centre's largest coordinate is 8 of its ulps.
+    let least = c.abs().max_element() / (1u32 << 20) as f32;
+    if r <= least {
+        let field = if xf.is_some() { "transform" } else { "radius" };
+        return Err(ctx.fail(
+            &format!("{path}.{field}"),
+            format!(
+                "radius {r:e} is below the precision of the centre {c}: it must exceed 2^-20 of the centre's largest coordinate ({least:e})"
+            ),
+        ));
+    }
+    Ok(Shape::Sphere { center: c, radius: r })
+}
+
+/// A mesh object's triangles (`material`, or one-sided emitters of `emission`), with
+/// their vertex normals when smooth and their UVs when `textured` and the file has them.
+fn mesh_object(
+    ctx: &Ctx,
+    path: &str,
+    o: &ObjectDesc,
+    (material, emission, textured): (u32, Option<Vec3>, bool),
+    b: &mut Built,
+    info: &mut SceneInfo,
+) -> Result<()> {
+    let ObjectDesc::Mesh { file, scale, rotate_y, translate, transform, smooth, flip_normals, .. } = o else {
+        unreachable!("called for meshes only")
+    };
+    if *scale <= 0.0 {
+        return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
+    }
+    let mesh_path = ctx.src.dir.join(file);
+    let fail = |e: String| ctx.fail(&format!("{path}.file"), e);
+    check_mesh_size(&mesh_path).map_err(fail)?;
+    if outside_folder(&ctx.src.dir, &mesh_path) {
+        info.outside_paths.push(mesh_path.display().to_string());
+    }
+    let mesh = load_mesh(&mesh_path).map_err(fail)?;
+    let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
+    let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
+    let after = transform_opt(ctx, path, transform)?;
+    let xf = |p: Vec3| {
+        let p = rot * (p * *scale) + t;
+        if transform.is_some() {
+            after.point(p)
+        } else {
+            p
+        }
+    };
+    let positions: Vec<Vec3> = mesh.positions.iter().map(|&p| xf(p)).collect();
+    if let Some(v) = positions.iter().find(|v| !in_range(**v)) {
+        let field = if transform.is_some() { "transform" } else { "scale" };
+        return Err(ctx.fail(
+            &format!("{path}.{field}"),
+            format!("a vertex lands at {v} after the mesh's transform: beyond ±{MAX_COORD:e}"),
+        ));
+    }
+    let mut tris = mesh.triangles.clone();
+    if *flip_normals {
+        tris.iter_mut().for_each(|t| t.swap(1, 2));
+    }
+    let vertex_normals = smooth.then(|| {
+        if mesh.normals.is_empty() {
+            mesh::vertex_normals(&positions, &tris)
+        } else {
+            // The file's normals follow the mesh: rotated with it, and through the
+            // inverse transpose of a non-uniform scale.
+            let lin = Transform { m: glam::DMat4::from_quat(rot.as_dquat()) }.m;
+            let whole = Transform { m: after.m * lin };
+            let sign = if *flip_normals { -1.0 } else { 1.0 };
+            mesh.normals.iter().map(|&n| sign * whole.normal(n)).collect()
+        }
+    });
+    let uvs = (textured && !mesh.uvs.is_empty()).then_some(&mesh.uvs);
+    for tri in &tris {
+        let [v0, v1, v2] = tri.map(|k| positions[k as usize]);
+        if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
+            info.degenerate_triangles += 1;
+            continue;
+        }
+        info.triangles += 1;
+        let light = match emission {
+            Some(radiance) => {
+                // Non-zero area was checked just above.
+                b.lights.push(triangle_light([v0, v1, v2], radiance).unwrap_or_else(|| unreachable!()));
+                b.lights.len() as u32 - 1
+            }
+            None => NO_LIGHT,
+        };
+        b.push(
+            Primitive { shape: Shape::Triangle { v0, v1, v2 }, material, light },
+            vertex_normals.as_ref().map(|n| tri.map(|k| n[k as usize])),
+            uvs.map(|uv| tri.map(|k| uv[k as usize])),
+        );
+    }
+    Ok(())
 }
 
 /// A `transform` list composed; errors name the step.
@@ -276,27 +320,43 @@ fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
     (len > 0.0 && len.is_finite()).then(|| Light::Triangle { v0, e1, e2, normal: n / len, area: 0.5 * len, radiance })
 }
 
-/// Builds the BVH and puts the vertex normals in its primitive order. [`Accel::build`]
-/// reorders the primitives and keeps no map back, and the geometry module does not know
-/// about shading normals: each primitive's position rides through the build in its
-/// `material` field and is replaced by the real one afterwards. Without smooth meshes the
-/// normals table is empty and the build is the plain one.
-pub(super) fn build_accel(mut prims: Vec<Primitive>, normals: Normals, quality: BvhQuality) -> (Accel, Vec<[Vec3; 3]>) {
-    if normals.iter().all(Option::is_none) {
-        return (Accel::build_with(prims, MAX_LEAF, quality), Vec::new());
+/// The per-corner tables of a scene in the BVH's primitive order.
+pub(super) struct CornerTables {
+    /// Vertex normals (zero for a flat primitive); empty when no mesh is smooth.
+    pub(super) normals: Vec<[Vec3; 3]>,
+    /// Corner UVs (zero where none); empty when no textured mesh has UVs.
+    pub(super) uvs: Vec<[Vec2; 3]>,
+}
+
+/// Builds the BVH and puts the per-corner tables in its primitive order.
+/// [`Accel::build`] reorders the primitives and keeps no map back, and the acceleration
+/// module does not know about shading data: each primitive's position rides through the
+/// build in its `material` field and is replaced by the real one afterwards. Without
+/// smooth or textured meshes the tables are empty and the build is the plain one.
+pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables) {
+    let Built { mut prims, normals, uvs, .. } = b;
+    let (smooth, textured) = (normals.iter().any(Option::is_some), uvs.iter().any(Option::is_some));
+    if !smooth && !textured {
+        let tables = CornerTables { normals: Vec::new(), uvs: Vec::new() };
+        return (Accel::build_with(prims, MAX_LEAF, quality), tables);
     }
     let materials: Vec<u32> = prims.iter().map(|p| p.material).collect();
     for (i, p) in prims.iter_mut().enumerate() {
         p.material = i as u32;
     }
     let mut accel = Accel::build_with(prims, MAX_LEAF, quality);
-    let mut table = Vec::with_capacity(accel.prims.len());
+    let mut tables = CornerTables { normals: Vec::new(), uvs: Vec::new() };
     for p in &mut accel.prims {
         let i = p.material as usize;
         p.material = materials[i];
-        table.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
+        if smooth {
+            tables.normals.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
+        }
+        if textured {
+            tables.uvs.push(uvs[i].unwrap_or([Vec2::ZERO; 3]));
+        }
     }
-    (accel, table)
+    (accel, tables)
 }
 
 /// Reads a mesh file, OBJ or PLY by its extension (`.ply`, case-insensitive; anything

@@ -1,0 +1,213 @@
+//! The `[materials.NAME]` tables validated into [`Material`]s, with their textures
+//! loaded (each distinct texture once) and their roughness checked.
+
+use glam::{Affine2, Vec2, Vec3};
+use std::path::Path;
+
+use super::objects::transform;
+use super::{color, Ctx};
+use crate::microfacet::{named_conductor, Distribution, Microfacet, CONDUCTORS};
+use crate::scene::format::*;
+use crate::scene::{Color, Material, ReflectRatio};
+use crate::texture::{Bitmap, Filter, Texture, Wrap};
+use crate::Result;
+
+/// Smallest roughness: Mitsuba's clamp (`MicrofacetDistribution`), below which the
+/// distribution's sampling loses its precision.
+pub const MIN_ALPHA: f32 = 1e-4;
+
+/// Largest roughness accepted: far beyond any measured surface (alpha ≈ 1 is already
+/// close to diffuse), and small enough that the distributions stay finite.
+pub const MAX_ALPHA: f32 = 1e3;
+
+/// The textures of a scene's materials, each distinct description loaded once.
+#[derive(Default)]
+pub(super) struct Textures {
+    /// Loaded textures, indexed by [`Color::Texture`].
+    pub(super) list: Vec<Texture>,
+    descs: Vec<TextureDesc>,
+}
+
+/// Material `name` validated; its textures are added to `textures`.
+pub(super) fn material(name: &str, m: &MaterialDesc, ctx: &Ctx, textures: &mut Textures) -> Result<Material> {
+    let p = |f: &str| format!("materials.{name}.{f}");
+    Ok(match m {
+        MaterialDesc::Diffuse { color: c, specular, shininess } => {
+            if *shininess < 0.0 {
+                return Err(ctx.fail(&p("shininess"), "must be >= 0"));
+            }
+            Material::Diffuse {
+                color: color_or_texture(ctx, &p("color"), c, textures)?,
+                specular: color(ctx, &p("specular"), *specular)?,
+                shininess: *shininess,
+            }
+        }
+        MaterialDesc::Mirror { color: c } => Material::Mirror { color: color(ctx, &p("color"), *c)? },
+        MaterialDesc::Dielectric { ior, reflect_ratio, color: c, distribution, alpha, alpha_u, alpha_v } => {
+            if *ior <= 0.0 {
+                return Err(ctx.fail(&p("ior"), format!("{ior} must be > 0")));
+            }
+            let roughness = roughness(ctx, name, distribution, (*alpha, *alpha_u, *alpha_v))?;
+            let ratio = reflect_ratio_of(ctx, &p("reflect_ratio"), reflect_ratio)?;
+            if roughness.is_some() && ratio != ReflectRatio::Fresnel {
+                return Err(ctx.fail(&p("reflect_ratio"), "rough glass splits by Fresnel at each microfacet: leave it out"));
+            }
+            Material::Dielectric { ior: *ior, ratio, tint: color(ctx, &p("color"), *c)?, roughness }
+        }
+        MaterialDesc::Conductor { material, eta, k, color: c, distribution, alpha, alpha_u, alpha_v } => {
+            let roughness = roughness(ctx, name, distribution, (*alpha, *alpha_u, *alpha_v))?;
+            let color = color_or_texture(ctx, &p("color"), c, textures)?;
+            match (conductor_ior(ctx, name, material, *eta, *k)?, color, roughness) {
+                // Mitsuba's "none", smooth and untextured: exactly the mirror.
+                (None, Color::Rgb(color), None) => Material::Mirror { color },
+                (None, color, roughness) => Material::Conductor { eta: Vec3::ZERO, k: Vec3::ZERO, color, roughness },
+                (Some((eta, k)), color, roughness) => Material::Conductor { eta, k, color, roughness },
+            }
+        }
+    })
+}
+
+/// `reflect_ratio`: C in [0, 1] or "fresnel" (the default).
+fn reflect_ratio_of(ctx: &Ctx, path: &str, r: &Option<RatioDesc>) -> Result<ReflectRatio> {
+    match r {
+        None => Ok(ReflectRatio::Fresnel),
+        Some(RatioDesc::Name(s)) if s == "fresnel" => Ok(ReflectRatio::Fresnel),
+        Some(RatioDesc::Name(s)) => {
+            Err(ctx.fail(path, format!("\"{s}\" is neither a number in [0, 1] nor \"fresnel\"")))
+        }
+        Some(RatioDesc::Value(c)) if (0.0..=1.0).contains(c) => Ok(ReflectRatio::Fixed(*c)),
+        Some(RatioDesc::Value(c)) => Err(ctx.fail(path, format!("{c} is not in [0, 1]"))),
+    }
+}
+
+/// The microfacet distribution of material `name`: `None` (smooth) when no alpha is
+/// given; `alpha`, or both `alpha_u` and `alpha_v`, otherwise.
+fn roughness(
+    ctx: &Ctx,
+    name: &str,
+    distribution: &Option<String>,
+    (alpha, alpha_u, alpha_v): (Option<f32>, Option<f32>, Option<f32>),
+) -> Result<Option<Microfacet>> {
+    let p = |f: &str| format!("materials.{name}.{f}");
+    let check = |field: &str, a: f32| {
+        if (0.0..=MAX_ALPHA).contains(&a) {
+            Ok(a.max(MIN_ALPHA))
+        } else {
+            Err(ctx.fail(&p(field), format!("{a} is not in [0, {MAX_ALPHA}]")))
+        }
+    };
+    let (alpha_u, alpha_v) = match (alpha, alpha_u, alpha_v) {
+        (None, None, None) => {
+            if distribution.is_some() {
+                return Err(ctx.fail(&p("distribution"), "needs a roughness: `alpha`, or `alpha_u` and `alpha_v`"));
+            }
+            return Ok(None);
+        }
+        (Some(a), None, None) => (check("alpha", a)?, check("alpha", a)?),
+        (None, Some(u), Some(v)) => (check("alpha_u", u)?, check("alpha_v", v)?),
+        (Some(_), _, _) => return Err(ctx.fail(&p("alpha"), "give `alpha`, or `alpha_u` and `alpha_v`, not both")),
+        (None, Some(_), None) => return Err(ctx.fail(&p("alpha_u"), "needs `alpha_v` too")),
+        (None, None, Some(_)) => return Err(ctx.fail(&p("alpha_v"), "needs `alpha_u` too")),
+    };
+    let distribution = match distribution.as_deref() {
+        None | Some("beckmann") => Distribution::Beckmann,
+        Some("ggx") => Distribution::Ggx,
+        Some(other) => {
+            return Err(ctx.fail(&p("distribution"), format!("\"{other}\" is neither \"ggx\" nor \"beckmann\"")))
+        }
+    };
+    Ok(Some(Microfacet { distribution, alpha_u, alpha_v }))
+}
+
+/// A conductor's complex index of refraction: `Some((eta, k))`, or `None` for Mitsuba's
+/// "none" (a perfect reflector, the default without `eta` and `k`).
+fn conductor_ior(
+    ctx: &Ctx,
+    name: &str,
+    material: &Option<String>,
+    eta: Option<[f32; 3]>,
+    k: Option<[f32; 3]>,
+) -> Result<Option<(Vec3, Vec3)>> {
+    let p = |f: &str| format!("materials.{name}.{f}");
+    match (material, eta, k) {
+        (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+            Err(ctx.fail(&p("material"), "give `material`, or `eta` and `k`, not both"))
+        }
+        (None, Some(eta), Some(k)) => Ok(Some((color(ctx, &p("eta"), eta)?, color(ctx, &p("k"), k)?))),
+        (None, Some(_), None) => Err(ctx.fail(&p("eta"), "needs `k` too")),
+        (None, None, Some(_)) => Err(ctx.fail(&p("k"), "needs `eta` too")),
+        (None, None, None) => Ok(None),
+        (Some(m), None, None) if m == "none" => Ok(None),
+        (Some(m), None, None) => named_conductor(m).map(Some).ok_or_else(|| {
+            ctx.fail(&p("material"), format!("unknown conductor \"{m}\"; known: none, {}", CONDUCTORS.join(", ")))
+        }),
+    }
+}
+
+/// A colour field: an RGB triple, or a texture (loaded, or found among those loaded).
+fn color_or_texture(ctx: &Ctx, path: &str, c: &ColorDesc, textures: &mut Textures) -> Result<Color> {
+    let desc = match c {
+        ColorDesc::Rgb(c) => return Ok(Color::Rgb(color(ctx, path, *c)?)),
+        ColorDesc::Texture(t) => t,
+    };
+    if let Some(i) = textures.descs.iter().position(|d| d == desc) {
+        return Ok(Color::Texture(i as u32));
+    }
+    let texture = texture(ctx, path, desc)?;
+    textures.list.push(texture);
+    textures.descs.push(desc.clone());
+    Ok(Color::Texture(textures.list.len() as u32 - 1))
+}
+
+/// A texture description validated and, for a bitmap, its file read.
+fn texture(ctx: &Ctx, path: &str, t: &TextureDesc) -> Result<Texture> {
+    match t {
+        TextureDesc::Bitmap { file, raw, wrap, filter, to_uv: ops } => {
+            let wrap = match wrap.as_deref() {
+                None | Some("repeat") => Wrap::Repeat,
+                Some("mirror") => Wrap::Mirror,
+                Some("clamp") => Wrap::Clamp,
+                Some(w) => {
+                    let msg = format!("\"{w}\" is not one of \"repeat\", \"mirror\", \"clamp\"");
+                    return Err(ctx.fail(&format!("{path}.wrap"), msg));
+                }
+            };
+            let filter = match filter.as_deref() {
+                None | Some("bilinear") => Filter::Bilinear,
+                Some("nearest") => Filter::Nearest,
+                Some(f) => {
+                    let msg = format!("\"{f}\" is neither \"bilinear\" nor \"nearest\"");
+                    return Err(ctx.fail(&format!("{path}.filter"), msg));
+                }
+            };
+            let file_path = ctx.src.dir.join(file);
+            let bitmap = Bitmap::load(&file_path, *raw, wrap, filter)
+                .map_err(|e| ctx.fail(&format!("{path}.file"), format!("{}: {e}", shown(&file_path))))?;
+            Ok(Texture::Bitmap { bitmap, to_uv: to_uv(ctx, path, ops)? })
+        }
+        TextureDesc::Checkerboard { color0, color1, to_uv: ops } => Ok(Texture::Checkerboard {
+            color0: color(ctx, &format!("{path}.color0"), *color0)?,
+            color1: color(ctx, &format!("{path}.color1"), *color1)?,
+            to_uv: to_uv(ctx, path, ops)?,
+        }),
+    }
+}
+
+/// A path as messages show it.
+fn shown(path: &Path) -> String {
+    path.display().to_string()
+}
+
+/// `to_uv`: the transform list acting on (u, v, 0), kept as its action on the plane.
+fn to_uv(ctx: &Ctx, path: &str, ops: &Option<Vec<TransformOp>>) -> Result<Affine2> {
+    let Some(ops) = ops else { return Ok(Affine2::IDENTITY) };
+    let field = format!("{path}.to_uv");
+    let t = transform(ctx, &field, ops)?;
+    let at = |p: Vec3| t.point(p);
+    let (o, x, y) = (at(Vec3::ZERO), at(Vec3::X), at(Vec3::Y));
+    let affine = Affine2::from_cols(Vec2::new(x.x - o.x, x.y - o.y), Vec2::new(y.x - o.x, y.y - o.y), o.truncate());
+    if !affine.is_finite() {
+        return Err(ctx.fail(&field, "the transform is not finite on the UV plane"));
+    }
+    Ok(affine)
+}
