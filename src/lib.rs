@@ -23,6 +23,7 @@ pub mod simd;
 pub mod stages;
 pub mod stats;
 pub mod surface;
+pub mod system;
 pub mod texture;
 pub mod tools;
 

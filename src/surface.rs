@@ -230,7 +230,7 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     let w = V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) }.lanes();
     // Albedo, Phong reflectance and exponent: seven columns filled in one pass.
     let (mut color, mut specular, mut shininess) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [0.0f32; LANES]);
-    let at = |v: &V3<f32x16>, k: usize| Vec3::new(v.x.as_array_ref()[k], v.y.as_array_ref()[k], v.z.as_array_ref()[k]);
+    let at = |v: &V3<f32x16>, k: usize| Vec3::new(v.x.to_array()[k], v.y.to_array()[k], v.z.to_array()[k]);
     for (k, &i) in lanes.idx.iter().enumerate() {
         let (c, sp, e) = diffuse_material(scene, hits.prim[i]).unwrap_or((Color::Rgb(Vec3::ZERO), Vec3::ZERO, 0.0));
         // Only a texture needs the point; a constant costs nothing more.

@@ -388,7 +388,7 @@ fn put(root: &Path, rel: &str, text: &str) {
 
 #[test]
 fn cgroup_v2_limits_are_read_at_every_level_up_to_the_root() {
-    use wavetrace::scene::load::cgroup_memory;
+    use wavetrace::system::cgroup_memory;
     let t = tempfile::tempdir().unwrap();
     let root = t.path();
     assert_eq!(cgroup_memory(root), None, "no /proc/self/cgroup: nothing known");
@@ -414,7 +414,7 @@ fn cgroup_v2_limits_are_read_at_every_level_up_to_the_root() {
 
 #[test]
 fn cgroup_v1_limits_are_read_and_unlimited_does_not_bind() {
-    use wavetrace::scene::load::cgroup_memory;
+    use wavetrace::system::cgroup_memory;
     let t = tempfile::tempdir().unwrap();
     let root = t.path();
     put(root, "proc/self/cgroup", "12:cpu,cpuacct:/slurm/uid_0/job_9\n4:memory:/slurm/uid_0/job_9/step_batch\n");

@@ -34,7 +34,7 @@ pub fn load_linear(path: &Path) -> Result<Image> {
 #[cfg(feature = "exr")]
 pub fn check_exr_fits(path: &Path, frame_bytes: u64) -> std::result::Result<(), String> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| format!("not a readable EXR: {e}"))?;
-    let have = crate::scene::load::available_memory() / 2;
+    let have = crate::system::available_memory() / 2;
     for h in meta.headers.iter() {
         let (layer, frame) = (h.layer_size, h.shared_attributes.display_window.size);
         let need = (layer.area() as u64)

@@ -330,60 +330,8 @@ pub(super) fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(
     Ok((u, v))
 }
 
-/// Bytes of memory this process may use: the least of the system's MemAvailable, what
-/// the process's cgroups allow beyond what they hold ([`cgroup_memory`]: a SLURM job or
-/// a container has its own limit, not the host's), and `WAVETRACE_MEMORY` (bytes) when
-/// set; 8 GiB when none can be read. Every "must fit in memory" check asks it.
-pub fn available_memory() -> u64 {
-    let system = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
-        s.lines()
-            .find(|l| l.starts_with("MemAvailable:"))
-            .and_then(|l| l.split_whitespace().nth(1))
-            .and_then(|kb| kb.parse::<u64>().ok())
-            .map(|kb| kb * 1024)
-    });
-    let cgroup = cgroup_memory(Path::new("/"));
-    let user = std::env::var("WAVETRACE_MEMORY").ok().and_then(|v| v.trim().parse::<u64>().ok());
-    [system, cgroup, user].into_iter().flatten().min().unwrap_or(8 << 30)
-}
-
-/// The memory the process's cgroups leave it, read under `root` (`/` on a live system;
-/// a folder with `proc/self/cgroup` and `sys/fs/cgroup/...` in tests): for each
-/// hierarchy in `proc/self/cgroup` (v2 `0::PATH`: `memory.max` − `memory.current`; v1
-/// `N:memory:PATH`: `memory.limit_in_bytes` − `memory.usage_in_bytes`), every level
-/// from the process's cgroup up to the hierarchy's root, and the smallest room wins: a
-/// limit may sit on any ancestor (SLURM puts the job's above its steps'). A limit of
-/// "max" (v2) does not parse and one near 2^63 (v1's unlimited) does not bind. `None`
-/// when no level has a limit.
-pub fn cgroup_memory(root: &Path) -> Option<u64> {
-    let read = |p: &Path| std::fs::read_to_string(p).ok();
-    let num = |p: PathBuf| read(&p)?.trim().parse::<u64>().ok();
-    let table = read(&root.join("proc/self/cgroup"))?;
-    let mut least: Option<u64> = None;
-    for line in table.lines() {
-        let (mount, max, current, dir) = match line.split_once(":memory:") {
-            Some((_, dir)) => ("sys/fs/cgroup/memory", "memory.limit_in_bytes", "memory.usage_in_bytes", dir),
-            None => match line.strip_prefix("0::") {
-                Some(dir) => ("sys/fs/cgroup", "memory.max", "memory.current", dir),
-                None => continue,
-            },
-        };
-        let top = root.join(mount);
-        // `..` in a cgroup path (a process outside the reader's namespace) is not
-        // followed: the walk stays inside the hierarchy.
-        let parts: Vec<&str> = dir.trim().split('/').filter(|p| !p.is_empty() && *p != "." && *p != "..").collect();
-        for depth in (0..=parts.len()).rev() {
-            let level = parts[..depth].iter().fold(top.clone(), |p, part| p.join(part));
-            if let Some(limit) = num(level.join(max)) {
-                let room = limit.saturating_sub(num(level.join(current)).unwrap_or(0));
-                least = Some(least.map_or(room, |l| l.min(room)));
-            }
-        }
-    }
-    least
-}
-
-fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
+/// The image size: at least one pixel, at most 2^32, and within half the memory.
+fn image_size(r: &RenderDesc, ctx: &Ctx) -> Result<()> {
     if r.width == 0 {
         return Err(ctx.fail("render.width", "must be at least 1"));
     }
@@ -396,7 +344,7 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     }
     let pixels = r.width as u64 * r.height as u64;
     let need = pixels.saturating_mul(BYTES_PER_PIXEL);
-    let have = available_memory();
+    let have = crate::system::available_memory();
     // Blame the dimension a --set changed, if one did.
     let dim_path =
         if ctx.sets.iter().any(|s| s.starts_with("render.height=")) { "render.height" } else { "render.width" };
@@ -418,16 +366,21 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
             ctx.fail(dim_path, format!("{}×{} pixels: more than 2^32 pixels are not supported", r.width, r.height))
         );
     }
-    let aa_mode = match r.aa.mode {
+    Ok(())
+}
+
+/// Anti-aliasing: uniform, or the paper's adaptive corners with its levels checked.
+fn aa_mode(aa: &AaDesc, ctx: &Ctx) -> Result<AaMode> {
+    Ok(match aa.mode {
         SamplingDesc::Uniform => AaMode::Uniform,
         SamplingDesc::Adaptive => {
-            if r.aa.eps < 0.0 {
+            if aa.eps < 0.0 {
                 return Err(ctx.fail("render.aa.eps", "must be >= 0"));
             }
-            if !(2..=MAX_LEVEL).contains(&r.aa.max_level) {
-                return Err(ctx.fail("render.aa.max_level", format!("{} is not in 2..={MAX_LEVEL}", r.aa.max_level)));
+            if !(2..=MAX_LEVEL).contains(&aa.max_level) {
+                return Err(ctx.fail("render.aa.max_level", format!("{} is not in 2..={MAX_LEVEL}", aa.max_level)));
             }
-            if !(2..=r.aa.max_level).contains(&r.aa.min_level) {
+            if !(2..=aa.max_level).contains(&aa.min_level) {
                 // Blame the one a --set changed, if either was.
                 let path = if ctx.sets.iter().any(|s| s.starts_with("render.aa.max_level=")) {
                     "render.aa.max_level"
@@ -436,20 +389,25 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
                 };
                 return Err(ctx.fail(
                     path,
-                    format!("min_level ({}) must be in 2..=max_level ({})", r.aa.min_level, r.aa.max_level),
+                    format!("min_level ({}) must be in 2..=max_level ({})", aa.min_level, aa.max_level),
                 ));
             }
-            if r.aa.dof_radius <= 0.0 {
-                return Err(ctx.fail("render.aa.dof_radius", format!("{} must be > 0", r.aa.dof_radius)));
+            if aa.dof_radius <= 0.0 {
+                return Err(ctx.fail("render.aa.dof_radius", format!("{} must be > 0", aa.dof_radius)));
             }
             AaMode::Adaptive {
-                eps: r.aa.eps,
-                min_level: r.aa.min_level,
-                max_level: r.aa.max_level,
-                share_corners: r.aa.share_corners,
+                eps: aa.eps,
+                min_level: aa.min_level,
+                max_level: aa.max_level,
+                share_corners: aa.share_corners,
             }
         }
-    };
+    })
+}
+
+fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
+    image_size(r, ctx)?;
+    let aa_mode = aa_mode(&r.aa, ctx)?;
     let probe = match r.shadows.probe {
         ProbeDesc::Corners => Probe::Corners,
         ProbeDesc::CornersCenter => Probe::CornersCenter,
@@ -505,10 +463,12 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     })
 }
 
-fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> {
-    // With a transform, the frame's image-right direction (-x): a mirroring transform
-    // flips the image.
-    let (position, forward, up_hint, default_focus, frame_right) = match (&c.transform, c.position, c.look_at) {
+/// Where the camera is and looks: (position, unit forward, up hint, default focus
+/// distance, and with a transform the frame's image-right direction (-x), so that a
+/// mirroring transform flips the image).
+#[allow(clippy::type_complexity)] // one tuple, named where it is taken apart
+fn camera_frame(c: &CameraDesc, ctx: &Ctx) -> Result<(Vec3, Vec3, Vec3, f32, Option<Vec3>)> {
+    Ok(match (&c.transform, c.position, c.look_at) {
         (Some(ops), None, None) => {
             let t = transform(ctx, "camera.transform", ops)?;
             let (p, fwd, up, left) = t.frame();
@@ -540,7 +500,11 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
         }
         (None, None, _) => return Err(ctx.fail("camera", "missing field `position` (or a `transform`)")),
         (None, Some(_), None) => return Err(ctx.fail("camera", "missing field `look_at`")),
-    };
+    })
+}
+
+fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> {
+    let (position, forward, up_hint, default_focus, frame_right) = camera_frame(c, ctx)?;
     let right = forward.cross(up_hint);
     if up_hint.length_squared() == 0.0 || right.length() < 1e-6 * up_hint.length() {
         let field = if c.transform.is_some() { "camera.transform" } else { "camera.up" };

@@ -6,7 +6,8 @@ use glam::{Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::{available_memory, color, coord, edges, in_range, vec3, Ctx, MAX_COORD};
+use super::{color, coord, edges, in_range, vec3, Ctx, MAX_COORD};
+use crate::system::available_memory;
 use crate::accel::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::accel::{BvhQuality, MAX_LEAF};
 use crate::scene::format::*;
