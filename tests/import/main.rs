@@ -12,6 +12,7 @@ mod cli;
 mod conversions;
 mod lights;
 mod meshes;
+mod plugins;
 mod same_scene;
 mod xml;
 

@@ -14,18 +14,18 @@ fn unsupported_plugins_name_the_place_and_the_supported_list() {
         ("<bsdf type=\"roughplastic\" id=\"a\"/>", "<bsdf type=\"roughplastic\">: not supported; wavetrace imports bsdf types diffuse, twosided"),
         ("<shape type=\"disk\"/>", "<shape type=\"disk\">: not supported; wavetrace imports shape types obj, ply, rectangle"),
         ("<emitter type=\"envmap\"/>", "<emitter type=\"envmap\">: not supported; wavetrace imports emitter types area"),
-        ("<texture type=\"bitmap\"/>", "not supported at the top level"),
+        ("<texture type=\"bitmap\"/>", "<texture type=\"bitmap\">: a texture at the top level needs an id"),
         (
-            "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\"/></bsdf></shape>",
-            "<texture> inside <bsdf type=\"diffuse\">: not supported here",
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"wood\" name=\"reflectance\"/></bsdf></shape>",
+            "<texture type=\"wood\">: not supported; wavetrace imports texture types bitmap, checkerboard",
         ),
         (
             "<shape type=\"sphere\"><bsdf type=\"diffuse\"><spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/></bsdf></shape>",
             "wavelength:value lists",
         ),
         (
-            "<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf></shape>",
-            "only material=\"none\"",
+            "<shape type=\"sphere\"><bsdf type=\"roughconductor\"><texture type=\"checkerboard\" name=\"alpha\"/></bsdf></shape>",
+            "<texture name=\"alpha\"> inside <bsdf type=\"roughconductor\">: not supported; wavetrace takes a texture",
         ),
         ("<shape type=\"sphere\"><float name=\"radius\" value=\"1\"/><float name=\"weird\" value=\"1\"/></shape>", "parameter `weird` is not supported (supported: center, radius"),
         (
@@ -85,7 +85,7 @@ fn includes_resolve_relative_and_cycles_are_refused() {
     let msg = error_of(&f.write("m.xml", xml_scene("<include filename=\"missing.xml\"/>")), &[]);
     assert!(msg.contains("m.xml:7:1: file `missing.xml` not found"), "{msg}");
     let msg = error_of(&f.write("r.xml", xml_scene("<shape type=\"sphere\"><ref id=\"nope\"/></shape>")), &[]);
-    assert!(msg.contains("<ref id=\"nope\">: no <bsdf id=\"nope\">"), "{msg}");
+    assert!(msg.contains("r.xml:7:22: <ref id=\"nope\">: no element has id \"nope\""), "{msg}");
 }
 
 #[test]
@@ -300,7 +300,7 @@ fn every_unsupported_element_is_reported_in_one_run() {
         assert!(msg.contains(needle), "`{needle}` not in: {msg}");
     }
     // The sphere's reference to the failed BSDF adds no second, misleading error.
-    assert!(!msg.contains("no <bsdf id"), "{msg}");
+    assert!(!msg.contains("no element has id"), "{msg}");
     // Many: the first 20, then a count.
     let many: String = (0..25).map(|_| "<shape type=\"disk\"/>\n").collect();
     let msg = error_of(&f.write("many.xml", xml_scene(&many)), &[]);

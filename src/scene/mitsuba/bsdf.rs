@@ -1,0 +1,305 @@
+//! BSDFs as materials: diffuse, twosided, smooth and rough conductors and dielectrics,
+//! with a texture in a colour's place where wavetrace has one.
+
+use super::xml::{El, Value};
+use super::{unsupported, Converter, Params, BSDFS, TEXTURES};
+use crate::scene::format::*;
+use crate::Result;
+
+/// Mitsuba's named indices of refraction (its `ior.h` table).
+const IORS: [(&str, f32); 23] = [
+    ("vacuum", 1.0),
+    ("helium", 1.00004),
+    ("hydrogen", 1.00013),
+    ("air", 1.00028),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.333),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.47),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.575),
+    ("diamond", 2.419),
+];
+
+/// The parameters of Mitsuba's microfacet BSDFs (`roughconductor`, `roughdielectric`).
+const ROUGH_PARAMS: [&str; 5] = ["distribution", "alpha", "alpha_u", "alpha_v", "sample_visible"];
+
+/// Mitsuba's microfacet distributions (it reads the name case-insensitively).
+const DISTRIBUTIONS: [&str; 2] = ["beckmann", "ggx"];
+
+/// Deepest chain of twosided BSDFs: they may nest and reference each other, so a
+/// reference loop must end somewhere.
+const MAX_TWOSIDED: usize = 16;
+
+/// The microfacet fields of a material; all `None` for a smooth one.
+#[derive(Default)]
+struct Rough {
+    distribution: Option<String>,
+    alpha: Option<f32>,
+    alpha_u: Option<f32>,
+    alpha_v: Option<f32>,
+}
+
+impl<'a> Converter<'a> {
+    /// Converts a BSDF element to a material, once per id, returning its name (the id, or
+    /// the element's place for an anonymous one).
+    pub(super) fn bsdf(&mut self, el: &El) -> Result<String> {
+        let id = el.attr("id");
+        if let Some(name) = id.and_then(|id| self.named.get(id)) {
+            return Ok(name.clone());
+        }
+        let name = match id {
+            Some(id) => id.to_string(),
+            None => format!("{}:{}:{}", el.loc.file, el.loc.line, el.loc.col),
+        };
+        // Named before converting: a BSDF that fails still answers its references, so they
+        // add no second, misleading error.
+        if let Some(id) = id {
+            self.named.insert(id.to_string(), name.clone());
+        }
+        let (desc, two_sided) = self.material(el)?;
+        if !two_sided && matches!(desc, MaterialDesc::Diffuse { .. }) {
+            self.note_one_sided(el);
+        }
+        self.out.file.materials.insert(name.clone(), desc);
+        self.place(format!("materials.{name}"), el);
+        Ok(name)
+    }
+
+    /// Notes once that Mitsuba's diffuse BSDF is one-sided.
+    pub(super) fn note_one_sided(&mut self, el: &El) {
+        if !self.one_sided_noted {
+            self.one_sided_noted = true;
+            self.note(format!(
+                "{}:{}: a diffuse BSDF without <bsdf type=\"twosided\"> (or a shape's default BSDF) is black from \
+                 behind in Mitsuba; wavetrace's diffuse surfaces reflect on both sides",
+                el.loc.file, el.loc.line
+            ));
+        }
+    }
+
+    /// The material of a BSDF element, and whether it is wrapped in a twosided.
+    fn material(&mut self, el: &El) -> Result<(MaterialDesc, bool)> {
+        match el.attr("type").unwrap_or("") {
+            "diffuse" => {
+                let p = Params::of(el, &["reflectance"], &["texture", "ref"])?;
+                textured_only(el, &["reflectance"])?;
+                let color = self.color_param(&p, "reflectance", [0.5; 3])?;
+                Ok((MaterialDesc::Diffuse { color, specular: [0.0; 3], shininess: 0.0 }, false))
+            }
+            "twosided" => self.twosided(el),
+            "conductor" => Ok((self.conductor(el, false)?, false)),
+            "roughconductor" => Ok((self.conductor(el, true)?, false)),
+            "dielectric" => Ok((self.dielectric(el, false)?, false)),
+            "roughdielectric" => Ok((self.dielectric(el, true)?, false)),
+            _ => Err(unsupported(el, "bsdf", BSDFS)),
+        }
+    }
+
+    /// `twosided` around one BSDF, nested or referenced: its material, two-sided.
+    fn twosided(&mut self, el: &El) -> Result<(MaterialDesc, bool)> {
+        Params::of(el, &[], &["bsdf", "ref"])?;
+        let mut inner = Vec::new();
+        for k in &el.kids {
+            match k.tag.as_str() {
+                "bsdf" => inner.push(k),
+                "ref" => inner.push(self.referenced(k, "a twosided BSDF takes a <bsdf>", |d| d.tag == "bsdf")?),
+                _ => {}
+            }
+        }
+        let [b] = inner[..] else {
+            return Err(el.loc.err(format!(
+                "<bsdf type=\"twosided\">: needs exactly one nested <bsdf> (two different sides are not supported); has {}",
+                inner.len()
+            )));
+        };
+        if self.twosided_depth >= MAX_TWOSIDED {
+            return Err(el.loc.err(format!(
+                "<bsdf type=\"twosided\">: twosided BSDFs nest deeper than {MAX_TWOSIDED} (through references, maybe \
+                 a loop)"
+            )));
+        }
+        self.twosided_depth += 1;
+        let m = self.material(b);
+        self.twosided_depth -= 1;
+        Ok((m?.0, true))
+    }
+
+    /// `conductor` and `roughconductor`: a named metal, or eta and k, or Mitsuba's default
+    /// perfect reflector; smooth with an RGB reflectance and no index, a mirror.
+    fn conductor(&mut self, el: &El, rough: bool) -> Result<MaterialDesc> {
+        let mut allowed = vec!["material", "eta", "k", "specular_reflectance"];
+        if rough {
+            allowed.extend(ROUGH_PARAMS);
+        }
+        let p = Params::of(el, &allowed, &["texture", "ref"])?;
+        textured_only(el, &["specular_reflectance"])?;
+        let named = p.string("material")?.map(|(m, _)| m);
+        let (eta, k) = (p.color("eta")?, p.color("k")?);
+        if let Some(m) = named.as_deref().filter(|m| *m != "none") {
+            if let Some((_, given)) = p.get("eta")?.or(p.get("k")?) {
+                return Err(given.loc.err(format!(
+                    "{}: material `{m}` with `eta`/`k`: give a named material or eta and k, not both (Mitsuba \
+                     refuses both too)",
+                    el.what()
+                )));
+            }
+        }
+        let color = self.color_param(&p, "specular_reflectance", [1.0; 3])?;
+        let r = if rough { self.roughness(&p)? } else { Rough::default() };
+        let indexed = eta.is_some() || k.is_some();
+        if let (false, false, ColorDesc::Rgb(c)) = (rough, indexed, &color) {
+            if named.as_deref().unwrap_or("none") == "none" {
+                return Ok(MaterialDesc::Mirror { color: *c });
+            }
+        }
+        // Mitsuba's defaults with an index: eta 0, k 1 (the perfect reflector).
+        let (material, eta, k) = if indexed {
+            (None, Some(eta.unwrap_or([0.0; 3])), Some(k.unwrap_or([1.0; 3])))
+        } else {
+            (Some(named.unwrap_or_else(|| "none".to_string())), None, None)
+        };
+        let Rough { distribution, alpha, alpha_u, alpha_v } = r;
+        Ok(MaterialDesc::Conductor { material, eta, k, color, distribution, alpha, alpha_u, alpha_v })
+    }
+
+    /// `dielectric` and `roughdielectric`: glass of ior = int_ior / ext_ior (numbers or
+    /// Mitsuba's named media).
+    fn dielectric(&mut self, el: &El, rough: bool) -> Result<MaterialDesc> {
+        let mut allowed = vec!["int_ior", "ext_ior", "specular_transmittance", "specular_reflectance"];
+        if rough {
+            allowed.extend(ROUGH_PARAMS);
+        }
+        let p = Params::of(el, &allowed, &[])?;
+        let (int, ext) = (ior(&p, "int_ior", 1.5046)?, ior(&p, "ext_ior", 1.00028)?);
+        if let Some(r) = p.color("specular_reflectance")? {
+            if r != [1.0; 3] {
+                let k = p.get("specular_reflectance")?.map(|(_, k)| k.loc.clone()).unwrap_or(el.loc.clone());
+                return Err(k.err(format!("{}: specular_reflectance other than 1 is not supported", el.what())));
+            }
+        }
+        let color = p.color("specular_transmittance")?.unwrap_or([1.0; 3]);
+        let Rough { distribution, alpha, alpha_u, alpha_v } =
+            if rough { self.roughness(&p)? } else { Rough::default() };
+        Ok(MaterialDesc::Dielectric {
+            ior: int / ext,
+            reflect_ratio: None,
+            color,
+            distribution,
+            alpha,
+            alpha_u,
+            alpha_v,
+        })
+    }
+
+    /// The microfacet parameters, with Mitsuba's defaults (beckmann, alpha 0.1) and its
+    /// rules (`alpha`, or both `alpha_u` and `alpha_v`). Numbers pass as given: the loader
+    /// checks their range, and its message points back at the BSDF.
+    fn roughness(&mut self, p: &Params) -> Result<Rough> {
+        let el = p.el;
+        let distribution = match p.string("distribution")? {
+            None => "beckmann".to_string(),
+            Some((d, k)) => {
+                let lower = d.to_ascii_lowercase();
+                if !DISTRIBUTIONS.contains(&lower.as_str()) {
+                    return Err(k.loc.err(format!(
+                        "{}: distribution `{d}` is not beckmann or ggx (Mitsuba's microfacet distributions)",
+                        el.what()
+                    )));
+                }
+                lower
+            }
+        };
+        if p.boolean("sample_visible")? == Some(false) {
+            self.note(format!(
+                "{}:{}: {}: sample_visible=false is ignored: it changes how Mitsuba samples the microfacet normals, \
+                 not the image it converges to",
+                el.loc.file,
+                el.loc.line,
+                el.what()
+            ));
+        }
+        let (alpha, u, v) = (p.num("alpha")?, p.num("alpha_u")?, p.num("alpha_v")?);
+        let mut r = Rough { distribution: Some(distribution), ..Rough::default() };
+        match (alpha, u, v) {
+            (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+                let at = p.get("alpha")?.map_or(el.loc.clone(), |(_, k)| k.loc.clone());
+                return Err(
+                    at.err(format!("{}: give `alpha` or `alpha_u` and `alpha_v`, not both (as Mitsuba)", el.what()))
+                );
+            }
+            (None, Some(u), Some(v)) => (r.alpha_u, r.alpha_v) = (Some(u as f32), Some(v as f32)),
+            (None, Some(_), None) | (None, None, Some(_)) => {
+                return Err(el.loc.err(format!("{}: give both `alpha_u` and `alpha_v` (as Mitsuba)", el.what())))
+            }
+            (a, None, None) => r.alpha = Some(a.unwrap_or(0.1) as f32),
+        }
+        Ok(r)
+    }
+
+    /// A colour parameter that may be a texture: an `<rgb>`/`<spectrum>`/number, a nested
+    /// `<texture name=...>`, or a `<ref name=... id=...>` to a texture declared anywhere.
+    fn color_param(&mut self, p: &Params, name: &str, default: [f32; 3]) -> Result<ColorDesc> {
+        let el = p.el;
+        let tex: Vec<&El> =
+            el.kids.iter().filter(|k| (k.tag == "texture" || k.tag == "ref") && k.attr("name") == Some(name)).collect();
+        let value = p.get(name)?.map(|(_, k)| k);
+        if let Some(second) = tex.iter().copied().chain(value).nth(1) {
+            return Err(second.loc.err(format!("{}: parameter `{name}` given twice", el.what())));
+        }
+        let Some(&t) = tex.first() else { return Ok(ColorDesc::Rgb(p.color(name)?.unwrap_or(default))) };
+        let t = if t.tag == "ref" {
+            self.referenced(t, &format!("`{name}` takes a <texture> ({TEXTURES})"), |d| d.tag == "texture")?
+        } else {
+            t
+        };
+        Ok(ColorDesc::Texture(self.texture(t)?))
+    }
+}
+
+/// Refuses a `<texture>` or `<ref>` inside BSDF `el` for any parameter but `colors`:
+/// roughness and the other parameters take plain values.
+fn textured_only(el: &El, colors: &[&str]) -> Result<()> {
+    for k in el.kids.iter().filter(|k| k.tag == "texture" || k.tag == "ref") {
+        match k.attr("name") {
+            Some(n) if colors.contains(&n) => {}
+            n => {
+                return Err(k.loc.err(format!(
+                    "<{}{}> inside {}: not supported; wavetrace takes a texture ({TEXTURES}) for {} only",
+                    k.tag,
+                    n.map(|n| format!(" name=\"{n}\"")).unwrap_or_default(),
+                    el.what(),
+                    colors.join(", ")
+                )))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// An index of refraction parameter: a number > 0 or one of Mitsuba's named media.
+fn ior(p: &Params, name: &str, default: f32) -> Result<f32> {
+    match p.get(name)? {
+        None => Ok(default),
+        Some((Value::Num(x), _)) if x > 0.0 => Ok(x as f32),
+        Some((Value::Str(s), k)) => {
+            IORS.iter().find(|(n, _)| n.eq_ignore_ascii_case(s.trim())).map(|(_, v)| *v).ok_or_else(|| {
+                let names: Vec<&str> = IORS.iter().map(|(n, _)| *n).collect();
+                k.loc.err(format!("{}: unknown medium `{s}` (known: {})", p.el.what(), names.join(", ")))
+            })
+        }
+        Some((_, k)) => Err(k.loc.err(format!("{}: `{name}` must be a number > 0 or a medium name", p.el.what()))),
+    }
+}
