@@ -22,7 +22,7 @@ mod tests;
 pub use conductors::{named_conductor, CONDUCTORS};
 
 use glam::{Vec2, Vec3};
-use std::f32::consts::PI;
+use std::f32::consts::{FRAC_2_SQRT_PI, PI};
 
 /// A microfacet normal distribution.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -211,7 +211,7 @@ fn poly(x: f32, c: &[f32]) -> f32 {
 fn erf(x: f32) -> f32 {
     let xa = x.abs();
     if xa < 1.0 {
-        let c0 = [1.128_379_1, -0.376_123_22, 0.112_801_746, -0.026_711_274, 0.004_917_544_3, -0.000_563_142_24];
+        let c0 = [FRAC_2_SQRT_PI, -0.376_123_22, 0.112_801_746, -0.026_711_274, 0.004_917_544_3, -0.000_563_142_24];
         x * poly(x * x, &c0)
     } else {
         let c1 = [
@@ -252,7 +252,7 @@ fn erfinv(x: f32) -> f32 {
             w.sqrt() - 3.0,
             &[
                 2.832_976_8,
-                1.001_674_1,
+                1.001_674,
                 0.009_438_870_5,
                 -0.007_622_461_3,
                 0.005_739_507_7,
