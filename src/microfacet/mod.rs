@@ -434,14 +434,15 @@ pub fn rough_dielectric_split(mf: &Microfacet, eta: f32, wi: Vec3, u: Vec2) -> S
 }
 
 /// The generalised half vector of wi and wo (Walter et al. 2007), turned to +z, the
-/// relative index η_o/η_i for wi's side, and whether wo is a reflection.
-fn dielectric_half(eta: f32, wi: Vec3, wo: Vec3) -> (Vec3, f32, bool) {
+/// relative index η_o/η_i for wi's side, and whether wo is a reflection. None where the
+/// half vector is undefined (η = 1 and wo = −wi, a delta), where Mitsuba would return NaN.
+fn dielectric_half(eta: f32, wi: Vec3, wo: Vec3) -> Option<(Vec3, f32, bool)> {
     let reflect = wi.z * wo.z > 0.0;
     let eta_r = if wi.z > 0.0 { eta } else { 1.0 / eta };
-    let m = (wi + wo * if reflect { 1.0 } else { eta_r }).normalize();
+    let m = (wi + wo * if reflect { 1.0 } else { eta_r }).try_normalize()?;
     // Mitsuba's mulsign: flips on the sign bit, so -0.0 flips too.
     let m = if m.z.is_sign_negative() { -m } else { m };
-    (m, eta_r, reflect)
+    Some((m, eta_r, reflect))
 }
 
 /// The rough dielectric's f(wi, wo)·|cos θo| (Mitsuba's `eval` in importance mode, i.e.
@@ -450,7 +451,9 @@ pub fn rough_dielectric_eval(mf: &Microfacet, eta: f32, wi: Vec3, wo: Vec3) -> f
     if wi.z == 0.0 {
         return 0.0;
     }
-    let (m, eta_r, reflect) = dielectric_half(eta, wi, wo);
+    let Some((m, eta_r, reflect)) = dielectric_half(eta, wi, wo) else {
+        return 0.0;
+    };
     let d = mf.eval(m);
     let f = fresnel_dielectric(wi.dot(m), eta).0;
     let g = mf.g(wi, wo, m);
@@ -470,7 +473,9 @@ pub fn rough_dielectric_pdf(mf: &Microfacet, eta: f32, wi: Vec3, wo: Vec3) -> f3
     if wi.z == 0.0 {
         return 0.0;
     }
-    let (m, eta_r, reflect) = dielectric_half(eta, wi, wo);
+    let Some((m, eta_r, reflect)) = dielectric_half(eta, wi, wo) else {
+        return 0.0;
+    };
     let (dim, dom) = (wi.dot(m), wo.dot(m));
     // The side checks smith_g1 makes in eval and sample, repeated as Mitsuba does.
     if dim * wi.z <= 0.0 || dom * wo.z <= 0.0 {

@@ -445,6 +445,26 @@ fn total_internal_reflection_leaves_no_refraction() {
 }
 
 #[test]
+fn index_matched_dielectric_passes_straight_through() {
+    // η = 1: F = 0, so no reflection, and the refracted direction is −wi for every m.
+    let mf = beckmann(0.4, 0.2);
+    let mut rng = Pcg32::new(13, 1);
+    for _ in 0..100 {
+        let wi = rng.sphere();
+        let s = rough_dielectric_split(&mf, 1.0, wi, rng.next_vec2());
+        assert!(s.reflect.is_none());
+        if let Some((wo, w)) = s.refract {
+            // Mitsuba's rational Beckmann G1 overshoots 1 by up to ~5e-5 near a = 1.6.
+            assert!(wo.abs_diff_eq(-wi, 1e-5) && w > 0.0 && w <= 1.0001, "{wi} {wo} {w}");
+        }
+    }
+    // The density of that delta is not a function: eval and pdf are 0 rather than NaN.
+    let wi = dir(30.0, 0.0);
+    assert_eq!(rough_dielectric_eval(&mf, 1.0, wi, -wi), 0.0);
+    assert_eq!(rough_dielectric_pdf(&mf, 1.0, wi, -wi), 0.0);
+}
+
+#[test]
 fn conductor_eval_is_reciprocal() {
     let (eta, k) = named_conductor("Au").unwrap();
     let mut rng = Pcg32::new(10, 1);
