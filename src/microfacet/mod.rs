@@ -268,7 +268,10 @@ fn erfinv(x: f32) -> f32 {
 
 /// An orthonormal tangent pair (s, t) for a unit normal n, with s × t = n (Mitsuba's
 /// `coordinate_system`, Duff et al. 2017), so anisotropic roughness has the same axes as
-/// in Mitsuba on meshes without UVs.
+/// in Mitsuba on meshes without UVs. There Mitsuba takes dp/du = `tangents(face normal).0`
+/// and builds the shading frame from it by Gram–Schmidt against the shading normal
+/// (`initialize_sh_frame`: s = normalize(dp_du − n (n·dp_du)), t = n × s), so with vertex
+/// normals the frame is not `tangents(shading normal)`.
 pub fn tangents(n: Vec3) -> (Vec3, Vec3) {
     // copysign rather than signum's sign test: -0.0 gives -1 as Dr.Jit's `sign`.
     let sign = 1.0f32.copysign(n.z);
