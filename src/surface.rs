@@ -94,12 +94,19 @@ pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> 
 }
 
 /// The texture coordinates of point `x` on primitive `prim`, as Mitsuba 3 defines them:
-/// a sphere's (φ/2π, θ/π), a parallelogram's (a, b) for corner + a·u + b·v, a triangle's
-/// corner UVs interpolated (its barycentric (b1, b2) when its mesh has none).
+/// a sphere's (φ/2π, θ/π), a parallelogram's (a, b) for corner + a·u + b·v (mapped
+/// through its corners' UVs when it has them), a triangle's corner UVs interpolated (its
+/// barycentric (b1, b2) when its mesh has none).
 pub fn uv_at(scene: &Scene, prim: usize, x: Vec3) -> Vec2 {
     match scene.accel.prims[prim].shape {
         Shape::Sphere { center, .. } => uv::sphere(center, x),
-        Shape::Quad { corner, u, v } => uv::quad(corner, u, v, x),
+        Shape::Quad { corner, u, v } => {
+            let ab = uv::quad(corner, u, v, x);
+            match scene.uvs.get(prim) {
+                Some(&[uv0, uv1, uv2]) => uv0 + ab.x * (uv1 - uv0) + ab.y * (uv2 - uv0),
+                None => ab,
+            }
+        }
         Shape::Triangle { v0, v1, v2 } => {
             let corners = scene.uvs.get(prim).copied().unwrap_or([Vec2::ZERO, Vec2::X, Vec2::Y]);
             uv::triangle([v0, v1, v2], corners, x)

@@ -27,7 +27,7 @@ use std::f32::consts::{FRAC_2_SQRT_PI, PI};
 /// A microfacet normal distribution.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Distribution {
-    /// Trowbridge–Reitz (GGX): long tails, Mitsuba's usual choice.
+    /// Trowbridge–Reitz (GGX): long tails.
     Ggx,
     /// Beckmann: a Gaussian of slopes, Mitsuba's default for rough plugins.
     Beckmann,

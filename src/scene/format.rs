@@ -461,6 +461,10 @@ pub enum ObjectDesc {
         /// Applied to the corner and the edges (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         transform: Option<Vec<TransformOp>>,
+        /// Texture coordinates at the corner, at corner + edge_u and at corner + edge_v
+        /// (default `[[0, 0], [1, 0], [0, 1]]`: the point's (a, b)).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        uv: Option<[[f32; 2]; 3]>,
     },
     /// A triangle mesh from an OBJ or PLY file (by extension).
     Mesh {

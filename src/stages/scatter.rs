@@ -145,15 +145,14 @@ pub fn is_glossy(m: &Material) -> bool {
     matches!(m, Material::Conductor { .. } | Material::Dielectric { roughness: Some(_), .. })
 }
 
-/// A conductor's Fresnel reflectance; eta = k = 0 stands for Mitsuba's "none", a
-/// perfect reflector (the formula is 0/0 there at normal incidence).
+/// A conductor's Fresnel reflectance; in a channel where eta = k = 0 it is 1: that is
+/// Mitsuba's "none", a perfect reflector, and what Mitsuba's gamut clamp leaves of some
+/// named metals' channels (AlSb's red), where the formula is 0/0 at normal incidence.
 #[inline]
 fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
-    if eta == Vec3::ZERO && k == Vec3::ZERO {
-        Vec3::ONE
-    } else {
-        fresnel_conductor(cos_i.clamp(0.0, 1.0), eta, k)
-    }
+    let f = fresnel_conductor(cos_i.clamp(0.0, 1.0), eta, k);
+    let perfect = eta.cmpeq(Vec3::ZERO) & k.cmpeq(Vec3::ZERO);
+    Vec3::select(perfect, Vec3::ONE, f)
 }
 
 /// The rays of one hit `i` on a conductor or rough glass: a conductor reflects (about

@@ -71,10 +71,15 @@ pub(super) fn objects(
                 let shape = sphere(ctx, &path, *center, *radius, transform)?;
                 b.push(Primitive { shape, material: lookup(material)?, light: NO_LIGHT }, None, None);
             }
-            ObjectDesc::Quad { corner, edge_u, edge_v, material, transform } => {
+            ObjectDesc::Quad { corner, edge_u, edge_v, material, transform, uv } => {
                 let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
                 let material = lookup(material)?;
-                b.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT }, None, None);
+                // A quad's own UVs matter only under a texture.
+                let uv = uv.filter(|_| has_texture(&materials[material as usize])).map(|c| c.map(Vec2::from_array));
+                if let Some(c) = uv.iter().flatten().find(|c| !c.is_finite() || c.abs().max_element() > MAX_COORD) {
+                    return Err(ctx.fail(&format!("{path}.uv"), format!("{c} is beyond ±{MAX_COORD:e}")));
+                }
+                b.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT }, None, uv);
             }
             ObjectDesc::Mesh { emission, material, .. } => {
                 let emission = emission.map(|e| color(ctx, &format!("{path}.emission"), e)).transpose()?;
@@ -321,11 +326,15 @@ fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
     (len > 0.0 && len.is_finite()).then(|| Light::Triangle { v0, e1, e2, normal: n / len, area: 0.5 * len, radiance })
 }
 
+/// The corner UVs of a primitive without its own: a triangle's barycentric coordinates,
+/// a quad's (a, b), as Mitsuba gives a mesh without UVs.
+pub const DEFAULT_UVS: [Vec2; 3] = [Vec2::ZERO, Vec2::X, Vec2::Y];
+
 /// The per-corner tables of a scene in the BVH's primitive order.
 pub(super) struct CornerTables {
     /// Vertex normals (zero for a flat primitive); empty when no mesh is smooth.
     pub(super) normals: Vec<[Vec3; 3]>,
-    /// Corner UVs (zero where none); empty when no textured mesh has UVs.
+    /// Corner UVs ([`DEFAULT_UVS`] where none); empty when no textured mesh or quad has UVs.
     pub(super) uvs: Vec<[Vec2; 3]>,
 }
 
@@ -354,7 +363,7 @@ pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables
             tables.normals.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
         }
         if textured {
-            tables.uvs.push(uvs[i].unwrap_or([Vec2::ZERO; 3]));
+            tables.uvs.push(uvs[i].unwrap_or(DEFAULT_UVS));
         }
     }
     (accel, tables)

@@ -20,6 +20,21 @@ const CUBE: [([f32; 3], [f32; 3], [f32; 3]); 6] = [
     ([-1.0, -1.0, -1.0], [0.0, 2.0, 0.0], [2.0, 0.0, 0.0]),
 ];
 
+/// Mitsuba's UVs of the [`CUBE`] faces at corner, corner + u and corner + v (read from
+/// Mitsuba 3.9.1: per face, (a, b) maps to +x (a, 1−b), −x (b, a), +y (1−b, 1−a),
+/// −y (b, a), +z (b, a), −z (1−a, b)).
+const CUBE_UV: [[[f32; 2]; 3]; 6] = [
+    [[0.0, 1.0], [1.0, 1.0], [0.0, 0.0]],
+    [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]],
+    [[1.0, 1.0], [1.0, 0.0], [0.0, 1.0]],
+    [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]],
+    [[0.0, 0.0], [0.0, 1.0], [1.0, 0.0]],
+    [[1.0, 0.0], [0.0, 0.0], [1.0, 1.0]],
+];
+
+/// The rectangle's UVs at its corner, corner + u and corner + v: the quad's own (a, b).
+const RECTANGLE_UV: [[f32; 2]; 3] = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
+
 /// Mitsuba's rectangle [-1, 1]² at z = 0 as (corner, u, v): the quad's (a, b) at
 /// corner + a·u + b·v is Mitsuba's UV ((x + 1) / 2, (y + 1) / 2), and u × v is +z.
 const RECTANGLE: [([f32; 3], [f32; 3], [f32; 3]); 1] = [([-1.0, -1.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0])];
@@ -93,8 +108,11 @@ impl<'a> Converter<'a> {
         let emission = self.area_emitter(el)?;
         let material = if emission.is_some() { String::new() } else { self.shape_material(el)? };
         let faces: &[([f32; 3], [f32; 3], [f32; 3])] = if rectangle { &RECTANGLE } else { &CUBE };
-        for &(corner, u, v) in faces {
+        for (k, &(corner, u, v)) in faces.iter().enumerate() {
             let (edge_u, edge_v) = if swap { (v, u) } else { (u, v) };
+            // Mitsuba's UVs at corner, corner + edge_u and corner + edge_v.
+            let at = if rectangle { RECTANGLE_UV } else { CUBE_UV[k] };
+            let uv = Some(if swap { [at[0], at[2], at[1]] } else { at }).filter(|c| *c != RECTANGLE_UV);
             let transform = Some(ops.clone());
             if let Some(radiance) = emission {
                 let li = self.out.file.lights.len();
@@ -103,7 +121,7 @@ impl<'a> Converter<'a> {
             } else {
                 let i = self.out.file.objects.len();
                 let material = material.clone();
-                self.out.file.objects.push(ObjectDesc::Quad { corner, edge_u, edge_v, material, transform });
+                self.out.file.objects.push(ObjectDesc::Quad { corner, edge_u, edge_v, material, transform, uv });
                 self.place(format!("objects.{i}"), el);
             }
         }
