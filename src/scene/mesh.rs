@@ -1,8 +1,8 @@
-//! Triangle meshes: Wavefront OBJ through `tobj` (triangles only, positions checked),
-//! PLY through [`super::ply`], and the vertex normals Mitsuba 3 computes for a mesh
-//! whose file has none.
+//! Triangle meshes: Wavefront OBJ through `tobj` (triangles only, positions checked,
+//! texture coordinates as Mitsuba 3 stores them), PLY through [`super::ply`], and the
+//! vertex normals Mitsuba 3 computes for a mesh whose file has none.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -13,7 +13,11 @@ pub struct MeshData {
     pub positions: Vec<Vec3>,
     /// Vertex normals from the file, one per position, or empty when it has none.
     pub normals: Vec<Vec3>,
-    /// Triangles as indices into `positions` (and `normals`), counter-clockwise front.
+    /// Vertex texture coordinates, one per position, or empty when the file has none;
+    /// equal to Mitsuba's `vertex_texcoords` (an OBJ's `vt` v is flipped to 1 − v, a
+    /// PLY's is not, as Mitsuba's loaders do by default).
+    pub uvs: Vec<Vec2>,
+    /// Triangles as indices into `positions` (and `normals`, `uvs`), counter-clockwise front.
     pub triangles: Vec<[u32; 3]>,
 }
 
@@ -82,7 +86,10 @@ pub fn load_obj(path: &Path) -> Result<Vec<[Vec3; 3]>, String> {
 /// Reads an OBJ file as an indexed mesh. A vertex is a distinct (position, texture
 /// coordinate, normal) index triple, as in Mitsuba's OBJ loader, so computed normals are
 /// shared exactly where Mitsuba shares them; the file's normals (`vn`) are kept when every
-/// face corner has one.
+/// face corner has one. Texture coordinates (`vt`) are kept when the file has any, with v
+/// flipped to 1 − v as Mitsuba's `flip_tex_coords` (default true) does; a corner without
+/// one gets tobj's stand-in (the previous corner's), a vertex of an object read before any
+/// `vt` (0, 0).
 pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
     // A device or a pipe would be read without end or block for ever.
     match std::fs::metadata(path) {
@@ -118,11 +125,21 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
             ));
         }
         with_normals &= !m.normal_indices.is_empty() && m.normal_indices.len() == m.indices.len();
+        if let Some(bad) = m.texcoords.iter().position(|x| !x.is_finite()) {
+            return Err(format!(
+                "malformed OBJ `{}`: texture coordinate {} of object `{}` is not finite",
+                path.display(),
+                bad / 2 + 1,
+                model.name
+            ));
+        }
     }
+    // tobj gives every object read after the first `vt` line a coordinate per corner.
+    let with_uvs = models.iter().any(|m| !m.mesh.texcoords.is_empty());
     let mut ids: HashMap<(usize, u32, u32, u32), u32> = HashMap::new();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
-        let (p, nrm) = (&m.positions, &m.normals);
+        let (p, nrm, tc) = (&m.positions, &m.normals, &m.texcoords);
         for (f, face) in m.indices.chunks_exact(3).enumerate() {
             let mut tri = [0u32; 3];
             for k in 0..3 {
@@ -148,6 +165,14 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
                         ));
                     }
                     out.normals.push(Vec3::new(nrm[3 * n], nrm[3 * n + 1], nrm[3 * n + 2]));
+                }
+                if tri[k] == next && with_uvs {
+                    // tobj has checked the index against its coordinates.
+                    let uv = m.texcoord_indices.get(c).and_then(|&t| {
+                        let t = 2 * t as usize;
+                        Some(Vec2::new(*tc.get(t)?, 1.0 - *tc.get(t + 1)?))
+                    });
+                    out.uvs.push(uv.unwrap_or(Vec2::ZERO));
                 }
             }
             out.triangles.push(tri);
