@@ -284,3 +284,46 @@ fn describe(e: &tobj::LoadError) -> &'static str {
         _ => "parse failure",
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn obj(text: &str) -> Result<MeshData, String> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.obj");
+        std::fs::write(&path, text).unwrap();
+        load_obj_mesh(&path)
+    }
+
+    #[test]
+    fn obj_texture_coordinates_as_mitsuba_stores_them() {
+        let m = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0.1 0.2\nvt 0.9 0.3\nvt 0.25 0.8\nvt 0.7 0.6\nf 1/1 2/2 3/3\nf 2/4 4/2 3/3\n")
+            .unwrap();
+        // Mitsuba 3.9.1 on the same file, `mi.traverse(mesh)`: faces [0, 1, 2, 3, 4, 2],
+        // vertex_texcoords (0.1, 0.8), (0.9, 0.7), (0.25, 0.2), (0.7, 0.4), (0.9, 0.7) —
+        // v flipped to 1 − v, position 2 split by its two texture coordinates.
+        assert_eq!(m.triangles, vec![[0, 1, 2], [3, 4, 2]]);
+        assert_eq!(m.positions.len(), 5);
+        assert_eq!(m.positions[3], Vec3::X);
+        let want = [(0.1, 0.8), (0.9, 0.7), (0.25, 0.2), (0.7, 0.4), (0.9, 0.7)];
+        assert_eq!(m.uvs.len(), want.len());
+        for (got, (u, v)) in m.uvs.iter().zip(want) {
+            assert!((*got - Vec2::new(u, v)).abs().max_element() < 1e-6, "{got} vs ({u}, {v})");
+        }
+    }
+
+    #[test]
+    fn obj_without_texture_coordinates_has_none() {
+        let m = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n").unwrap();
+        assert!(m.uvs.is_empty());
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [1, 3, 2]]);
+    }
+
+    #[test]
+    fn obj_non_finite_texture_coordinate_is_refused() {
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt nan 1\nf 1/1 2/2 3/1\n").unwrap_err();
+        assert!(e.contains("texture coordinate 2"), "{e}");
+    }
+}

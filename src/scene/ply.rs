@@ -442,6 +442,44 @@ mod tests {
         assert_eq!(le.triangles, vec![[0, 1, 2]]);
     }
 
+    /// An ascii triangle whose vertices carry the properties `a` and `b`.
+    fn with_uv(a: &str, b: &str) -> String {
+        format!("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float {a}\nproperty float {b}\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0.1 0.2\n1 0 0 0.9 0.3\n0 1 0 0.25 0.8\n3 0 1 2\n")
+    }
+
+    #[test]
+    fn texture_coordinates_under_mitsubas_names_unflipped() {
+        // Mitsuba 3.9.1 on these files: vertex_texcoords (0.1, 0.2), (0.9, 0.3),
+        // (0.25, 0.8) for u/v, s/t and texture_u/texture_v (no flip); none for
+        // texture_s/texture_t, which its ply.cpp does not accept.
+        let want = [Vec2::new(0.1, 0.2), Vec2::new(0.9, 0.3), Vec2::new(0.25, 0.8)];
+        for (a, b) in [("u", "v"), ("s", "t"), ("texture_u", "texture_v")] {
+            let m = parse_ply(with_uv(a, b).as_bytes()).unwrap();
+            assert_eq!(m.uvs, want, "{a}/{b}");
+        }
+        assert!(parse_ply(with_uv("texture_s", "texture_t").as_bytes()).unwrap().uvs.is_empty());
+        assert!(parse_ply(with_uv("u", "t").as_bytes()).unwrap().uvs.is_empty());
+        assert!(parse_ply(ASCII.as_bytes()).unwrap().uvs.is_empty());
+        let bad = with_uv("u", "v").replace("0.9 0.3", "0.9 inf");
+        assert!(parse_ply(bad.as_bytes()).unwrap_err().contains("element `vertex` 1: a texture coordinate"));
+    }
+
+    #[test]
+    fn binary_texture_coordinates() {
+        let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nproperty float s\nproperty float t\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n".to_vec();
+        for (p, uv) in
+            [([0.0f64, 0.0, 0.0], [0.5f32, 0.25]), ([1.0, 0.0, 0.0], [1.0, 0.0]), ([0.0, 1.0, 0.0], [0.0, 1.0])]
+        {
+            p.iter().for_each(|x| b.extend(x.to_le_bytes()));
+            uv.iter().for_each(|x| b.extend(x.to_le_bytes()));
+        }
+        b.push(3);
+        [0u32, 1, 2].iter().for_each(|i| b.extend(i.to_le_bytes()));
+        let m = parse_ply(&b).unwrap();
+        assert_eq!(m.uvs, vec![Vec2::new(0.5, 0.25), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)]);
+        assert_eq!(m.triangles, vec![[0, 1, 2]]);
+    }
+
     #[test]
     fn bad_counts_and_indices_are_refused_before_allocating() {
         let huge = ASCII.replace("element vertex 4", "element vertex 18446744073709551615");

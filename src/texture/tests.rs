@@ -191,10 +191,7 @@ fn grey_alpha_and_16_bit_images() {
         close(b.lookup(Vec2::new(0.9, 0.5)), raw8(right), 1e-4);
     }
     let deep = d.join("rgb16.png");
-    ImageBuffer::<Rgb<u16>, _>::from_raw(2, 1, vec![1000, 30000, 65535, 0, 200, 40000])
-        .unwrap()
-        .save(&deep)
-        .unwrap();
+    ImageBuffer::<Rgb<u16>, _>::from_raw(2, 1, vec![1000, 30000, 65535, 0, 200, 40000]).unwrap().save(&deep).unwrap();
     // Mitsuba stores 16-bit texels as half floats; these keep f32 precision, so they
     // agree with its values to half precision.
     let raw = load(&deep, true, Wrap::Repeat, Filter::Nearest).lookup(Vec2::new(0.1, 0.5));
