@@ -1,6 +1,10 @@
 //! Texture tests: lookups on tiny images written into a temporary directory, and the
 //! parameterisations, against values read from Mitsuba 3.9.1 (`scalar_rgb`) in Python.
 
+// Mitsuba's numbers are pasted as Python printed them (f64 digits of f32 values), so
+// that they can be checked against the Python output.
+#![allow(clippy::excessive_precision)]
+
 use super::*;
 use glam::{Affine2, Vec2, Vec3};
 use image::{ImageBuffer, Luma, LumaA, Rgb, Rgba};
