@@ -1,8 +1,8 @@
-//! Triangle meshes: Wavefront OBJ through `tobj` (triangles only, positions checked),
-//! PLY through [`super::ply`], and the vertex normals Mitsuba 3 computes for a mesh
-//! whose file has none.
+//! Triangle meshes: Wavefront OBJ through `tobj` (triangles only, positions checked,
+//! texture coordinates as Mitsuba 3 stores them), PLY through [`super::ply`], and the
+//! vertex normals Mitsuba 3 computes for a mesh whose file has none.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -13,7 +13,11 @@ pub struct MeshData {
     pub positions: Vec<Vec3>,
     /// Vertex normals from the file, one per position, or empty when it has none.
     pub normals: Vec<Vec3>,
-    /// Triangles as indices into `positions` (and `normals`), counter-clockwise front.
+    /// Vertex texture coordinates, one per position, or empty when the file has none;
+    /// equal to Mitsuba's `vertex_texcoords` (an OBJ's `vt` v is flipped to 1 − v, a
+    /// PLY's is not, as Mitsuba's loaders do by default).
+    pub uvs: Vec<Vec2>,
+    /// Triangles as indices into `positions` (and `normals`, `uvs`), counter-clockwise front.
     pub triangles: Vec<[u32; 3]>,
 }
 
@@ -82,7 +86,10 @@ pub fn load_obj(path: &Path) -> Result<Vec<[Vec3; 3]>, String> {
 /// Reads an OBJ file as an indexed mesh. A vertex is a distinct (position, texture
 /// coordinate, normal) index triple, as in Mitsuba's OBJ loader, so computed normals are
 /// shared exactly where Mitsuba shares them; the file's normals (`vn`) are kept when every
-/// face corner has one.
+/// face corner has one. Texture coordinates (`vt`) are kept when the file has any, with v
+/// flipped to 1 − v as Mitsuba's `flip_tex_coords` (default true) does; a corner without
+/// one gets tobj's stand-in (the previous corner's), a vertex of an object read before any
+/// `vt` (0, 0).
 pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
     // A device or a pipe would be read without end or block for ever.
     match std::fs::metadata(path) {
@@ -118,11 +125,21 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
             ));
         }
         with_normals &= !m.normal_indices.is_empty() && m.normal_indices.len() == m.indices.len();
+        if let Some(bad) = m.texcoords.iter().position(|x| !x.is_finite()) {
+            return Err(format!(
+                "malformed OBJ `{}`: texture coordinate {} of object `{}` is not finite",
+                path.display(),
+                bad / 2 + 1,
+                model.name
+            ));
+        }
     }
+    // tobj gives every object read after the first `vt` line a coordinate per corner.
+    let with_uvs = models.iter().any(|m| !m.mesh.texcoords.is_empty());
     let mut ids: HashMap<(usize, u32, u32, u32), u32> = HashMap::new();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
-        let (p, nrm) = (&m.positions, &m.normals);
+        let (p, nrm, tc) = (&m.positions, &m.normals, &m.texcoords);
         for (f, face) in m.indices.chunks_exact(3).enumerate() {
             let mut tri = [0u32; 3];
             for k in 0..3 {
@@ -148,6 +165,14 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
                         ));
                     }
                     out.normals.push(Vec3::new(nrm[3 * n], nrm[3 * n + 1], nrm[3 * n + 2]));
+                }
+                if tri[k] == next && with_uvs {
+                    // tobj has checked the index against its coordinates.
+                    let uv = m.texcoord_indices.get(c).and_then(|&t| {
+                        let t = 2 * t as usize;
+                        Some(Vec2::new(*tc.get(t)?, 1.0 - *tc.get(t + 1)?))
+                    });
+                    out.uvs.push(uv.unwrap_or(Vec2::ZERO));
                 }
             }
             out.triangles.push(tri);
@@ -257,5 +282,48 @@ fn describe(e: &tobj::LoadError) -> &'static str {
         InvalidPolygon => "invalid polygon",
         InvalidLoadOptionConfig => "invalid load options",
         _ => "parse failure",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn obj(text: &str) -> Result<MeshData, String> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.obj");
+        std::fs::write(&path, text).unwrap();
+        load_obj_mesh(&path)
+    }
+
+    #[test]
+    fn obj_texture_coordinates_as_mitsuba_stores_them() {
+        let m = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0.1 0.2\nvt 0.9 0.3\nvt 0.25 0.8\nvt 0.7 0.6\nf 1/1 2/2 3/3\nf 2/4 4/2 3/3\n")
+            .unwrap();
+        // Mitsuba 3.9.1 on the same file, `mi.traverse(mesh)`: faces [0, 1, 2, 3, 4, 2],
+        // vertex_texcoords (0.1, 0.8), (0.9, 0.7), (0.25, 0.2), (0.7, 0.4), (0.9, 0.7) —
+        // v flipped to 1 − v, position 2 split by its two texture coordinates.
+        assert_eq!(m.triangles, vec![[0, 1, 2], [3, 4, 2]]);
+        assert_eq!(m.positions.len(), 5);
+        assert_eq!(m.positions[3], Vec3::X);
+        let want = [(0.1, 0.8), (0.9, 0.7), (0.25, 0.2), (0.7, 0.4), (0.9, 0.7)];
+        assert_eq!(m.uvs.len(), want.len());
+        for (got, (u, v)) in m.uvs.iter().zip(want) {
+            assert!((*got - Vec2::new(u, v)).abs().max_element() < 1e-6, "{got} vs ({u}, {v})");
+        }
+    }
+
+    #[test]
+    fn obj_without_texture_coordinates_has_none() {
+        let m = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n").unwrap();
+        assert!(m.uvs.is_empty());
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.triangles, vec![[0, 1, 2], [1, 3, 2]]);
+    }
+
+    #[test]
+    fn obj_non_finite_texture_coordinate_is_refused() {
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt nan 1\nf 1/1 2/2 3/1\n").unwrap_err();
+        assert!(e.contains("texture coordinate 2"), "{e}");
     }
 }

@@ -1,9 +1,10 @@
 //! PLY meshes (ascii, binary little- and big-endian): vertex positions, vertex normals
-//! when present, faces fan-triangulated; other elements and properties are skipped.
+//! and texture coordinates when present, faces fan-triangulated; other elements and
+//! properties are skipped.
 //! Every count in the header is checked against the bytes the file holds before anything
 //! is allocated from it. Errors name the file and the element (and item) at fault.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::path::Path;
 
 use super::mesh::MeshData;
@@ -208,122 +209,195 @@ pub fn parse_ply(bytes: &[u8]) -> Result<MeshData, String> {
     let mut out = MeshData::default();
     let mut faces_seen = false;
     for el in &elements {
-        // Each item takes at least this many bytes: its scalars (or one character and a
-        // separator each in ascii), and each list's count. A count the file cannot hold is
-        // refused before anything is reserved for it.
-        let min: usize = el
-            .props
-            .iter()
-            .map(|p| if format == Format::Ascii { 2 } else { p.list.unwrap_or(p.ty).size() })
-            .sum::<usize>()
-            .max(1);
-        // The last value may lack its trailing separator in ascii: hence the + 1.
-        let fits = (r.remaining() + 1) / min;
-        if el.count > fits as u64 {
-            return Err(format!(
-                "element `{}` declares {} items; the {} bytes after the header hold at most {fits}",
-                el.name,
-                el.count,
-                r.remaining()
-            ));
-        }
+        check_count(el, &r)?;
         let count = el.count as usize;
-        let find = |n: &str| el.props.iter().position(|p| p.name == n && p.list.is_none());
-        let vertex = el.name == "vertex";
-        let face = el.name == "face";
-        let pos = [find("x"), find("y"), find("z")];
-        let nrm = [find("nx"), find("ny"), find("nz")];
-        let has_normals = vertex && nrm.iter().all(Option::is_some);
-        let index_prop =
-            el.props.iter().position(|p| p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index"));
-        if vertex {
-            if pos.iter().any(Option::is_none) {
-                return Err("element `vertex` lacks an x, y or z property".into());
+        let role = Role::of(el)?;
+        match &role {
+            Role::Vertex(layout) => {
+                out.positions.reserve(count);
+                if layout.normals.is_some() {
+                    out.normals.reserve(count);
+                }
+                if layout.uvs.is_some() {
+                    out.uvs.reserve(count);
+                }
             }
-            out.positions.reserve(count);
-            if has_normals {
-                out.normals.reserve(count);
-            }
+            Role::Face(_) => faces_seen = true,
+            Role::Other => {}
         }
-        if face {
-            if index_prop.is_none() {
-                return Err("element `face` has no `vertex_indices` (or `vertex_index`) list".into());
-            }
-            faces_seen = true;
-        }
+        let index_prop = if let Role::Face(k) = role { Some(k) } else { None };
         let mut vals = vec![0.0f64; el.props.len()];
         let mut list: Vec<f64> = Vec::new();
         for item in 0..count {
             let at = |e: String| format!("element `{}` {item}: {e}", el.name);
-            for (k, p) in el.props.iter().enumerate() {
-                match p.list {
-                    None => vals[k] = r.value(p.ty).map_err(at)?,
-                    Some(cty) => {
-                        let n = r.value(cty).map_err(at)?;
-                        let fits = if format == Format::Ascii {
-                            r.remaining().div_ceil(2)
-                        } else {
-                            r.remaining() / p.ty.size()
-                        };
-                        if n < 0.0 || n > fits as f64 {
-                            return Err(at(format!("list `{}` declares {n} entries; the file holds fewer", p.name)));
-                        }
-                        let keep = Some(k) == index_prop;
-                        if keep {
-                            list.clear();
-                        }
-                        for _ in 0..n as usize {
-                            let v = r.value(p.ty).map_err(at)?;
-                            if keep {
-                                list.push(v);
-                            }
-                        }
-                    }
-                }
-            }
-            if vertex {
-                let v =
-                    Vec3::new(vals[pos[0].unwrap()] as f32, vals[pos[1].unwrap()] as f32, vals[pos[2].unwrap()] as f32);
-                if !v.is_finite() {
-                    return Err(at("a vertex coordinate is not a finite f32".into()));
-                }
-                out.positions.push(v);
-                if has_normals {
-                    let n = Vec3::new(
-                        vals[nrm[0].unwrap()] as f32,
-                        vals[nrm[1].unwrap()] as f32,
-                        vals[nrm[2].unwrap()] as f32,
-                    );
-                    if !n.is_finite() {
-                        return Err(at("a normal is not finite".into()));
-                    }
-                    out.normals.push(n);
-                }
-            }
-            if face {
-                if list.len() < 3 {
-                    return Err(at(format!("a face with {} vertices", list.len())));
-                }
-                let idx = |v: f64| -> Result<u32, String> {
-                    if v < 0.0 || v >= out.positions.len() as f64 {
-                        return Err(at(format!(
-                            "vertex index {v} is out of range ({} vertices read before the faces)",
-                            out.positions.len()
-                        )));
-                    }
-                    Ok(v as u32)
-                };
-                let first = idx(list[0])?;
-                for w in list[1..].windows(2) {
-                    out.triangles.push([first, idx(w[0])?, idx(w[1])?]);
-                }
+            read_item(&mut r, el, index_prop, &mut vals, &mut list).map_err(at)?;
+            match &role {
+                Role::Vertex(layout) => push_vertex(&mut out, layout, &vals).map_err(at)?,
+                Role::Face(_) => push_face(&mut out, &list).map_err(at)?,
+                Role::Other => {}
             }
         }
     }
     if !faces_seen || out.triangles.is_empty() {
         return Err("no faces".into());
     }
+    // Only with several `vertex` elements, some with texture coordinates and some without.
+    if !out.uvs.is_empty() && out.uvs.len() != out.positions.len() {
+        return Err("some `vertex` elements have texture coordinates and some do not".into());
+    }
     Ok(out)
+}
+
+/// Refuses an element whose declared item count the rest of the file cannot hold, before
+/// anything is reserved for it.
+fn check_count(el: &Element, r: &Reader) -> Result<(), String> {
+    // Each item takes at least this many bytes: its scalars (or one character and a
+    // separator each in ascii), and each list's count.
+    let min: usize = el
+        .props
+        .iter()
+        .map(|p| if r.format == Format::Ascii { 2 } else { p.list.unwrap_or(p.ty).size() })
+        .sum::<usize>()
+        .max(1);
+    // The last value may lack its trailing separator in ascii: hence the + 1.
+    let fits = (r.remaining() + 1) / min;
+    if el.count > fits as u64 {
+        return Err(format!(
+            "element `{}` declares {} items; the {} bytes after the header hold at most {fits}",
+            el.name,
+            el.count,
+            r.remaining()
+        ));
+    }
+    Ok(())
+}
+
+/// Where a vertex element's properties sit among its scalars.
+struct VertexLayout {
+    positions: [usize; 3],
+    /// `nx`, `ny`, `nz` when all three are present.
+    normals: Option<[usize; 3]>,
+    /// The texture coordinates when a pair is present (see [`Role::of`]).
+    uvs: Option<[usize; 2]>,
+}
+
+/// What an element contributes to the mesh.
+enum Role {
+    /// Positions, and normals and texture coordinates when present.
+    Vertex(VertexLayout),
+    /// Faces, from the list property at this index.
+    Face(usize),
+    /// Nothing: skipped.
+    Other,
+}
+
+impl Role {
+    /// The role of an element, refusing a vertex element without positions and a face
+    /// element without indices. Texture coordinates are the first pair present of `u`/`v`,
+    /// `texture_u`/`texture_v` and `s`/`t`, the names (and the order) Mitsuba's ply.cpp
+    /// accepts.
+    fn of(el: &Element) -> Result<Role, String> {
+        let find = |n: &str| el.props.iter().position(|p| p.name == n && p.list.is_none());
+        let pair = |a: &str, b: &str| Some([find(a)?, find(b)?]);
+        if el.name == "vertex" {
+            let (Some(x), Some(y), Some(z)) = (find("x"), find("y"), find("z")) else {
+                return Err("element `vertex` lacks an x, y or z property".into());
+            };
+            let normals = (|| Some([find("nx")?, find("ny")?, find("nz")?]))();
+            let uvs = pair("u", "v").or_else(|| pair("texture_u", "texture_v")).or_else(|| pair("s", "t"));
+            return Ok(Role::Vertex(VertexLayout { positions: [x, y, z], normals, uvs }));
+        }
+        if el.name == "face" {
+            let index_prop = el
+                .props
+                .iter()
+                .position(|p| p.list.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index"));
+            return index_prop
+                .map(Role::Face)
+                .ok_or_else(|| "element `face` has no `vertex_indices` (or `vertex_index`) list".into());
+        }
+        Ok(Role::Other)
+    }
+}
+
+/// Reads one item's values: scalars into `vals` (by property index), the entries of the
+/// list property `keep` into `list`; other lists are read and dropped.
+fn read_item(
+    r: &mut Reader,
+    el: &Element,
+    keep: Option<usize>,
+    vals: &mut [f64],
+    list: &mut Vec<f64>,
+) -> Result<(), String> {
+    for (k, p) in el.props.iter().enumerate() {
+        match p.list {
+            None => vals[k] = r.value(p.ty)?,
+            Some(cty) => {
+                let n = r.value(cty)?;
+                let fits =
+                    if r.format == Format::Ascii { r.remaining().div_ceil(2) } else { r.remaining() / p.ty.size() };
+                if n < 0.0 || n > fits as f64 {
+                    return Err(format!("list `{}` declares {n} entries; the file holds fewer", p.name));
+                }
+                let kept = Some(k) == keep;
+                if kept {
+                    list.clear();
+                }
+                for _ in 0..n as usize {
+                    let v = r.value(p.ty)?;
+                    if kept {
+                        list.push(v);
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Appends a vertex item's position (and normal and texture coordinates).
+fn push_vertex(out: &mut MeshData, layout: &VertexLayout, vals: &[f64]) -> Result<(), String> {
+    let vec3 = |i: [usize; 3]| Vec3::new(vals[i[0]] as f32, vals[i[1]] as f32, vals[i[2]] as f32);
+    let v = vec3(layout.positions);
+    if !v.is_finite() {
+        return Err("a vertex coordinate is not a finite f32".into());
+    }
+    out.positions.push(v);
+    if let Some(nrm) = layout.normals {
+        let n = vec3(nrm);
+        if !n.is_finite() {
+            return Err("a normal is not finite".into());
+        }
+        out.normals.push(n);
+    }
+    if let Some([u, v]) = layout.uvs {
+        // Stored as read: Mitsuba's `flip_tex_coords` is false by default for PLY.
+        let uv = Vec2::new(vals[u] as f32, vals[v] as f32);
+        if !uv.is_finite() {
+            return Err("a texture coordinate is not a finite f32".into());
+        }
+        out.uvs.push(uv);
+    }
+    Ok(())
+}
+
+/// Appends a face item's triangles (a fan around its first vertex).
+fn push_face(out: &mut MeshData, list: &[f64]) -> Result<(), String> {
+    if list.len() < 3 {
+        return Err(format!("a face with {} vertices", list.len()));
+    }
+    let n = out.positions.len();
+    let idx = |v: f64| -> Result<u32, String> {
+        if v < 0.0 || v >= n as f64 {
+            return Err(format!("vertex index {v} is out of range ({n} vertices read before the faces)"));
+        }
+        Ok(v as u32)
+    };
+    let first = idx(list[0])?;
+    for w in list[1..].windows(2) {
+        out.triangles.push([first, idx(w[0])?, idx(w[1])?]);
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -366,6 +440,44 @@ mod tests {
         assert_eq!(le.positions[1], Vec3::new(2.0, 0.0, 0.0));
         assert_eq!(le.normals, vec![Vec3::Z; 3]);
         assert_eq!(le.triangles, vec![[0, 1, 2]]);
+    }
+
+    /// An ascii triangle whose vertices carry the properties `a` and `b`.
+    fn with_uv(a: &str, b: &str) -> String {
+        format!("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float {a}\nproperty float {b}\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0.1 0.2\n1 0 0 0.9 0.3\n0 1 0 0.25 0.8\n3 0 1 2\n")
+    }
+
+    #[test]
+    fn texture_coordinates_under_mitsubas_names_unflipped() {
+        // Mitsuba 3.9.1 on these files: vertex_texcoords (0.1, 0.2), (0.9, 0.3),
+        // (0.25, 0.8) for u/v, s/t and texture_u/texture_v (no flip); none for
+        // texture_s/texture_t, which its ply.cpp does not accept.
+        let want = [Vec2::new(0.1, 0.2), Vec2::new(0.9, 0.3), Vec2::new(0.25, 0.8)];
+        for (a, b) in [("u", "v"), ("s", "t"), ("texture_u", "texture_v")] {
+            let m = parse_ply(with_uv(a, b).as_bytes()).unwrap();
+            assert_eq!(m.uvs, want, "{a}/{b}");
+        }
+        assert!(parse_ply(with_uv("texture_s", "texture_t").as_bytes()).unwrap().uvs.is_empty());
+        assert!(parse_ply(with_uv("u", "t").as_bytes()).unwrap().uvs.is_empty());
+        assert!(parse_ply(ASCII.as_bytes()).unwrap().uvs.is_empty());
+        let bad = with_uv("u", "v").replace("0.9 0.3", "0.9 inf");
+        assert!(parse_ply(bad.as_bytes()).unwrap_err().contains("element `vertex` 1: a texture coordinate"));
+    }
+
+    #[test]
+    fn binary_texture_coordinates() {
+        let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\nproperty double z\nproperty float s\nproperty float t\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n".to_vec();
+        for (p, uv) in
+            [([0.0f64, 0.0, 0.0], [0.5f32, 0.25]), ([1.0, 0.0, 0.0], [1.0, 0.0]), ([0.0, 1.0, 0.0], [0.0, 1.0])]
+        {
+            p.iter().for_each(|x| b.extend(x.to_le_bytes()));
+            uv.iter().for_each(|x| b.extend(x.to_le_bytes()));
+        }
+        b.push(3);
+        [0u32, 1, 2].iter().for_each(|i| b.extend(i.to_le_bytes()));
+        let m = parse_ply(&b).unwrap();
+        assert_eq!(m.uvs, vec![Vec2::new(0.5, 0.25), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)]);
+        assert_eq!(m.triangles, vec![[0, 1, 2]]);
     }
 
     #[test]

@@ -1,7 +1,16 @@
 //! Textures: bitmaps (PNG, EXR) with wrap modes and bilinear filtering, and the
 //! checkerboard, looked up by a surface point's UV as Mitsuba 3 defines them.
+//! [`uv`] holds the shapes' parameterisations that produce those UVs.
 
-use glam::{Affine2, Vec3};
+mod bitmap;
+pub mod uv;
+
+#[cfg(test)]
+mod tests;
+
+use glam::{Affine2, Vec2, Vec3};
+
+pub use bitmap::MAX_TEXELS;
 
 /// What a lookup outside [0, 1) does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,11 +59,32 @@ pub enum Texture {
     },
     /// Two colours alternating on the unit square's 2×2 checks.
     Checkerboard {
-        /// Where floor(2u) + floor(2v) is even.
+        /// Where the fractional parts of u and v are both above 0.5 or both not (Mitsuba's
+        /// test, so a point exactly on u = 0.5 belongs to the lower half).
         color0: Vec3,
-        /// Where it is odd.
+        /// Elsewhere.
         color1: Vec3,
         /// Applied to the UV before the lookup.
         to_uv: Affine2,
     },
+}
+
+impl Texture {
+    /// The colour at `uv` (to_uv applied first), linear RGB.
+    pub fn eval(&self, uv: Vec2) -> Vec3 {
+        match self {
+            Texture::Bitmap { bitmap, to_uv } => bitmap.lookup(to_uv.transform_point2(uv)),
+            Texture::Checkerboard { color0, color1, to_uv } => {
+                let p = to_uv.transform_point2(uv);
+                // Mitsuba's checkerboard.cpp: `uv - floor(uv) > .5` per axis, color0 where
+                // both agree.
+                let upper = (p - p.floor()).cmpgt(Vec2::splat(0.5));
+                if upper.x == upper.y {
+                    *color0
+                } else {
+                    *color1
+                }
+            }
+        }
+    }
 }
