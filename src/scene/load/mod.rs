@@ -591,6 +591,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::ReflectRatio;
 
     const SCENE: &str = "[render]\nwidth = 4\nheight = 4\n[render.aa]\nsamples = 1\n[render.shadows]\nsamples = 1\n\n[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n";
 
