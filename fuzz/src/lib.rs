@@ -428,15 +428,18 @@ pub enum ImageUse {
     Exr,
     /// A tile EXR given to `merge`.
     Tile,
+    /// A PNG or EXR read as a texture.
+    Texture,
 }
 
 impl ImageUse {
     /// The use picked by a first byte.
     pub fn of(byte: u8) -> ImageUse {
-        match byte % 3 {
+        match byte % 4 {
             0 => ImageUse::Png,
             1 => ImageUse::Exr,
-            _ => ImageUse::Tile,
+            2 => ImageUse::Tile,
+            _ => ImageUse::Texture,
         }
     }
 
@@ -491,7 +494,36 @@ pub fn image(data: &[u8]) -> Outcome {
             }
             Ok(Verdict::Read)
         }
+        ImageUse::Texture => texture(&path),
     }
+}
+
+/// A file read as a texture: refused with a message, or texels that are all finite and
+/// not negative, with every lookup (any UV, NaN and ±∞ included, every wrap mode and
+/// filter) finite and not negative.
+fn texture(path: &Path) -> Outcome {
+    use wavetrace::texture::{Bitmap, Filter, Wrap};
+    for (wrap, filter) in [(Wrap::Repeat, Filter::Bilinear), (Wrap::Mirror, Filter::Nearest), (Wrap::Clamp, Filter::Bilinear)] {
+        let bitmap = match Bitmap::load(path, false, wrap, filter) {
+            Err(msg) if msg.trim().is_empty() => return Err("a texture refused without a message".into()),
+            Err(_) => return Ok(Verdict::Rejected),
+            Ok(b) => b,
+        };
+        if bitmap.texels.len() as u64 != bitmap.width as u64 * bitmap.height as u64 {
+            return Err(format!("{}×{} texture with {} texels", bitmap.width, bitmap.height, bitmap.texels.len()));
+        }
+        let bad = |v: glam::Vec3| !v.is_finite() || v.min_element() < 0.0;
+        if let Some(t) = bitmap.texels.iter().find(|t| bad(**t)) {
+            return Err(format!("a texel of {t}"));
+        }
+        for uv in [(0.0, 0.0), (0.5, 0.5), (-3.7, 12.2), (1e30, -1e30), (f32::NAN, 0.3), (f32::INFINITY, 0.0)] {
+            let v = bitmap.lookup(glam::Vec2::new(uv.0, uv.1));
+            if bad(v) {
+                return Err(format!("lookup at {uv:?} gives {v}"));
+            }
+        }
+    }
+    Ok(Verdict::Read)
 }
 
 /// An image refusal names the file; a decoder rarely knows a line, so no place is asked.
@@ -599,6 +631,146 @@ pub enum MaterialValues {
         /// The paper's C; Fresnel when absent.
         ratio: Option<Real>,
     },
+    /// A conductor: a named metal (an index into [`METALS`], past its end an unknown
+    /// name) or eta and k, a roughness, and a texture for its reflectance.
+    Conductor {
+        /// Which metal, or eta and k.
+        metal: Result<u8, (Triple, Triple)>,
+        /// Roughness, smooth when absent.
+        roughness: Option<Roughness>,
+        /// Reflectance texture.
+        texture: Option<TextureValues>,
+    },
+    /// Rough glass.
+    RoughDielectric {
+        /// Index of refraction.
+        ior: Real,
+        /// Roughness.
+        roughness: Roughness,
+    },
+    /// Lambert with a textured albedo.
+    Textured(TextureValues),
+}
+
+/// Named metals the structured scenes draw from (the last is not one).
+const METALS: [&str; 5] = ["Au", "Cu", "Al", "none", "Unobtainium"];
+
+/// A microfacet roughness: alpha (or alpha_u with alpha_v), GGX or Beckmann.
+#[derive(Arbitrary, Clone, Copy, Debug)]
+pub struct Roughness {
+    /// alpha, or alpha_u.
+    pub alpha: Real,
+    /// alpha_v: anisotropic when present.
+    pub alpha_v: Option<Real>,
+    /// GGX rather than Beckmann.
+    pub ggx: bool,
+}
+
+impl Roughness {
+    fn toml(&self) -> String {
+        let d = if self.ggx { "ggx" } else { "beckmann" };
+        match self.alpha_v {
+            None => format!("distribution = \"{d}\"\nalpha = {}\n", self.alpha.toml()),
+            Some(v) => format!("distribution = \"{d}\"\nalpha_u = {}\nalpha_v = {}\n", self.alpha.toml(), v.toml()),
+        }
+    }
+
+    fn xml(&self) -> String {
+        let d = if self.ggx { "ggx" } else { "beckmann" };
+        let a = match self.alpha_v {
+            None => format!("<float name=\"alpha\" value=\"{}\"/>", self.alpha.xml()),
+            Some(v) => {
+                format!("<float name=\"alpha_u\" value=\"{}\"/><float name=\"alpha_v\" value=\"{}\"/>", self.alpha.xml(), v.xml())
+            }
+        };
+        format!("<string name=\"distribution\" value=\"{d}\"/>{a}")
+    }
+}
+
+/// A texture in a colour's place.
+#[derive(Arbitrary, Clone, Debug)]
+pub enum TextureValues {
+    /// Two colours and a `to_uv` scale.
+    Checkerboard(Triple, Triple, Real),
+    /// A bitmap file in the sandbox: a PNG of `width` columns of these bytes as RGB
+    /// texels when `png`, else the bytes themselves as the file; wrap mode (modulo 4:
+    /// one is not a mode), nearest filtering, raw values.
+    Bitmap {
+        /// Texel bytes, or the whole file.
+        bytes: Vec<u8>,
+        /// Columns of the PNG.
+        width: u8,
+        /// Encode a PNG from the bytes.
+        png: bool,
+        /// Wrap mode.
+        wrap: u8,
+        /// Nearest filtering.
+        nearest: bool,
+        /// Raw values.
+        raw: bool,
+    },
+}
+
+/// Wrap modes as the scene formats spell them; the last is not one.
+const WRAPS: [&str; 4] = ["repeat", "mirror", "clamp", "tile"];
+
+impl TextureValues {
+    /// The TOML inline table of texture `k` (its file, if any, is `tex{k}.png`).
+    fn toml(&self, k: usize) -> String {
+        match self {
+            TextureValues::Checkerboard(a, b, s) => format!(
+                "{{ type = \"checkerboard\", color0 = {}, color1 = {}, to_uv = [{{ scale = [{s}, {s}, 1] }}] }}",
+                toml3(a),
+                toml3(b),
+                s = s.toml()
+            ),
+            TextureValues::Bitmap { wrap, nearest, raw, .. } => format!(
+                "{{ type = \"bitmap\", file = \"tex{k}.png\", wrap = \"{}\", filter = \"{}\", raw = {raw} }}",
+                WRAPS[*wrap as usize % 4],
+                if *nearest { "nearest" } else { "bilinear" }
+            ),
+        }
+    }
+
+    /// The XML `<texture>` of texture `k` in a colour named `name`.
+    fn xml(&self, k: usize, name: &str) -> String {
+        match self {
+            TextureValues::Checkerboard(a, b, s) => format!(
+                "<texture type=\"checkerboard\" name=\"{name}\"><rgb name=\"color0\" value=\"{}\"/><rgb name=\"color1\" value=\"{}\"/>\
+                 <transform name=\"to_uv\"><scale value=\"{}\"/></transform></texture>",
+                xml3(a),
+                xml3(b),
+                s.xml()
+            ),
+            TextureValues::Bitmap { wrap, nearest, raw, .. } => format!(
+                "<texture type=\"bitmap\" name=\"{name}\"><string name=\"filename\" value=\"tex{k}.png\"/>\
+                 <string name=\"wrap_mode\" value=\"{}\"/><string name=\"filter_type\" value=\"{}\"/><boolean name=\"raw\" value=\"{raw}\"/></texture>",
+                WRAPS[*wrap as usize % 4],
+                if *nearest { "nearest" } else { "bilinear" }
+            ),
+        }
+    }
+
+    /// The file of a bitmap: a PNG encoded from the bytes, or the bytes.
+    fn file(&self) -> Option<Vec<u8>> {
+        let TextureValues::Bitmap { bytes, width, png, .. } = self else { return None };
+        if !*png {
+            return Some(bytes.clone());
+        }
+        let w = (*width as usize).clamp(1, 64);
+        let h = (bytes.len() / 3 / w).clamp(1, 64);
+        let mut rgb = bytes.clone();
+        rgb.resize(w * h * 3, 0);
+        Some(png_bytes(w as u32, h as u32, &rgb))
+    }
+}
+
+/// An 8-bit RGB PNG of these texels, written by the renderer's own PNG writer.
+fn png_bytes(width: u32, height: u32, rgb: &[u8]) -> Vec<u8> {
+    let sandbox = Sandbox::new();
+    let path = sandbox.dir().join("t.png");
+    wavetrace::tools::output::write_png(&path, width, height, rgb).expect("encoding a PNG in the sandbox");
+    std::fs::read(&path).expect("reading the PNG back")
 }
 
 /// A light.
@@ -724,13 +896,22 @@ impl SceneValues {
         }
     }
 
-    /// The mesh files (name, bytes) the objects name.
+    /// The files (name, bytes) the objects and materials name: meshes and textures.
     pub fn mesh_files(&self) -> Vec<(String, Vec<u8>)> {
         let mut out = Vec::new();
         for (i, o) in self.objects().iter().enumerate() {
             if let ObjectValues::Mesh { triangles, ply, .. } = o {
                 let name = format!("mesh{i}.{}", if *ply { "ply" } else { "obj" });
                 out.push((name, mesh_bytes(triangles, *ply)));
+            }
+        }
+        for (i, m) in self.materials().iter().enumerate() {
+            let texture = match m {
+                MaterialValues::Textured(x) | MaterialValues::Conductor { texture: Some(x), .. } => x,
+                _ => continue,
+            };
+            if let Some(bytes) = texture.file() {
+                out.push((format!("tex{i}.png"), bytes));
             }
         }
         out
@@ -790,6 +971,19 @@ impl SceneValues {
                     let ratio = ratio.map_or("\"fresnel\"".into(), |r| r.toml());
                     format!("type = \"dielectric\"\nior = {}\nreflect_ratio = {ratio}\n", ior.toml())
                 }
+                MaterialValues::Conductor { metal, roughness, texture } => {
+                    let mut t = "type = \"conductor\"\n".to_string();
+                    t += &match metal {
+                        Ok(k) => format!("material = \"{}\"\n", METALS[*k as usize % METALS.len()]),
+                        Err((eta, k)) => format!("eta = {}\nk = {}\n", toml3(eta), toml3(k)),
+                    };
+                    t += &roughness.map_or(String::new(), |r| r.toml());
+                    t + &texture.as_ref().map_or(String::new(), |x| format!("color = {}\n", x.toml(i)))
+                }
+                MaterialValues::RoughDielectric { ior, roughness } => {
+                    format!("type = \"dielectric\"\nior = {}\n{}", ior.toml(), roughness.toml())
+                }
+                MaterialValues::Textured(x) => format!("type = \"diffuse\"\ncolor = {}\n", x.toml(i)),
             };
         }
         for l in self.lights() {
@@ -893,6 +1087,26 @@ impl SceneValues {
                     "<bsdf type=\"dielectric\" id=\"m{i}\"><float name=\"int_ior\" value=\"{}\"/></bsdf>\n",
                     ior.xml()
                 ),
+                MaterialValues::Conductor { metal, roughness, texture } => {
+                    let kind = if roughness.is_some() { "roughconductor" } else { "conductor" };
+                    let metal = match metal {
+                        Ok(k) => format!("<string name=\"material\" value=\"{}\"/>", METALS[*k as usize % METALS.len()]),
+                        Err((eta, k)) => {
+                            format!("<rgb name=\"eta\" value=\"{}\"/><rgb name=\"k\" value=\"{}\"/>", xml3(eta), xml3(k))
+                        }
+                    };
+                    let rough = roughness.map_or(String::new(), |r| r.xml());
+                    let tex = texture.as_ref().map_or(String::new(), |x| x.xml(i, "specular_reflectance"));
+                    format!("<bsdf type=\"{kind}\" id=\"m{i}\">{metal}{rough}{tex}</bsdf>\n")
+                }
+                MaterialValues::RoughDielectric { ior, roughness } => format!(
+                    "<bsdf type=\"roughdielectric\" id=\"m{i}\"><float name=\"int_ior\" value=\"{}\"/>{}</bsdf>\n",
+                    ior.xml(),
+                    roughness.xml()
+                ),
+                MaterialValues::Textured(x) => {
+                    format!("<bsdf type=\"diffuse\" id=\"m{i}\">{}</bsdf>\n", x.xml(i, "reflectance"))
+                }
             };
         }
         s += &format!(

@@ -163,6 +163,12 @@ fn read_exr(path: &Path) -> Result<Texels, String> {
     .map_err(|e| format!("not a readable RGB EXR: {e}"))?;
     let size = read.layer_data.size;
     let (_, texels) = read.layer_data.channel_data.pixels;
+    // A colour is finite and not negative, as the scene's own colours must be: a NaN or
+    // negative texel would reach the image through every path that sees it.
+    if let Some(i) = texels.iter().position(|t| !t.is_finite() || t.min_element() < 0.0) {
+        let (x, y) = (i % size.width(), i / size.width());
+        return Err(format!("texel ({x}, {y}) is {}: texels must be finite and >= 0", texels[i]));
+    }
     Ok((size.width() as u32, size.height() as u32, texels))
 }
 
