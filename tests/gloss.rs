@@ -69,7 +69,11 @@ fn bad_gloss_fields_name_the_field() {
         ("type = \"conductor\"\nalpha = 0.1\ndistribution = \"phong\"", "materials.m.distribution", "\"phong\""),
         ("type = \"dielectric\"\nior = 1.5\ndistribution = \"ggx\"", "materials.m.distribution", "needs a roughness"),
         ("type = \"dielectric\"\nior = 1.5\nalpha = 0.1\nreflect_ratio = 0.3", "materials.m.reflect_ratio", "Fresnel"),
-        ("type = \"diffuse\"\ncolor = { type = \"bitmap\", file = \"missing.png\" }", "materials.m.color.file", "missing.png"),
+        (
+            "type = \"diffuse\"\ncolor = { type = \"bitmap\", file = \"missing.png\" }",
+            "materials.m.color.file",
+            "missing.png",
+        ),
         (
             "type = \"diffuse\"\ncolor = { type = \"bitmap\", file = \"gloss/textures/pattern.png\", wrap = \"tile\" }",
             "materials.m.color.wrap",
@@ -85,10 +89,8 @@ fn bad_gloss_fields_name_the_field() {
 fn a_corrupt_texture_is_an_error_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("bad.png"), b"\x89PNG\r\n\x1a\nnot really").unwrap();
-    let text = scene_text(
-        "[materials.m]\ntype = \"diffuse\"\ncolor = { type = \"bitmap\", file = \"bad.png\" }",
-        SPHERE,
-    );
+    let text =
+        scene_text("[materials.m]\ntype = \"diffuse\"\ncolor = { type = \"bitmap\", file = \"bad.png\" }", SPHERE);
     let msg = try_scene_in(dir.path(), &text, &[]).err().expect("a corrupt PNG loaded").to_string();
     assert!(msg.contains("materials.m.color.file") && msg.contains("bad.png"), "{msg}");
 }

@@ -503,7 +503,9 @@ pub fn image(data: &[u8]) -> Outcome {
 /// filter) finite and not negative.
 fn texture(path: &Path) -> Outcome {
     use wavetrace::texture::{Bitmap, Filter, Wrap};
-    for (wrap, filter) in [(Wrap::Repeat, Filter::Bilinear), (Wrap::Mirror, Filter::Nearest), (Wrap::Clamp, Filter::Bilinear)] {
+    for (wrap, filter) in
+        [(Wrap::Repeat, Filter::Bilinear), (Wrap::Mirror, Filter::Nearest), (Wrap::Clamp, Filter::Bilinear)]
+    {
         let bitmap = match Bitmap::load(path, false, wrap, filter) {
             Err(msg) if msg.trim().is_empty() => return Err("a texture refused without a message".into()),
             Err(_) => return Ok(Verdict::Rejected),
@@ -680,7 +682,11 @@ impl Roughness {
         let a = match self.alpha_v {
             None => format!("<float name=\"alpha\" value=\"{}\"/>", self.alpha.xml()),
             Some(v) => {
-                format!("<float name=\"alpha_u\" value=\"{}\"/><float name=\"alpha_v\" value=\"{}\"/>", self.alpha.xml(), v.xml())
+                format!(
+                    "<float name=\"alpha_u\" value=\"{}\"/><float name=\"alpha_v\" value=\"{}\"/>",
+                    self.alpha.xml(),
+                    v.xml()
+                )
             }
         };
         format!("<string name=\"distribution\" value=\"{d}\"/>{a}")

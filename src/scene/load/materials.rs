@@ -50,7 +50,9 @@ pub(super) fn material(name: &str, m: &MaterialDesc, ctx: &Ctx, textures: &mut T
             let roughness = roughness(ctx, name, distribution, (*alpha, *alpha_u, *alpha_v))?;
             let ratio = reflect_ratio_of(ctx, &p("reflect_ratio"), reflect_ratio)?;
             if roughness.is_some() && ratio != ReflectRatio::Fresnel {
-                return Err(ctx.fail(&p("reflect_ratio"), "rough glass splits by Fresnel at each microfacet: leave it out"));
+                return Err(
+                    ctx.fail(&p("reflect_ratio"), "rough glass splits by Fresnel at each microfacet: leave it out")
+                );
             }
             Material::Dielectric { ior: *ior, ratio, tint: color(ctx, &p("color"), *c)?, roughness }
         }

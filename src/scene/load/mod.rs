@@ -13,9 +13,7 @@ use std::path::{Path, PathBuf};
 use super::format::*;
 use super::mitsuba::xml::Loc;
 pub use super::text::{line_col, read_text};
-use super::{
-    AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode,
-};
+use super::{AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode};
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
@@ -387,10 +385,9 @@ fn aa_mode(aa: &AaDesc, ctx: &Ctx) -> Result<AaMode> {
                 } else {
                     "render.aa.min_level"
                 };
-                return Err(ctx.fail(
-                    path,
-                    format!("min_level ({}) must be in 2..=max_level ({})", aa.min_level, aa.max_level),
-                ));
+                return Err(
+                    ctx.fail(path, format!("min_level ({}) must be in 2..=max_level ({})", aa.min_level, aa.max_level))
+                );
             }
             if aa.dof_radius <= 0.0 {
                 return Err(ctx.fail("render.aa.dof_radius", format!("{} must be > 0", aa.dof_radius)));

@@ -7,13 +7,13 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use super::{color, coord, edges, in_range, vec3, Ctx, MAX_COORD};
-use crate::system::available_memory;
 use crate::accel::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::accel::{BvhQuality, MAX_LEAF};
 use crate::scene::format::*;
 use crate::scene::mesh::{self, MeshData};
 use crate::scene::transform::Transform;
 use crate::scene::{Color, Light, Material, SceneInfo};
+use crate::system::available_memory;
 use crate::Result;
 
 /// The primitives and lights of a scene description, with what its triangles carry per
