@@ -348,7 +348,7 @@ pub enum TextureDesc {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         to_uv: Option<Vec<TransformOp>>,
     },
-    /// Two colours on alternating checks of the unit UV square (2×2 of them).
+    /// Two colours in checks of the unit UV square, as Mitsuba's `checkerboard`.
     Checkerboard {
         /// First colour (default 0.4, as Mitsuba).
         #[serde(default = "checker0")]

@@ -52,7 +52,7 @@ impl Bitmap {
     /// to integer texel indices (repeat: modulo; mirror: modulo twice the size, reflected
     /// in the second half; clamp: to the edge), and bilinear weights between the four
     /// texel centres around `uv` (or, nearest, the texel containing it). Any `uv` is
-    /// accepted: NaN reads texel 0 rather than panicking.
+    /// accepted: a non-finite one reads texel 0.
     pub fn lookup(&self, uv: Vec2) -> Vec3 {
         debug_assert_eq!(self.texels.len() as u64, self.width as u64 * self.height as u64);
         if self.texels.is_empty() {
@@ -69,10 +69,14 @@ impl Bitmap {
                 at(floor(p.x), floor(p.y))
             }
             Filter::Bilinear => {
-                // Dr.Jit's tex_eval: position in texel units relative to the centres.
+                // Dr.Jit's tex_eval: position in texel units relative to the centres. A
+                // position that is not finite reads as 0; the weights come from the float
+                // floor, so that beyond ±2^31 (no fraction left, the index clamped) they
+                // stay 1 and 0 (found by fuzzing: NaN at u = 1e30).
                 let p = uv * size - 0.5;
+                let p = Vec2::select(p.is_finite_mask(), p, Vec2::ZERO);
                 let (x, y) = (floor(p.x), floor(p.y));
-                let w1 = p - Vec2::new(x as f32, y as f32);
+                let w1 = p - p.floor();
                 let w0 = 1.0 - w1;
                 at(x, y) * (w0.x * w0.y)
                     + at(x + 1, y) * (w1.x * w0.y)

@@ -57,7 +57,7 @@ pub enum Texture {
         /// Applied to the UV before the lookup (Mitsuba's `to_uv`).
         to_uv: Affine2,
     },
-    /// Two colours alternating on the unit square's 2×2 checks.
+    /// Two colours in checks of the unit UV square, as Mitsuba's `checkerboard`.
     Checkerboard {
         /// Where the fractional parts of u and v are both above 0.5 or both not (Mitsuba's
         /// test, so a point exactly on u = 0.5 belongs to the lower half).
