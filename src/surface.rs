@@ -94,12 +94,15 @@ pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> 
 }
 
 /// The texture coordinates of point `x` on primitive `prim`, as Mitsuba 3 defines them:
-/// a sphere's (φ/2π, θ/π), a parallelogram's (a, b) for corner + a·u + b·v (mapped
+/// a sphere's (φ/2π, θ/π) about its own axes, a parallelogram's (a, b) for corner + a·u + b·v (mapped
 /// through its corners' UVs when it has them), a triangle's corner UVs interpolated (its
 /// barycentric (b1, b2) when its mesh has none).
 pub fn uv_at(scene: &Scene, prim: usize, x: Vec3) -> Vec2 {
     match scene.accel.prims[prim].shape {
-        Shape::Sphere { center, .. } => uv::sphere(center, x),
+        Shape::Sphere { center, .. } => match scene.uv_frames.get(prim) {
+            Some(frame) => uv::sphere(Vec3::ZERO, *frame * (x - center)),
+            None => uv::sphere(center, x),
+        },
         Shape::Quad { corner, u, v } => {
             let ab = uv::quad(corner, u, v, x);
             match scene.uvs.get(prim) {
@@ -237,13 +240,16 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     let w = V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) }.lanes();
     // Albedo, Phong reflectance and exponent: seven columns filled in one pass.
     let (mut color, mut specular, mut shininess) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [0.0f32; LANES]);
-    let at = |v: &V3<f32x16>, k: usize| Vec3::new(v.x.to_array()[k], v.y.to_array()[k], v.z.to_array()[k]);
+    // The hit points as arrays, made once and only when a texture needs them.
+    let mut points: Option<[[f32; LANES]; 3]> = None;
     for (k, &i) in lanes.idx.iter().enumerate() {
         let (c, sp, e) = diffuse_material(scene, hits.prim[i]).unwrap_or((Color::Rgb(Vec3::ZERO), Vec3::ZERO, 0.0));
-        // Only a texture needs the point; a constant costs nothing more.
         let c = match c {
             Color::Rgb(c) => c,
-            textured => color_at(scene, textured, hits.prim[i] as usize, at(&p, k)),
+            textured => {
+                let [x, y, z] = points.get_or_insert_with(|| [p.x.to_array(), p.y.to_array(), p.z.to_array()]);
+                color_at(scene, textured, hits.prim[i] as usize, Vec3::new(x[k], y[k], z[k]))
+            }
         };
         (color[0][k], color[1][k], color[2][k]) = (c.x, c.y, c.z);
         (specular[0][k], specular[1][k], specular[2][k]) = (sp.x, sp.y, sp.z);

@@ -11,7 +11,7 @@ pub mod ply;
 pub mod text;
 pub mod transform;
 
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 
 use crate::accel::Accel;
 use crate::accel::BvhQuality;
@@ -303,6 +303,9 @@ pub struct Scene {
     /// Texture coordinates of the triangles' corners, indexed like `accel.prims` (zero for
     /// a primitive without); empty when no textured material is on a mesh with UVs.
     pub uvs: Vec<[Vec2; 3]>,
+    /// Rotations from world directions to a textured sphere's own axes, indexed like
+    /// `accel.prims` (identity elsewhere); empty when no textured sphere is rotated.
+    pub uv_frames: Vec<Mat3>,
     /// True when some material is a mirror or dielectric (so the scatter stage has work).
     pub has_specular: bool,
     /// Load facts for the stats.

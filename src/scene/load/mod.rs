@@ -568,7 +568,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = built.prims.len();
     let lights = built.lights.clone();
-    let (accel, objects::CornerTables { normals, uvs }) = objects::build_accel(built, settings.bvh);
+    let (accel, objects::CornerTables { normals, uvs, frames }) = objects::build_accel(built, settings.bvh);
     info.bvh_seconds = accel.build_seconds;
     Ok(Scene {
         settings,
@@ -580,6 +580,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         normals,
         textures: textures.list,
         uvs,
+        uv_frames: frames,
         has_specular,
         info,
     })

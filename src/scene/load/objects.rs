@@ -2,7 +2,7 @@
 //! meshes with their smooth normals, UVs and emission, turned into primitives and lights;
 //! and the BVH build that keeps the per-corner data in its primitive order.
 
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -29,6 +29,8 @@ pub(super) struct Built {
     normals: Vec<Option<[Vec3; 3]>>,
     /// Per primitive: its three corners' UVs, for meshes with UVs under a texture.
     uvs: Vec<Option<[Vec2; 3]>>,
+    /// Per primitive: the world-to-local rotation of a rotated sphere under a texture.
+    frames: Vec<Option<Mat3>>,
 }
 
 impl Built {
@@ -37,6 +39,7 @@ impl Built {
         self.prims.push(prim);
         self.normals.push(normals);
         self.uvs.push(uvs);
+        self.frames.push(None);
     }
 }
 
@@ -68,8 +71,12 @@ pub(super) fn objects(
         };
         match o {
             ObjectDesc::Sphere { center, radius, material, transform } => {
-                let shape = sphere(ctx, &path, *center, *radius, transform)?;
-                b.push(Primitive { shape, material: lookup(material)?, light: NO_LIGHT }, None, None);
+                let (shape, frame) = sphere(ctx, &path, *center, *radius, transform)?;
+                let material = lookup(material)?;
+                b.push(Primitive { shape, material, light: NO_LIGHT }, None, None);
+                // Texture coordinates turn with the sphere, as Mitsuba's do.
+                *b.frames.last_mut().unwrap_or_else(|| unreachable!()) =
+                    frame.filter(|f| *f != Mat3::IDENTITY && has_texture(&materials[material as usize]));
             }
             ObjectDesc::Quad { corner, edge_u, edge_v, material, transform, uv } => {
                 let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
@@ -139,15 +146,23 @@ fn light(ctx: &Ctx, path: &str, l: &LightDesc, b: &mut Built) -> Result<()> {
     Ok(())
 }
 
-/// A sphere's shape after its transform, checked.
-fn sphere(ctx: &Ctx, path: &str, center: [f32; 3], radius: f32, xf: &Option<Vec<TransformOp>>) -> Result<Shape> {
+/// A sphere's shape after its transform, checked, and with a transform the rotation that
+/// takes world directions from its centre to its own axes (the transform's linear part
+/// over its scale, transposed).
+fn sphere(
+    ctx: &Ctx,
+    path: &str,
+    center: [f32; 3],
+    radius: f32,
+    xf: &Option<Vec<TransformOp>>,
+) -> Result<(Shape, Option<Mat3>)> {
     // Numbers are checked finite before this point, so `<=` catches every bad radius.
     if radius <= 0.0 {
         return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be > 0")));
     }
     coord(ctx, &format!("{path}.radius"), Vec3::splat(radius))?;
     coord(ctx, &format!("{path}.center"), vec3(center))?;
-    let (mut c, mut r) = (vec3(center), radius);
+    let (mut c, mut r, mut frame) = (vec3(center), radius, None);
     if let Some(ops) = xf {
         let tp = format!("{path}.transform");
         let t = self::transform(ctx, &tp, ops)?;
@@ -156,6 +171,7 @@ fn sphere(ctx: &Ctx, path: &str, center: [f32; 3], radius: f32, xf: &Option<Vec<
             .ok_or_else(|| ctx.fail(&tp, "a sphere takes only a uniform scale (with rotations and translations)"))?;
         c = coord(ctx, &tp, t.point(c))?;
         r = coord(ctx, &tp, Vec3::splat(r * s))?.x;
+        frame = Some((glam::DMat3::from_mat4(t.m).transpose() * (1.0 / s as f64)).as_mat3());
     }
     // A sphere below its centre's rounding step has no point but the centre in f32:
     // every hit point rounds onto it and has no normal (found by fuzzing: NaN rays).
@@ -170,7 +186,7 @@ fn sphere(ctx: &Ctx, path: &str, center: [f32; 3], radius: f32, xf: &Option<Vec<
             ),
         ));
     }
-    Ok(Shape::Sphere { center: c, radius: r })
+    Ok((Shape::Sphere { center: c, radius: r }, frame))
 }
 
 /// A mesh object's triangles (`material`, or one-sided emitters of `emission`), with
@@ -336,6 +352,9 @@ pub(super) struct CornerTables {
     pub(super) normals: Vec<[Vec3; 3]>,
     /// Corner UVs ([`DEFAULT_UVS`] where none); empty when no textured mesh or quad has UVs.
     pub(super) uvs: Vec<[Vec2; 3]>,
+    /// World-to-local rotations of textured spheres (identity elsewhere); empty when no
+    /// textured sphere is rotated.
+    pub(super) frames: Vec<Mat3>,
 }
 
 /// Builds the BVH and puts the per-corner tables in its primitive order.
@@ -344,10 +363,11 @@ pub(super) struct CornerTables {
 /// build in its `material` field and is replaced by the real one afterwards. Without
 /// smooth or textured meshes the tables are empty and the build is the plain one.
 pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables) {
-    let Built { mut prims, normals, uvs, .. } = b;
+    let Built { mut prims, normals, uvs, frames, .. } = b;
     let (smooth, textured) = (normals.iter().any(Option::is_some), uvs.iter().any(Option::is_some));
-    if !smooth && !textured {
-        let tables = CornerTables { normals: Vec::new(), uvs: Vec::new() };
+    let rotated = frames.iter().any(Option::is_some);
+    let mut tables = CornerTables { normals: Vec::new(), uvs: Vec::new(), frames: Vec::new() };
+    if !smooth && !textured && !rotated {
         return (Accel::build_with(prims, MAX_LEAF, quality), tables);
     }
     let materials: Vec<u32> = prims.iter().map(|p| p.material).collect();
@@ -355,7 +375,6 @@ pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables
         p.material = i as u32;
     }
     let mut accel = Accel::build_with(prims, MAX_LEAF, quality);
-    let mut tables = CornerTables { normals: Vec::new(), uvs: Vec::new() };
     for p in &mut accel.prims {
         let i = p.material as usize;
         p.material = materials[i];
@@ -364,6 +383,9 @@ pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables
         }
         if textured {
             tables.uvs.push(uvs[i].unwrap_or(DEFAULT_UVS));
+        }
+        if rotated {
+            tables.frames.push(frames[i].unwrap_or(Mat3::IDENTITY));
         }
     }
     (accel, tables)
