@@ -7,8 +7,9 @@ For each Mitsuba sample count (stratified sampler, llvm variant, render seconds 
 run so the JIT cache is warm), the fastest wavetrace setting (uniform samples per pixel ×
 shadow setting, the whole process timed: load, BVH, render, write) whose mean FLIP against
 the same reference is at most Mitsuba's. FLIP is wavetrace's `compare` for both images.
-Prints one line per Mitsuba point: spp, Mitsuba seconds and FLIP, the wavetrace setting,
-its seconds and FLIP, and the ratio wavetrace / Mitsuba (below 1: wavetrace is faster).
+Prints one line per Mitsuba point: spp, Mitsuba seconds and FLIP; wavetrace's FLIP at the
+same spp with one shadow ray and its ratio to Mitsuba's; the fastest wavetrace setting,
+its seconds and FLIP, and the time ratio wavetrace / Mitsuba (below 1: wavetrace faster).
 
 Usage: benches/gloss_vs_mitsuba.py WAVETRACE SCENE.xml REFERENCE.exr [--reps 3] [--spp 16,64,256]
 """
@@ -67,14 +68,17 @@ def main():
         secs = statistics.median(wavetrace_run(a.wavetrace, a.scene, spp, shadows, out) for _ in range(a.reps))
         ours.append((secs, spp, shadows, flip(a.wavetrace, out, a.reference)))
     ours.sort()
-    print("mitsuba_spp mitsuba_s mitsuba_flip | wavetrace_spp shadows wavetrace_s wavetrace_flip | ratio")
+    print("mitsuba_spp mitsuba_s mitsuba_flip | equal_spp_flip flip_ratio | wavetrace_spp shadows wavetrace_s wavetrace_flip | time_ratio")
     for spp, secs, f in points:
+        # The same samples per pixel and one shadow ray: Mitsuba's own sample budget.
+        same = next((o[3] for o in ours if o[1] == spp and o[2] == "1"), float("nan"))
+        head = f"{spp} {secs:.3f} {f:.5f} | {same:.5f} {same / f:.2f}"
         best = next((o for o in ours if o[3] <= f), None)
         if best is None:
-            print(f"{spp} {secs:.3f} {f:.5f} | none of the settings reaches it")
+            print(f"{head} | none of the settings reaches it")
             continue
         s, wspp, shadows, wf = best
-        print(f"{spp} {secs:.3f} {f:.5f} | {wspp} {shadows} {s:.3f} {wf:.5f} | {s / secs:.2f}")
+        print(f"{head} | {wspp} {shadows} {s:.3f} {wf:.5f} | {s / secs:.2f}")
 
 
 if __name__ == "__main__":

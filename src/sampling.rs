@@ -31,6 +31,8 @@ pub mod dim {
     pub const STOP_ORDER: u32 = 9;
     /// Glossy surfaces: the microfacet normal sampled at a path's hit.
     pub const GLOSS: u32 = 10;
+    /// Rough glass: the choice between the sampled normal's reflection and refraction.
+    pub const GLOSS_BRANCH: u32 = 11;
     /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
     /// renderer's dimensions, which grow from 1).
     pub const BENCH: u32 = 100;

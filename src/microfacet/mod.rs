@@ -388,6 +388,9 @@ pub struct Split {
     /// Refraction through m, weight (1 − F)·G1(wo, m) (no 1/η² radiance scale: see the
     /// module docs).
     pub refract: Option<(Vec3, f32)>,
+    /// F(wi·m), the Fresnel reflectance at the sampled normal (0 when nothing was
+    /// sampled): the probability with which Mitsuba picks the reflection.
+    pub f: f32,
 }
 
 /// The shared first step of the dielectric sample: a visible normal for wi's side and
@@ -424,7 +427,7 @@ fn dielectric_micro(mf: &Microfacet, eta: f32, wi: Vec3, u: Vec2) -> Option<Diel
 /// where branch b has probability P_b and weight eval/pdf = weight_b / P_b.
 pub fn rough_dielectric_split(mf: &Microfacet, eta: f32, wi: Vec3, u: Vec2) -> Split {
     let Some(s) = dielectric_micro(mf, eta, wi, u) else {
-        return Split { reflect: None, refract: None };
+        return Split { reflect: None, refract: None, f: 0.0 };
     };
     let wo_r = reflect(wi, s.m);
     let w_r = s.f * mf.smith_g1(wo_r, s.m);
@@ -433,6 +436,7 @@ pub fn rough_dielectric_split(mf: &Microfacet, eta: f32, wi: Vec3, u: Vec2) -> S
     Split {
         reflect: (w_r > 0.0 && wo_r.z * wi.z > 0.0).then_some((wo_r, w_r)),
         refract: (w_t > 0.0 && wo_t.z * wi.z < 0.0).then_some((wo_t, w_t)),
+        f: s.f,
     }
 }
 

@@ -110,8 +110,8 @@ fn fresnel_lanes<R: Real>(cos_i: R, eta: R) -> (R, R) {
 /// Spawns the reflection and refraction rays of every listed hit into `next` (cleared
 /// first). Smooth mirrors and glass go 16 hits at a time on lanes, in list order: a
 /// hit's reflection ray, then its refraction ray. Conductors and rough glass
-/// ([`is_glossy`]) are sampled one hit at a time ([`glossy`]); in a group of 16 listed
-/// hits, their rays come first.
+/// ([`is_glossy`]) are sampled one hit at a time, one ray each ([`glossy`]); in a group
+/// of 16 listed hits, their rays come first.
 pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &IndexQueue, next: &mut RayQueue) {
     next.clear();
     // A scene without glossy materials never looks at the material twice.
@@ -155,12 +155,13 @@ fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     Vec3::select(perfect, Vec3::ONE, f)
 }
 
-/// The rays of one hit `i` on a conductor or rough glass: a conductor reflects (about
-/// the shading normal when smooth, about a visible microfacet normal when rough, with
-/// weight F·G1); rough glass samples one visible microfacet normal and traces both its
-/// reflection and its refraction, weighted F·G1 and (1 − F)·G1 ([`rough_dielectric_split`]).
-/// The microfacet sample is point (`sample`) of the path's Owen-scrambled Sobol
-/// sequence keyed by its `key` and [`dim::GLOSS`]: stratified over the pixel's samples.
+/// The ray of one hit `i` on a conductor or rough glass: a conductor reflects (about the
+/// shading normal when smooth, about a visible microfacet normal when rough, with weight
+/// F·G1); rough glass samples one visible microfacet normal and follows its reflection
+/// with probability F, else its refraction, each with weight G1
+/// ([`rough_dielectric_split`]). The microfacet sample and the branch are point
+/// (`sample`) of the path's Owen-scrambled Sobol sequences keyed by its `key` and
+/// [`dim::GLOSS`], [`dim::GLOSS_BRANCH`]: stratified over the pixel's samples.
 fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &Material, next: &mut RayQueue) {
     let prim_id = hits.prim[i] as usize;
     let prim = &scene.accel.prims[prim_id];
@@ -201,13 +202,17 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
             // Rough glass is oriented by its outward normal; the split handles either side.
             let frame = Frame::new(shading_normal(scene, prim_id, x, ng));
             let split = rough_dielectric_split(&mf, ior, frame.to_local(-d), u);
-            if let Some((wo, weight)) = split.reflect {
+            // One ray per bounce: the reflection with probability F, else the refraction
+            // (Mitsuba's choice), each weighted by its branch weight over its probability.
+            let pick = sobol_owen(sample, hash(&[key, dim::GLOSS_BRANCH])).x;
+            let (branch, p, tint, key) = if pick < split.f {
+                (split.reflect, split.f, Vec3::ONE, key1)
+            } else {
+                (split.refract, 1.0 - split.f, tint, key2)
+            };
+            if let Some((wo, weight)) = branch {
                 let wo = frame.to_world(wo);
-                next.push(origin(wo), wo, slot, w * weight, depth, key1, sample);
-            }
-            if let Some((wo, weight)) = split.refract {
-                let wo = frame.to_world(wo);
-                next.push(origin(wo), wo, slot, w * tint * weight, depth, key2, sample);
+                next.push(origin(wo), wo, slot, w * tint * (weight / p), depth, key, sample);
             }
         }
         Material::Diffuse { .. } | Material::Mirror { .. } | Material::Dielectric { roughness: None, .. } => {
