@@ -263,6 +263,8 @@ pub enum MaterialDesc {
         /// Transmission tint (default white).
         #[serde(default = "white")]
         color: [f32; 3],
+        // The four roughness fields repeat in `Conductor`: serde's `flatten` does not
+        // combine with `deny_unknown_fields`, which keeps a misspelt key an error.
         /// Rough glass: the microfacet distribution, "ggx" or "beckmann" (default
         /// "beckmann", as Mitsuba's `roughdielectric`; only with a roughness).
         #[serde(default, skip_serializing_if = "Option::is_none")]
