@@ -111,7 +111,7 @@ pub fn uv_at(scene: &Scene, prim: usize, x: Vec3) -> Vec2 {
             }
         }
         Shape::Triangle { v0, v1, v2 } => {
-            let corners = scene.uvs.get(prim).copied().unwrap_or([Vec2::ZERO, Vec2::X, Vec2::Y]);
+            let corners = scene.uvs.get(prim).copied().unwrap_or(uv::DEFAULT_UVS);
             uv::triangle([v0, v1, v2], corners, x)
         }
     }

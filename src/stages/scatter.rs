@@ -169,7 +169,7 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
     let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
     let ng = prim.shape.normal(x).normalize();
     let (w, slot, depth, key, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
-    let (key1, key2) = (hash(&[key, 1]), hash(&[key, 2]));
+    let key1 = hash(&[key, 1]);
     let u = sobol_owen(sample, hash(&[key, dim::GLOSS]));
     // The origin of a ray leaving along `wo`: off the surface on wo's side.
     let origin = |wo: Vec3| offset_ray_origin(x, err, if wo.dot(ng) > 0.0 { ng } else { -ng });
@@ -208,7 +208,7 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
             let (branch, p, tint, key) = if pick < split.f {
                 (split.reflect, split.f, Vec3::ONE, key1)
             } else {
-                (split.refract, 1.0 - split.f, tint, key2)
+                (split.refract, 1.0 - split.f, tint, hash(&[key, 2]))
             };
             if let Some((wo, weight)) = branch {
                 let wo = frame.to_world(wo);

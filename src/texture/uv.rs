@@ -39,6 +39,10 @@ pub fn quad(corner: Vec3, u: Vec3, v: Vec3, p: Vec3) -> Vec2 {
     coordinates(u, v, p - corner).unwrap_or(Vec2::ZERO)
 }
 
+/// The corner UVs of a primitive without its own: a triangle's barycentric coordinates
+/// (b1, b2), a quad's (a, b), as Mitsuba gives a mesh without UVs.
+pub const DEFAULT_UVS: [Vec2; 3] = [Vec2::ZERO, Vec2::X, Vec2::Y];
+
 /// A triangle's UV at p by barycentric interpolation of its corners' UVs (as Mitsuba's
 /// mesh: uv0·(1 − b1 − b2) + uv1·b1 + uv2·b2). A point off the triangle's plane is
 /// projected onto it; a degenerate triangle gives its first corner's UV.

@@ -14,6 +14,7 @@ use crate::scene::mesh::{self, MeshData};
 use crate::scene::transform::Transform;
 use crate::scene::{Color, Light, Material, SceneInfo};
 use crate::system::available_memory;
+use crate::texture::uv;
 use crate::Result;
 
 /// The primitives and lights of a scene description, with what its triangles carry per
@@ -342,15 +343,11 @@ fn triangle_light([v0, v1, v2]: [Vec3; 3], radiance: Vec3) -> Option<Light> {
     (len > 0.0 && len.is_finite()).then(|| Light::Triangle { v0, e1, e2, normal: n / len, area: 0.5 * len, radiance })
 }
 
-/// The corner UVs of a primitive without its own: a triangle's barycentric coordinates,
-/// a quad's (a, b), as Mitsuba gives a mesh without UVs.
-pub const DEFAULT_UVS: [Vec2; 3] = [Vec2::ZERO, Vec2::X, Vec2::Y];
-
 /// The per-corner tables of a scene in the BVH's primitive order.
 pub(super) struct CornerTables {
     /// Vertex normals (zero for a flat primitive); empty when no mesh is smooth.
     pub(super) normals: Vec<[Vec3; 3]>,
-    /// Corner UVs ([`DEFAULT_UVS`] where none); empty when no textured mesh or quad has UVs.
+    /// Corner UVs ([`uv::DEFAULT_UVS`] where none); empty when no textured mesh or quad has UVs.
     pub(super) uvs: Vec<[Vec2; 3]>,
     /// World-to-local rotations of textured spheres (identity elsewhere); empty when no
     /// textured sphere is rotated.
@@ -382,7 +379,7 @@ pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables
             tables.normals.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
         }
         if textured {
-            tables.uvs.push(uvs[i].unwrap_or(DEFAULT_UVS));
+            tables.uvs.push(uvs[i].unwrap_or(uv::DEFAULT_UVS));
         }
         if rotated {
             tables.frames.push(frames[i].unwrap_or(Mat3::IDENTITY));
