@@ -1,4 +1,4 @@
-//! Full renders of the default and bunny scenes at reduced size, with the scalar and the
+//! Full renders of the default and bunny scenes at reduced size, with the single-ray (wide) and the
 //! packet kernel, on one and two threads, reported as rays per second (criterion
 //! `Throughput::Elements` = rays traced per render).
 
@@ -17,7 +17,7 @@ fn bench_scene(c: &mut Criterion, name: &str, src: SceneSource) {
             let opts = RenderOptions { threads: Some(threads), ..Default::default() };
             let rays = render(&scene, &opts).expect("render").stats.total_rays();
             g.throughput(Throughput::Elements(rays));
-            let kernel = if packets { "packet" } else { "scalar" };
+            let kernel = if packets { "packet" } else { "single" };
             g.bench_function(format!("{name}/160x120/{kernel}/{threads}-thread"), |b| {
                 b.iter(|| render(&scene, &opts).expect("render"))
             });

@@ -15,7 +15,7 @@ import statistics
 import subprocess
 
 SETS = ["camera", "shadow", "bounce", "random", "bounce-shadow"]
-KERNELS = ["wide", "hybrid", "packet", "scalar"]
+KERNELS = ["wide", "hybrid", "packet", "interleaved"]
 
 
 def main():

@@ -23,8 +23,6 @@ fn kernels(c: &mut Criterion) {
         for (set_name, set) in &sets {
             g.throughput(Throughput::Elements(set.len() as u64));
             let kernels = [
-                ("obvhs", Kernel::Obvhs),
-                ("scalar", Kernel::Scalar),
                 ("packet4", Kernel::Packet(4, PacketConfig::RENDER)),
                 ("packet8", Kernel::Packet(8, PacketConfig::RENDER)),
                 ("packet16", Kernel::Packet(16, PacketConfig::RENDER)),

@@ -25,12 +25,12 @@ fn json_has_every_set_and_kernel() {
     for s in sets {
         let (set, kernel) = (s["set"].as_str().unwrap(), s["kernel"].as_str().unwrap());
         assert!(["primary", "shadow", "secondary"].contains(&set));
-        assert!(["scalar", "packet", "wide", "interleaved", "hybrid"].contains(&kernel), "{kernel}");
+        assert!(["packet", "wide", "interleaved", "hybrid"].contains(&kernel), "{kernel}");
         assert!(s["rays"].as_u64().unwrap() > 0, "{s}");
         assert!(s["mrays_per_s"].as_f64().unwrap() > 0.0, "{s}");
         seen.push((set.to_string(), kernel.to_string()));
     }
-    assert_eq!(seen.len(), 15);
+    assert_eq!(seen.len(), 12);
     assert_eq!(v["renderer_kernel"], "hybrid");
     // The default scene at 24×16 with 16 AA samples: every camera ray is in the set.
     assert_eq!(sets[0]["rays"], 24 * 16 * 16);
@@ -39,11 +39,11 @@ fn json_has_every_set_and_kernel() {
 #[test]
 fn text_table_lists_each_set() {
     let mut args = SMALL.to_vec();
-    args.extend(["--reps", "1", "--lanes", "4", "--min-active", "2", "--shadow-order", "morton"]);
+    args.extend(["--reps", "1", "--lanes", "4", "--shadow-order", "morton"]);
     let out = bench(&args);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8(out.stdout).unwrap();
-    for word in ["BVH build", "primary", "shadow", "secondary", "wide/scalar"] {
+    for word in ["BVH build", "primary", "shadow", "secondary", "interleaved"] {
         assert!(text.contains(word), "{text}");
     }
 }
@@ -61,7 +61,26 @@ fn kernels_flag_measures_only_the_kernels_named() {
     let mut args = SMALL.to_vec();
     args.extend(["--reps", "1", "--kernels", "packet"]);
     let text = String::from_utf8(bench(&args).stdout).unwrap();
-    assert!(text.contains("packet") && !text.contains("scalar") && !text.contains("/scalar"), "{text}");
+    let header = text.lines().find(|l| l.starts_with("set")).expect("a header row");
+    assert_eq!(header.split_whitespace().last(), Some("packet"), "{text}");
+    assert!(!header.contains("hybrid") && !header.contains("wide"), "{text}");
+}
+
+#[test]
+fn ray_sets_flag_measures_only_the_sets_named() {
+    let mut args = SMALL.to_vec();
+    args.extend(["--reps", "1", "--kernels", "wide", "--ray-sets", "shadow,primary", "--json"]);
+    let out = bench(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let sets: Vec<&str> = v["sets"].as_array().unwrap().iter().map(|s| s["set"].as_str().unwrap()).collect();
+    assert_eq!(sets, ["primary", "shadow"]);
+    let mut args = SMALL.to_vec();
+    args.extend(["--reps", "1", "--ray-sets", "camera"]);
+    let out = bench(&args);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--ray-sets camera") && err.contains("primary, shadow, secondary"), "{err}");
 }
 
 #[test]
@@ -113,10 +132,10 @@ fn ray_sets_are_the_renderers_rays_and_thin_uniformly() {
     let capped = ray_sets(&scene, 1000);
     assert!(capped.iter().all(|s| s.1.len() < 2000 && !s.1.is_empty()));
     assert!(scene.settings.packets);
-    // Scalar, packet, wide, interleaved and hybrid kernels agree on every set (run()
-    // checks the hit checksums).
+    // Packet, wide, interleaved and hybrid kernels agree on every set (run() checks the
+    // hit checksums).
     let report = run_scene(&scene, &BenchOptions { reps: 1, ..BenchOptions::default() }).expect("bench");
-    assert_eq!(report.sets.len(), 15);
+    assert_eq!(report.sets.len(), 12);
 }
 
 /// `wavetrace bench --sphere LEVEL` on small sets, one thread, exporting its rays to a

@@ -53,7 +53,7 @@ fn crops() -> Vec<Tile> {
 }
 
 /// Every mode: uniform, adaptive AA with shared and with per-pixel corners, adaptive
-/// shadows, DOF-aware AA with early stopping (both corner kinds), the scalar kernel.
+/// shadows, DOF-aware AA with early stopping (both corner kinds), one ray at a time.
 const MODES: &[(&str, &[&str])] = &[
     ("uniform", &["render.aa.mode=uniform", "render.aa.samples=2", "render.shadows.mode=uniform"]),
     ("adaptive-aa", &["render.shadows.mode=uniform"]),
@@ -64,7 +64,7 @@ const MODES: &[(&str, &[&str])] = &[
         "dof-aware-own-corners",
         &["render.aa.dof_aware=true", "render.aa.share_corners=false", "render.shadows.tolerance=0.05"],
     ),
-    ("scalar", &["render.packets=false", "render.aa.dof_aware=true"]),
+    ("single", &["render.packets=false", "render.aa.dof_aware=true"]),
 ];
 
 #[test]

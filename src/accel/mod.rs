@@ -162,8 +162,13 @@ pub(crate) const CULL: f32 = 1.0 + 1.0 / 65536.0;
 pub struct Accel {
     /// Primitives, in BVH order: a traversal's primitive id indexes this directly.
     pub prims: Vec<Primitive>,
-    /// The binary tree (obvhs's), for packets and the binary single-ray walk.
+    /// The binary tree (obvhs's, its leaves collapsed), walked one ray at a time by
+    /// [`Accel::closest`]: kept only by [`Accel::build_reference`] (the tests' reference
+    /// kernel) and where the wide tree cannot be encoded. Every other kernel walks the
+    /// wide tree, so the renderer keeps one tree.
     pub(crate) bvh: Option<Bvh2>,
+    /// Bounds of everything in the tree.
+    bounds: (Vec3, Vec3),
     /// The same tree collapsed to [`Wide`] children per node, for single rays (`None`
     /// when empty or not encodable: the binary traversal then serves).
     pub(crate) wide: Option<WideBvh<Wide>>,
@@ -246,9 +251,29 @@ impl Accel {
     /// [`Accel::build`] with leaves of at most `max_leaf` primitives (1 to 64; the SAH
     /// decides below that) and the given quality.
     pub fn build_with(prims: Vec<Primitive>, max_leaf: u32, quality: BvhQuality) -> Accel {
+        Accel::build_trees(prims, max_leaf, quality, false)
+    }
+
+    /// [`Accel::build`], keeping the binary tree beside the wide one, so that
+    /// [`Accel::closest`] and [`Accel::occluded`] walk it: an independent reference the
+    /// tests compare every other kernel with (the same primitive order and answers).
+    pub fn build_reference(prims: Vec<Primitive>) -> Accel {
+        Accel::build_trees(prims, MAX_LEAF, BvhQuality::High, true)
+    }
+
+    fn build_trees(prims: Vec<Primitive>, max_leaf: u32, quality: BvhQuality, keep_binary: bool) -> Accel {
         let start = Instant::now();
         if prims.is_empty() {
-            return Accel { prims, bvh: None, wide: None, depth: 0, slack: 0.0, build_seconds: 0.0, interleave: false };
+            return Accel {
+                prims,
+                bvh: None,
+                bounds: (Vec3::ZERO, Vec3::ZERO),
+                wide: None,
+                depth: 0,
+                slack: 0.0,
+                build_seconds: 0.0,
+                interleave: false,
+            };
         }
         let preset = match quality {
             BvhQuality::Medium => BvhBuildParams::medium_build(),
@@ -283,7 +308,10 @@ impl Accel {
         }
         let wide = WideBvh::build(&fine, &prims, params.max_prims_per_leaf);
         let interleave = wide.as_ref().is_some_and(|w| w.bytes() > last_level_cache());
-        Accel { prims, bvh: Some(bvh), wide, depth, slack, build_seconds: start.elapsed().as_secs_f64(), interleave }
+        let bounds = (root.min.into(), root.max.into());
+        let bvh = (keep_binary || wide.is_none()).then_some(bvh);
+        let build_seconds = start.elapsed().as_secs_f64();
+        Accel { prims, bvh, bounds, wide, depth, slack, build_seconds, interleave }
     }
 
     /// Bytes of the acceleration structure beside the primitives: the binary nodes, the
@@ -298,24 +326,29 @@ impl Accel {
 
     /// Bounds of everything in the tree (zero-size at the origin when empty).
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        match self.bvh.as_ref().and_then(|b| b.nodes.first()) {
-            Some(root) => (root.aabb().min.into(), root.aabb().max.into()),
-            None => (Vec3::ZERO, Vec3::ZERO),
-        }
+        self.bounds
     }
 
     /// Closest hit along `ray`: `(t, primitive index)`, or `None`; one ray through the
-    /// binary tree. Counts its work in `c` when `COUNT`.
+    /// binary tree where it is kept, else through the wide one. Counts its work in `c`
+    /// when `COUNT`.
     #[inline]
     pub fn closest<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
-        bvh2::closest::<COUNT>(self, ray, c)
+        match &self.bvh {
+            Some(_) => bvh2::closest::<COUNT>(self, ray, c),
+            None => self.closest_wide::<COUNT>(ray, c),
+        }
     }
 
     /// True when some non-emitting primitive blocks `ray`'s segment; stops at the first
-    /// blocker. Area lights never block shadow rays. One ray through the binary tree.
+    /// blocker. Area lights never block shadow rays. One ray through the binary tree
+    /// where it is kept, else through the wide one.
     #[inline]
     pub fn occluded<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
-        bvh2::occluded::<COUNT>(self, ray, c)
+        match &self.bvh {
+            Some(_) => bvh2::occluded::<COUNT>(self, ray, c),
+            None => self.occluded_wide::<COUNT>(ray, c),
+        }
     }
 
     /// [`Accel::closest`] through the wide BVH (one ray, all of a node's children in one
@@ -324,7 +357,7 @@ impl Accel {
     pub fn closest_wide<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
         match &self.wide {
             Some(w) => w.closest::<COUNT>(&self.prims, self.slack, ray, c),
-            None => self.closest::<COUNT>(ray, c),
+            None => bvh2::closest::<COUNT>(self, ray, c),
         }
     }
 
@@ -333,7 +366,7 @@ impl Accel {
     pub fn occluded_wide<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
         match &self.wide {
             Some(w) => w.occluded::<COUNT>(&self.prims, self.slack, ray, c),
-            None => self.occluded::<COUNT>(ray, c),
+            None => bvh2::occluded::<COUNT>(self, ray, c),
         }
     }
 
@@ -350,7 +383,7 @@ impl Accel {
     ) {
         match &self.wide {
             Some(w) => w.closest_many::<COUNT>(&self.prims, self.slack, n, ray, out, c),
-            None => (0..n).for_each(|i| out(i, self.closest::<COUNT>(ray(i), c))),
+            None => (0..n).for_each(|i| out(i, bvh2::closest::<COUNT>(self, ray(i), c))),
         }
     }
 
@@ -366,7 +399,7 @@ impl Accel {
     ) {
         match &self.wide {
             Some(w) => w.occluded_many::<COUNT>(&self.prims, self.slack, n, ray, out, c),
-            None => (0..n).for_each(|i| out(i, self.occluded::<COUNT>(ray(i), c))),
+            None => (0..n).for_each(|i| out(i, bvh2::occluded::<COUNT>(self, ray(i), c))),
         }
     }
 
@@ -383,9 +416,8 @@ impl Accel {
     }
 
     /// Closest hits of a packet of up to `S::LANES` rays (`o`, `d` of equal length) within
-    /// `(tmin, ∞)`, walked together through the binary tree: `out[l]` is `(t, primitive)`
-    /// or `(∞, u32::MAX)`, the same hits as [`Accel::closest`]. `min_active`: see
-    /// [`PacketConfig::min_active`](packet::PacketConfig::min_active). `cols`: the same
+    /// `(tmin, ∞)`, walked together through the wide tree: `out[l]` is `(t, primitive)`
+    /// or `(∞, u32::MAX)`, the same hits as [`Accel::closest`]. `cols`: the same
     /// rays as queue columns, when they are a full packet of consecutive entries.
     #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
     #[inline]
@@ -395,11 +427,10 @@ impl Accel {
         d: &[Vec3],
         cols: Option<packet::Columns>,
         tmin: f32,
-        min_active: u32,
         out: &mut [(f32, u32)],
         work: &mut packet::PacketWork,
     ) {
-        packet::closest::<S>(self, o, d, cols, tmin, min_active, out, work)
+        packet::closest::<S>(self, o, d, cols, tmin, out, work)
     }
 
     /// Any-hit tests of a packet of up to `S::LANES` shadow segments `(0, tmax[l])`:
@@ -413,10 +444,9 @@ impl Accel {
         d: &[Vec3],
         cols: Option<packet::Columns>,
         tmax: &[f32],
-        min_active: u32,
         out: &mut [bool],
         work: &mut packet::PacketWork,
     ) {
-        packet::occluded::<S>(self, o, d, cols, tmax, min_active, out, work)
+        packet::occluded::<S>(self, o, d, cols, tmax, out, work)
     }
 }

@@ -29,7 +29,8 @@ pub enum Width {
 /// Which traversal kernel a tracer runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
-    /// One ray at a time over the binary BVH.
+    /// One ray at a time over the binary BVH where the accel keeps one
+    /// ([`Accel::build_reference`]), else over the wide one: the tests' reference.
     Scalar,
     /// One ray at a time over the wide BVH (all of a node's children in one SIMD test).
     Wide,
@@ -58,17 +59,17 @@ pub enum Kernel {
 
 impl Kernel {
     /// The renderer's kernel: the hybrid (`render.packets = true`, chosen by measurement:
-    /// docs/performance.md), or one ray at a time over the binary BVH.
+    /// docs/performance.md), or one ray at a time over the wide BVH.
     pub fn render(packets: bool) -> Kernel {
         if packets {
             Kernel::HYBRID
         } else {
-            Kernel::Scalar
+            Kernel::Wide
         }
     }
 
     /// The renderer's hybrid settings (measured: docs/performance.md).
-    pub const HYBRID: Kernel = Kernel::Hybrid { width: Width::X16, cfg: PacketConfig::RENDER, min_lanes: 50 };
+    pub const HYBRID: Kernel = Kernel::Hybrid { width: Width::X16, cfg: PacketConfig::RENDER, min_lanes: 25 };
 
     /// The lane utilisation (percent) below which a queue of rays from `coherence` leaves
     /// packets; `None`: it never does.
@@ -253,7 +254,7 @@ impl<'a> Tracer<'a> {
             } else if shares_octant(&d[..k], cfg) {
                 let cols = consecutive(group, S::LANES)
                     .map(|i| Columns([&rays.ox, &rays.oy, &rays.oz, &rays.dx, &rays.dy, &rays.dz].map(|v| &v[i..])));
-                self.accel.closest_packet::<S>(&o[..k], &d[..k], cols, 0.0, cfg.min_active, &mut out, &mut pw);
+                self.accel.closest_packet::<S>(&o[..k], &d[..k], cols, 0.0, &mut out, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
                 // Lanes traced alone here are not counted (as before the tracer existed).
@@ -342,7 +343,7 @@ impl<'a> Tracer<'a> {
                 let cols = consecutive(group, S::LANES).map(|i| {
                     Columns([&shadow.ox, &shadow.oy, &shadow.oz, &shadow.dx, &shadow.dy, &shadow.dz].map(|v| &v[i..]))
                 });
-                accel.occluded_packet::<S>(&o[..k], &d[..k], cols, &t[..k], cfg.min_active, &mut blocked, &mut pw);
+                accel.occluded_packet::<S>(&o[..k], &d[..k], cols, &t[..k], &mut blocked, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
                 for l in 0..k {

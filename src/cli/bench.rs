@@ -1,4 +1,4 @@
-//! `wavetrace bench`: traversal throughput of the scalar, packet, wide and hybrid kernels
+//! `wavetrace bench`: traversal throughput of the packet, wide, interleaved and hybrid kernels
 //! on fixed ray sets (a scene's, or the issue-13 sets around a bare mesh), as a table or
 //! JSON; optionally exports the rays for `benches/embree.py`.
 
@@ -53,9 +53,6 @@ pub struct BenchArgs {
     /// Lanes per packet of the packet kernel: 4, 8 or 16.
     #[arg(long, value_enum, hide_possible_values = true, default_value_t = Lanes::of(LANES))]
     lanes: Lanes,
-    /// Packet kernel: lanes entering a node pair below which each finishes it alone.
-    #[arg(long, default_value_t = PacketConfig::RENDER.min_active)]
-    min_active: u32,
     /// Packet kernel: how bounce rays are ordered before packets are cut: keep, octant
     /// or morton (octant, then the origin's Morton code).
     #[arg(long, value_enum, hide_possible_values = true, default_value_t = PacketConfig::RENDER.bounce_order.into())]
@@ -73,10 +70,14 @@ pub struct BenchArgs {
     /// Time by the process's CPU time, not the wall clock (for a shared, loaded machine).
     #[arg(long)]
     cpu_time: bool,
-    /// The kernels to measure, comma separated: scalar, packet, wide, interleaved, hybrid (default:
+    /// The kernels to measure, comma separated: packet, wide, interleaved, hybrid (default:
     /// all four; their answers are checked against the first one listed).
     #[arg(long, value_enum, value_delimiter = ',', hide_possible_values = true)]
     kernels: Vec<KernelName>,
+    /// The ray sets to measure, comma separated, by the names the table prints (default:
+    /// all of them).
+    #[arg(long, value_delimiter = ',')]
+    ray_sets: Vec<String>,
     /// Print JSON: {"bvh_build_seconds", "primitives", "bytes_per_primitive", "threads", "renderer_kernel", "clock",
     /// "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
     #[arg(long)]
@@ -86,7 +87,6 @@ pub struct BenchArgs {
 /// `--kernels`: one of the kernels `wavetrace bench` measures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum KernelName {
-    Scalar,
     Packet,
     Wide,
     Interleaved,
@@ -183,7 +183,6 @@ impl From<PacketOrder> for Order {
 pub fn run(args: BenchArgs) -> Result<()> {
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let packet = PacketConfig {
-        min_active: args.min_active,
         bounce_order: args.bounce_order.into(),
         shadow_order: args.shadow_order.into(),
         split_mixed: args.split_mixed.is_on(),
@@ -218,6 +217,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
         let sets = bench::ray_sets(&scene, opts.max_rays).into_iter().collect();
         (scene.accel, sets)
     };
+    if let Some(unknown) = args.ray_sets.iter().find(|s| !sets.iter().any(|(name, _)| name == s)) {
+        let names: Vec<_> = sets.iter().map(|(name, _)| *name).collect();
+        return Err(Error::input(format!("--ray-sets {unknown}: expected one of {}", names.join(", "))));
+    }
+    let mut sets = sets;
+    sets.retain(|(name, _)| args.ray_sets.is_empty() || args.ray_sets.iter().any(|s| s == name));
     if let Some(dir) = &args.export_rays {
         bench_mesh::export(dir, &accel, &sets)?;
     }

@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use crate::accel::packet::PacketConfig;
 use crate::accel::tracer::{Coherence, Kernel as TracerKernel, Tracer, Width};
-use crate::accel::{Accel, Ray};
+use crate::accel::Accel;
 use crate::error::{Error, Result};
 use crate::film::tiles;
 use crate::light::uniform_shadow_rays;
@@ -58,7 +58,7 @@ pub struct BenchOptions {
 }
 
 /// The kernels `wavetrace bench` measures, by the names its table and JSON use.
-pub const KERNELS: [&str; 5] = ["scalar", "packet", "wide", "interleaved", "hybrid"];
+pub const KERNELS: [&str; 4] = ["packet", "wide", "interleaved", "hybrid"];
 
 /// The kernel the renderer runs (`render.packets = true`), by its name in [`KERNELS`].
 pub const RENDERER_KERNEL: &str = "hybrid";
@@ -116,7 +116,7 @@ pub struct SetResult {
     /// The set's name (`primary`, `shadow`, `secondary`; with a mesh `camera`, `shadow`,
     /// `bounce`, `random`, `bounce-shadow`).
     pub set: &'static str,
-    /// `scalar`, `packet`, `wide` or `hybrid`.
+    /// `packet`, `wide`, `interleaved` or `hybrid`.
     pub kernel: &'static str,
     /// Rays in the set.
     pub rays: usize,
@@ -250,7 +250,7 @@ pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
     let (mut primary, mut shadows, mut bounces) =
         (Thinned::new(max_rays), Thinned::new(max_rays), Thinned::new(max_rays));
     let (mut rays, mut hits, mut shadow) = (RayQueue::default(), HitQueue::default(), Vec::new());
-    let mut tracer = Tracer::new(&scene.accel, TracerKernel::Scalar, false);
+    let mut tracer = Tracer::new(&scene.accel, TracerKernel::Wide, false);
     for tile in tiles(s.width, s.height) {
         camera::generate(scene, &tile, 0..tile.pixels() as u64 * spp, &mut rays);
         intersect::intersect(&mut tracer, &rays, Coherence::Camera, &mut hits);
@@ -275,14 +275,9 @@ pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
     ]
 }
 
-/// A traversal kernel to measure: the renderer's ones, or obvhs's own as a baseline.
+/// A traversal kernel to measure.
 #[derive(Clone, Copy, Debug)]
 pub enum Kernel {
-    /// obvhs's own single-ray traversal (`Bvh2::ray_traverse`, `ray_traverse_miss`), with
-    /// our primitive kernels: the baseline to compare with.
-    Obvhs,
-    /// One ray at a time over the binary BVH.
-    Scalar,
     /// Packets of this many lanes (4, 8 or 16), formed and traced as configured.
     Packet(usize, PacketConfig),
     /// One ray at a time over the wide BVH.
@@ -304,15 +299,13 @@ fn width(n: usize) -> Width {
 }
 
 impl Kernel {
-    /// The tracer kernel, for the renderer's kernels.
-    fn tracer(self) -> Option<TracerKernel> {
+    /// The tracer kernel.
+    fn tracer(self) -> TracerKernel {
         match self {
-            Kernel::Obvhs => None,
-            Kernel::Scalar => Some(TracerKernel::Scalar),
-            Kernel::Wide => Some(TracerKernel::Wide),
-            Kernel::Interleaved => Some(TracerKernel::Interleaved),
-            Kernel::Packet(n, c) => Some(TracerKernel::Packet(width(n), c)),
-            Kernel::Hybrid(n, cfg, min_lanes) => Some(TracerKernel::Hybrid { width: width(n), cfg, min_lanes }),
+            Kernel::Wide => TracerKernel::Wide,
+            Kernel::Interleaved => TracerKernel::Interleaved,
+            Kernel::Packet(n, c) => TracerKernel::Packet(width(n), c),
+            Kernel::Hybrid(n, cfg, min_lanes) => TracerKernel::Hybrid { width: width(n), cfg, min_lanes },
         }
     }
 }
@@ -332,25 +325,14 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
     let start = Instant::now();
     let cpu0 = cpu_seconds();
     // Each thread builds its own tracer (its scratch is per thread); no counters.
-    let tracer = || kernel.tracer().map(|k| Tracer::new(accel, k, false));
+    let tracer = || Tracer::new(accel, kernel.tracer(), false);
     let sum: u64 = pool.install(|| match set {
         RaySet::Closest(chunks, coherence) => chunks
             .par_iter()
             .map_init(
                 || (tracer(), HitQueue::default()),
                 |(tracer, hits), q| {
-                    match tracer {
-                        Some(tracer) => intersect::intersect(tracer, q, *coherence, hits),
-                        None => {
-                            hits.clear();
-                            for i in 0..q.len() {
-                                let (t, p) = accel
-                                    .closest_obvhs(Ray::new(q.origin(i), q.dir(i), 0.0, f32::INFINITY))
-                                    .unwrap_or((f32::INFINITY, crate::queue::MISS));
-                                hits.push(t, p);
-                            }
-                        }
-                    }
+                    intersect::intersect(tracer, q, *coherence, hits);
                     hits.t.iter().filter(|t| t.is_finite()).map(|t| t.to_bits() as u64).sum::<u64>()
                 },
             )
@@ -361,12 +343,7 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
                 || (tracer(), FilmQueue::default()),
                 |(tracer, film), q| {
                     film.clear();
-                    (match tracer {
-                        Some(tracer) => shadow::occlusion(tracer, q, film),
-                        None => (0..q.len())
-                            .filter(|&i| !accel.occluded_obvhs(Ray::new(q.origin(i), q.dir(i), 0.0, q.tmax[i])))
-                            .count(),
-                    }) as u64
+                    shadow::occlusion(tracer, q, film) as u64
                 },
             )
             .sum(),
@@ -377,13 +354,12 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
 }
 
 /// The kernels `wavetrace bench` measures, with their column names.
-fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 5] {
+fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 4] {
     [
-        (KERNELS[0], Kernel::Scalar),
-        (KERNELS[1], Kernel::Packet(opts.lanes, opts.packet)),
-        (KERNELS[2], Kernel::Wide),
-        (KERNELS[3], Kernel::Interleaved),
-        (KERNELS[4], Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
+        (KERNELS[0], Kernel::Packet(opts.lanes, opts.packet)),
+        (KERNELS[1], Kernel::Wide),
+        (KERNELS[2], Kernel::Interleaved),
+        (KERNELS[3], Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
     ]
 }
 
@@ -444,15 +420,14 @@ pub fn run_scene(scene: &Scene, opts: &BenchOptions) -> Result<BenchReport> {
 }
 
 impl BenchReport {
-    /// The human-readable table: Mrays/s per set and kernel, and the wide kernel's and
-    /// the hybrid's speed-up over the scalar one.
+    /// The human-readable table: Mrays/s per set and kernel.
     pub fn table(&self) -> String {
         let [b2, bw, bp] = self.bytes_per_primitive;
+        let binary = if b2 > 0.0 { format!("binary nodes {b2:.0}, ") } else { String::new() };
         let mut t = format!(
-            "BVH build {:.3} s, {} primitives, bytes/primitive: binary nodes {:.0}, wide nodes and leaf blocks {:.0}, primitives {:.0}; {} thread{}, {} clock\n",
+            "BVH build {:.3} s, {} primitives, bytes/primitive: {binary}wide nodes and leaf blocks {:.0}, primitives {:.0}; {} thread{}, {} clock\n",
             self.bvh_build_seconds,
             self.primitives,
-            b2,
             bw,
             bp,
             self.threads,
@@ -460,34 +435,16 @@ impl BenchReport {
             self.clock,
         );
         t += &format!("{:<14} {:>9}  Mrays/s:", "set", "rays");
-        // One row per set, one column per kernel measured; against the scalar kernel when
-        // it ran.
+        // One row per set, one column per kernel measured.
         let per = self.sets.iter().take_while(|r| r.set == self.sets[0].set).count().max(1);
-        let names: Vec<&str> = self.sets.iter().take(per).map(|r| r.kernel).collect();
-        let scalar = names.iter().position(|&k| k == KERNELS[0]);
-        let over: Vec<usize> = match scalar {
-            Some(_) => {
-                [KERNELS[2], KERNELS[3], KERNELS[4]].iter().filter_map(|k| names.iter().position(|n| n == k)).collect()
-            }
-            None => Vec::new(),
-        };
-        for k in &names {
-            t += &format!(" {k:>8}");
-        }
-        for &k in &over {
-            t += &format!(" {:>13}", format!("{}/scalar", names[k]));
+        for r in self.sets.iter().take(per) {
+            t += &format!(" {:>11}", r.kernel);
         }
         t += "\n";
         for row in self.sets.chunks(per) {
             t += &format!("{:<14} {:>9}          ", row[0].set, row[0].rays);
             for r in row {
-                t += &format!(" {:>8.2}", r.mrays_per_s);
-            }
-            if let Some(s) = scalar {
-                for &k in &over {
-                    let ratio = if row[s].mrays_per_s > 0.0 { row[k].mrays_per_s / row[s].mrays_per_s } else { 0.0 };
-                    t += &format!(" {ratio:>13.2}");
-                }
+                t += &format!(" {:>11.2}", r.mrays_per_s);
             }
             t += "\n";
         }

@@ -21,7 +21,9 @@ use crate::accel::tracer::Coherence;
 use crate::accel::BvhQuality;
 use crate::accel::{Accel, Primitive, Ray, Shape, Traversal, NO_LIGHT};
 use crate::error::{Error, Result};
+use crate::film::Tile;
 use crate::sampling::{hash, to_unit};
+use crate::stages::camera::block_slot;
 
 /// The acceleration structure over a bare triangle list (one material, no lights), with
 /// leaves of at most `max_leaf` primitives, built at `quality`.
@@ -139,13 +141,17 @@ pub fn mesh_ray_sets(accel: &Accel, side: usize) -> Vec<(&'static str, RaySet)> 
         ((p, (q - p).normalize()), (q - p).length())
     };
     let mut camera = Vec::with_capacity(side * side);
+    // The renderer's order: 16×16 tiles, each walked in 4×4 blocks (`camera::block_slot`).
     for ty in (0..side).step_by(16) {
         for tx in (0..side).step_by(16) {
-            for y in ty..(ty + 16).min(side) {
-                for x in tx..(tx + 16).min(side) {
-                    let (sx, sy) = ((x as f32 + 0.5) / side as f32 - 0.5, 0.5 - (y as f32 + 0.5) / side as f32);
-                    camera.push((eye, (fwd + 0.8 * (sx * right + sy * up)).normalize()));
-                }
+            let tile =
+                Tile { x0: tx as u32, y0: ty as u32, x1: (tx + 16).min(side) as u32, y1: (ty + 16).min(side) as u32 };
+            let tw = tile.x1 - tile.x0;
+            for q in 0..tw * (tile.y1 - tile.y0) {
+                let slot = block_slot(&tile, q);
+                let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
+                let (sx, sy) = ((x as f32 + 0.5) / side as f32 - 0.5, 0.5 - (y as f32 + 0.5) / side as f32);
+                camera.push((eye, (fwd + 0.8 * (sx * right + sy * up)).normalize()));
             }
         }
     }

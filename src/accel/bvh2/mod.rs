@@ -25,12 +25,6 @@ impl NodeStack {
         NodeStack { items: [0; MAX_DEPTH], len: 0 }
     }
 
-    /// Saved nodes.
-    #[inline(always)]
-    pub(crate) fn len(&self) -> usize {
-        self.len
-    }
-
     /// The next inner node after testing a node pair whose inner children to `descend`
     /// into are flagged (nearer first): the nearer child, saving the farther one; else the
     /// one child; else the most recently saved node; `None` when the walk is over.

@@ -1,16 +1,16 @@
-//! Packet traversal of the obvhs `Bvh2`: a packet of rays (4, 8 or 16 lanes of `wide`; the
-//! renderer uses [`LANES`](crate::simd::LANES)) walks the tree together; each node pair's boxes are
-//! slab-tested for all lanes at once under an active-lane mask, and a leaf's primitives
-//! (watertight triangles after Woop, Benthin and Wald; spheres; parallelograms) are tested
-//! for all its lanes at once. When fewer than `min_active` lanes still enter a node pair,
-//! those lanes may finish its subtree one ray at a time (the scalar traversal; off in the
-//! renderer, measured).
+//! Packet traversal of the wide tree: a packet of rays (4, 8 or 16 lanes of `wide`; the
+//! renderer uses [`LANES`](crate::simd::LANES)) walks the tree together as one beam
+//! (`wide::beam`: each node's children tested once for the whole packet); each leaf the
+//! beam reaches is slab-tested for every lane, and its primitives (watertight triangles
+//! after Woop, Benthin and Wald; spheres; parallelograms) for the lanes that enter it, all
+//! lanes at once. A packet whose beam keeps reaching leaves no lane enters gives up and
+//! its lanes finish one at a time (the wide single-ray walk).
 //!
-//! Exactness: every lane computes the same floating-point operations in the same order as
-//! the scalar kernels (slab test, shear, edge functions, the f64 recomputation of edge
-//! functions that round to zero, the distance), so a packet finds exactly the scalar
-//! traversal's closest distance and blockers; only on exact ties in t may it report
-//! another primitive.
+//! Exactness: the beam test is conservative (it never skips a box a lane enters), and
+//! every lane computes the same floating-point operations in the same order as the scalar
+//! kernels (slab test, shear, edge functions, the f64 recomputation of edge functions
+//! that round to zero, the distance), with the tie rule of every kernel, so a packet
+//! finds exactly the single-ray kernels' hits, primitives included.
 //!
 //! Files: `rays` (a packet's rays in SIMD form and the leaf kernels), `traverse` (the
 //! walk, [`closest`], [`occluded`]), `tests`.
@@ -36,9 +36,6 @@ pub struct Columns<'a>(pub [&'a [f32]; 6]);
 /// choice, the other values exist to be measured (`wavetrace bench`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PacketConfig {
-    /// Below this many lanes entering a node pair, each of them finishes the pair's
-    /// subtree alone (the scalar traversal).
-    pub min_active: u32,
     /// How bounce rays are ordered before they are cut into packets (camera rays always
     /// keep their generation order).
     pub bounce_order: Order,
@@ -51,20 +48,20 @@ pub struct PacketConfig {
 impl PacketConfig {
     /// The renderer's settings (chosen by measurement: docs/performance.md).
     pub const RENDER: PacketConfig =
-        PacketConfig { min_active: 0, bounce_order: Order::Octant, shadow_order: Order::Octant, split_mixed: true };
+        PacketConfig { bounce_order: Order::Octant, shadow_order: Order::Octant, split_mixed: true };
 }
 
 /// Work counters of packet traversals.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PacketWork {
-    /// Node pairs whose boxes were tested for a whole packet (one SIMD test per box).
+    /// Leaves the packet's beam reached (each slab-tested for every lane at once).
     pub steps: u64,
-    /// Active lanes summed over those tests: `lanes / (LANES · steps)` is the utilisation.
+    /// Lanes entering those leaves, summed: `lanes / (LANES · steps)` is the utilisation.
     pub lanes: u64,
-    /// Lane subtrees finished one ray at a time after the packet thinned out.
+    /// Lanes finished one ray at a time after their packet gave up.
     pub fallbacks: u64,
-    /// Box tests per lane: each SIMD box test counts once for every lane that entered the
-    /// parent node (comparable with the scalar traversal's node count).
+    /// Box tests per lane: each beam test of a child box counts once for every lane of the
+    /// packet (comparable with the single-ray traversal's node count).
     pub nodes: u64,
     /// Primitive tests per lane.
     pub prims: u64,

@@ -1,10 +1,10 @@
 //! A packet's rays in SIMD form (`Lanes`) and its per-lane kernels: slab test, triangle, sphere, parallelogram.
 
 use glam::Vec3;
-use obvhs::bvh2::node::Bvh2Node;
 
 use super::Columns;
 use crate::accel::shapes::{intersect_triangle, shear_axes, Shape};
+use crate::accel::wide::Beam;
 use crate::accel::CULL;
 use crate::simd::{Vector, LANES};
 
@@ -30,6 +30,21 @@ pub(super) struct Lanes<'a, S> {
     pub(super) axes: Axes<S>,
     /// The tree's absolute culling slack.
     slack: S,
+}
+
+impl<S: Vector> Lanes<'_, S> {
+    /// The packet's rays as one beam for the wide tree's packet walk.
+    #[inline(always)]
+    pub(super) fn beam(&self) -> Option<Beam> {
+        let axes = |v: &[S; 3]| {
+            let mut a = [[0.0; LANES]; 3];
+            for k in 0..3 {
+                v[k].store(&mut a[k]);
+            }
+            a
+        };
+        Beam::new(&axes(&self.origin), &axes(&self.inv), self.o.len())
+    }
 }
 
 impl<'a, S: Vector> Lanes<'a, S> {
@@ -102,13 +117,12 @@ impl<'a, S: Vector> Lanes<'a, S> {
         }
     }
 
-    /// Lanes (bitmask) whose ray enters the box before their `tmax` (with the culling
-    /// slack of [`CULL`]), with the entry distances. Same arithmetic as the scalar traversal's test.
+    /// Lanes (bitmask) whose ray enters the box `min`–`max` before their `tmax` (with the
+    /// culling slack of [`CULL`]), with the entry distances. Same arithmetic as the
+    /// single-ray traversals' test.
     #[inline(always)]
-    pub(super) fn slab(&self, node: &Bvh2Node, tmax: S) -> (u32, S) {
+    pub(super) fn slab_box(&self, min: [f32; 3], max: [f32; 3], tmax: S) -> (u32, S) {
         const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
-        let b = node.aabb();
-        let (min, max): (Vec3, Vec3) = (b.min.into(), b.max.into());
         let mut near = S::splat(f32::NEG_INFINITY);
         let mut far = S::splat(f32::INFINITY);
         for k in 0..3 {

@@ -1,137 +1,192 @@
-//! Packet traversals of the tree: the shared walk, the thinned-out fallback, [`closest`] and [`occluded`].
+//! Packet traversals of the wide tree: the beam walk with its per-lane leaf test,
+//! [`closest`] and [`occluded`].
 
 use glam::Vec3;
-use obvhs::bvh2::node::Bvh2Node;
 
 use super::rays::Lanes;
 use super::{lanes_of, Columns, PacketWork};
-use crate::accel::bvh2::{subtree, NodeStack, MAX_DEPTH};
-use crate::accel::shapes::NO_LIGHT;
+use crate::accel::shapes::{Primitive, NO_LIGHT};
+use crate::accel::wide::{cull_at, Beam, BeamLeaf, Wide, WideBvh};
 use crate::accel::{nearer, tie_limit, Accel, Ray, Traversal};
 use crate::simd::{Vector, LANES};
 
-/// Walks the tree for a packet; `leaf(lanes, mask, prims, tmax)` tests a leaf's
-/// primitives for the lanes in `mask`, may lower their `tmax`, and returns false to stop
-/// all lanes. Node pairs entered by fewer than `min_active` lanes are finished by each
-/// of those lanes alone.
-#[inline(always)]
-fn walk<S: Vector>(
-    accel: &Accel,
-    lanes: &Lanes<S>,
-    tmax: &mut [f32; LANES],
-    min_active: u32,
-    work: &mut PacketWork,
-    mut leaf: impl FnMut(&Lanes<S>, u32, std::ops::Range<usize>, &mut [f32; LANES]) -> bool,
-) {
-    let Some(bvh) = accel.bvh.as_ref() else { return };
-    let nodes = &bvh.nodes;
-    let root = &nodes[0];
-    let (mask, _) = lanes.slab(root, S::load(tmax));
-    work.steps += 1;
-    work.lanes += mask.count_ones() as u64;
-    work.nodes += lanes.o.len() as u64;
-    if mask == 0 {
-        return;
-    }
-    if root.is_leaf() {
-        let first = root.first_index as usize;
-        leaf(lanes, mask, first..first + root.prim_count as usize, tmax);
-        return;
-    }
-    let mut stack = NodeStack::new();
-    // The lanes that entered each saved node, and the node pair's parent.
-    let mut saved = [0u32; MAX_DEPTH];
-    let mut parent = mask;
-    let mut current = root.first_index as usize;
-    loop {
-        let t = S::load(tmax);
-        let (a, b) = (&nodes[current], &nodes[current + 1]);
-        let (ma, ta) = lanes.slab(a, t);
-        let (mb, tb) = lanes.slab(b, t);
-        let active = ma | mb;
-        work.steps += 1;
-        work.lanes += active.count_ones() as u64;
-        work.nodes += 2 * parent.count_ones() as u64;
-        if active != 0 && active.count_ones() < min_active {
-            if !alone(accel, nodes, current, lanes, active, tmax, work, &mut leaf) {
-                return;
-            }
-            let Some(next) = stack.next([false, false], a, b) else { return };
-            parent = saved[stack.len()];
-            current = next;
-            continue;
-        }
-        // Nearer child first, judged by the first lane that enters both.
-        let both = ma & mb;
-        let a_first = both == 0 || tb.lt(ta).bits() & (1 << both.trailing_zeros()) == 0;
-        let ((near, mn), (far, mf)) = if a_first { ((a, ma), (b, mb)) } else { ((b, mb), (a, ma)) };
-        let mut descend = [false; 2];
-        for (k, (node, m)) in [(near, mn), (far, mf)].into_iter().enumerate() {
-            if m == 0 {
-                continue;
-            }
-            if node.is_leaf() {
-                let first = node.first_index as usize;
-                if !leaf(lanes, m, first..first + node.prim_count as usize, tmax) {
-                    return;
+/// A packet's closest-hit search: per lane the best hit so far, the distance boxes are
+/// culled at and the bound primitives are tested against ([`tie_limit`]).
+struct Closest {
+    tmax: [f32; LANES],
+    best: [(f32, u32); LANES],
+    limit: [f32; LANES],
+    tmin: f32,
+    /// Primitive tests, summed over lanes.
+    tests: u64,
+}
+
+impl Closest {
+    /// Tests the primitives `ids` for the lanes in `mask` (rays `o`, `d`; lanes `lanes`).
+    #[inline(always)]
+    fn test<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) {
+        let (o, d) = (lanes.o, lanes.d);
+        self.tests += mask.count_ones() as u64 * ids.len() as u64;
+        if mask & (mask - 1) == 0 {
+            // One lane: the scalar kernels.
+            let l = mask.trailing_zeros() as usize;
+            for &id in ids {
+                let t = prims[id as usize].shape.intersect(o[l], d[l], self.tmin, self.limit[l]);
+                if t < self.limit[l] && nearer(t, id, self.best[l]) {
+                    self.best[l] = (t, id);
+                    self.tmax[l] = t;
+                    self.limit[l] = tie_limit(self.best[l], t);
                 }
-            } else {
-                descend[k] = true;
+            }
+            return;
+        }
+        let tmin_s = S::splat(self.tmin);
+        for &id in ids {
+            let tm = S::load(&self.limit);
+            let t = lanes.shape(&prims[id as usize].shape, mask, tmin_s, tm);
+            let hits = (t.gt(tmin_s) & t.lt(tm)).bits() & mask;
+            if hits != 0 {
+                let mut a = [0.0; LANES];
+                t.store(&mut a);
+                for l in lanes_of(hits) {
+                    if nearer(a[l], id, self.best[l]) {
+                        self.best[l] = (a[l], id);
+                        self.tmax[l] = a[l];
+                        self.limit[l] = tie_limit(self.best[l], a[l]);
+                    }
+                }
             }
         }
-        let depth = stack.len();
-        let Some(next) = stack.next(descend, near, far) else { return };
-        parent = match descend {
-            [true, true] => {
-                saved[depth] = mf;
-                mn
-            }
-            [true, false] => mn,
-            [false, true] => mf,
-            [false, false] => saved[stack.len()],
-        };
-        current = next;
     }
 }
 
-/// The fallback of a thinned-out packet: each lane in `active` walks the subtree of the
-/// node pair at `first` alone (the scalar traversal), with the packet's leaf test.
-/// Returns false when the leaf test stopped the packet.
-#[allow(clippy::too_many_arguments)] // the tree, the subtree, the packet and its state, the leaf test
-#[inline(never)]
-fn alone<S: Vector>(
-    accel: &Accel,
-    nodes: &[Bvh2Node],
-    first: usize,
-    lanes: &Lanes<S>,
-    active: u32,
-    tmax: &mut [f32; LANES],
-    work: &mut PacketWork,
-    leaf: &mut impl FnMut(&Lanes<S>, u32, std::ops::Range<usize>, &mut [f32; LANES]) -> bool,
-) -> bool {
-    for l in lanes_of(active) {
-        work.fallbacks += 1;
-        let single = Ray::new(lanes.o[l], lanes.d[l], 0.0, tmax[l]).slab();
-        let mut go = true;
-        let mut count = Traversal::default();
-        subtree::<true>(nodes, first, accel.slack, single, &mut count, |r, range, _| {
-            go = leaf(lanes, 1 << l, range, tmax);
-            r.tmax = tmax[l];
-            // A blocked any-hit lane has tmax = -∞: nothing more to find.
-            go && tmax[l] != f32::NEG_INFINITY
-        });
-        work.nodes += count.nodes;
-        if !go {
-            return false;
+/// A packet's any-hit search: per lane the segment's end (−∞ once blocked, which drops
+/// the lane out of every later box test) and whether it is blocked.
+struct AnyHit {
+    tmax: [f32; LANES],
+    blocked: [bool; LANES],
+    /// Lanes not yet blocked.
+    open: u32,
+    /// Primitive tests, summed over lanes.
+    tests: u64,
+}
+
+impl AnyHit {
+    /// Tests the primitives `ids` for the open lanes in `mask`; false once every lane is blocked.
+    #[inline(always)]
+    fn test<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
+        let (o, d) = (lanes.o, lanes.d);
+        let zero = S::splat(0.0);
+        let mut mask = mask & self.open;
+        for &id in ids {
+            if mask == 0 {
+                break;
+            }
+            self.tests += mask.count_ones() as u64;
+            let p = &prims[id as usize];
+            if p.light != NO_LIGHT {
+                continue;
+            }
+            let hits = if mask & (mask - 1) == 0 {
+                let l = mask.trailing_zeros() as usize;
+                ((p.shape.intersect(o[l], d[l], 0.0, self.tmax[l]) < self.tmax[l]) as u32) << l
+            } else {
+                let tm = S::load(&self.tmax);
+                let th = lanes.shape(&p.shape, mask, zero, tm);
+                (th.gt(zero) & th.lt(tm)).bits() & mask
+            };
+            for l in lanes_of(hits) {
+                self.blocked[l] = true;
+                self.tmax[l] = f32::NEG_INFINITY;
+            }
+            mask &= !hits;
+            self.open &= !hits;
         }
+        self.open != 0
     }
-    true
+}
+
+/// The culling distance of a packet: its farthest lane's (see [`CULL`](crate::accel::CULL)).
+#[inline(always)]
+fn packet_cull(tmax: &[f32; LANES], slack: f32) -> f32 {
+    cull_at(tmax.iter().copied().fold(f32::NEG_INFINITY, f32::max), slack)
+}
+
+/// A packet's search as the beam walk drives it.
+trait Search {
+    /// Each lane's current end of search (−∞ for lanes that take no more part).
+    fn tmax(&self) -> &[f32; LANES];
+    /// Tests the primitives `ids` for the lanes in `mask`; false when every lane has its answer.
+    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool;
+}
+
+impl Search for Closest {
+    fn tmax(&self) -> &[f32; LANES] {
+        &self.tmax
+    }
+
+    #[inline(always)]
+    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
+        self.test(prims, lanes, mask, ids);
+        true
+    }
+}
+
+impl Search for AnyHit {
+    fn tmax(&self) -> &[f32; LANES] {
+        &self.tmax
+    }
+
+    #[inline(always)]
+    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
+        self.test(prims, lanes, mask, ids)
+    }
+}
+
+/// Walks the wide tree for a packet as one beam (see `wide::beam`): each leaf the beam
+/// reaches is box-tested for every lane exactly, and `search` tests its primitives for
+/// the lanes that enter. False when the packet gives up: its beam reached more leaves
+/// that no lane enters than leaf entries of its lanes (and over two per lane), so its
+/// rays are too incoherent to share a walk; the caller then finishes each lane alone.
+#[inline(always)]
+fn walk_beam<S: Vector, const ORDER: bool>(
+    accel: &Accel,
+    tree: &WideBvh<Wide>,
+    beam: &Beam,
+    lanes: &Lanes<S>,
+    search: &mut impl Search,
+    work: &mut PacketWork,
+) -> bool {
+    let (mut wasted, mut useful) = (0u64, 0u64);
+    let mut gave_up = false;
+    let mut nodes = 0;
+    let mut cull = packet_cull(search.tmax(), accel.slack);
+    tree.walk_beam::<ORDER>(beam, cull, &mut nodes, |min, max, ids| {
+        let (mask, _) = lanes.slab_box(min, max, S::load(search.tmax()));
+        work.steps += 1;
+        work.lanes += mask.count_ones() as u64;
+        if mask == 0 {
+            wasted += 1;
+            if wasted > useful.max(2 * S::LANES as u64) {
+                gave_up = true;
+                return BeamLeaf::Stop;
+            }
+            return BeamLeaf::Go(cull);
+        }
+        useful += mask.count_ones() as u64;
+        if !search.leaf(&accel.prims, lanes, mask, ids) {
+            return BeamLeaf::Stop;
+        }
+        cull = packet_cull(search.tmax(), accel.slack);
+        BeamLeaf::Go(cull)
+    });
+    work.nodes += nodes * lanes.o.len() as u64;
+    !gave_up
 }
 
 /// Closest hits of a packet of up to `S::LANES` rays (`o`, `d` of equal length) within
 /// `(tmin, ∞)`: `out[l]` is `(t, primitive)` or `(∞, u32::MAX)`. The same hits as
-/// [`Accel::closest`], primitives included (the tie rule of [`nearer`]). `min_active`:
-/// see [`PacketConfig::min_active`](super::PacketConfig::min_active). `cols`: the
+/// [`Accel::closest`], primitives included (the tie rule of [`nearer`]). `cols`: the
 /// same rays as queue columns, when they are a full packet of consecutive entries.
 #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
 pub fn closest<S: Vector>(
@@ -140,64 +195,37 @@ pub fn closest<S: Vector>(
     d: &[Vec3],
     cols: Option<Columns>,
     tmin: f32,
-    min_active: u32,
     out: &mut [(f32, u32)],
     work: &mut PacketWork,
 ) {
     let n = o.len();
     debug_assert!(n == d.len() && n <= S::LANES && out.len() >= n);
-    if accel.depth >= MAX_DEPTH {
-        for l in 0..n {
-            out[l] = accel
-                .closest::<false>(Ray::new(o[l], d[l], tmin, f32::INFINITY), &mut Traversal::default())
-                .unwrap_or((f32::INFINITY, u32::MAX));
-        }
-        return;
-    }
     let lanes = Lanes::<S>::new(o, d, cols, accel.slack);
     let mut tmax = [f32::NEG_INFINITY; LANES];
     tmax[..n].fill(f32::INFINITY);
-    let mut best = [(f32::INFINITY, u32::MAX); LANES];
-    // Each lane's `tie_limit`: its tmax before a hit, just above the hit's distance after.
-    let mut limit = tmax;
-    let prims = &accel.prims;
-    let tmin_s = S::splat(tmin);
-    let mut tests = 0u64;
-    walk(accel, &lanes, &mut tmax, min_active, work, |lanes, mask, range, tmax| {
-        tests += mask.count_ones() as u64 * range.len() as u64;
-        if mask & (mask - 1) == 0 {
-            // One lane: the scalar kernels.
-            let l = mask.trailing_zeros() as usize;
-            for id in range {
-                let t = prims[id].shape.intersect(o[l], d[l], tmin, limit[l]);
-                if t < limit[l] && nearer(t, id as u32, best[l]) {
-                    best[l] = (t, id as u32);
-                    tmax[l] = t;
-                    limit[l] = tie_limit(best[l], t);
-                }
-            }
-            return true;
-        }
-        for id in range {
-            let tm = S::load(&limit);
-            let t = lanes.shape(&prims[id].shape, mask, tmin_s, tm);
-            let hits = (t.gt(tmin_s) & t.lt(tm)).bits() & mask;
-            if hits != 0 {
-                let mut a = [0.0; LANES];
-                t.store(&mut a);
-                for l in lanes_of(hits) {
-                    if nearer(a[l], id as u32, best[l]) {
-                        best[l] = (a[l], id as u32);
-                        tmax[l] = a[l];
-                        limit[l] = tie_limit(best[l], a[l]);
+    let mut search = Closest { tmax, best: [(f32::INFINITY, u32::MAX); LANES], limit: tmax, tmin, tests: 0 };
+    if let (Some(tree), Some(beam)) = (accel.wide.as_ref(), lanes.beam()) {
+        if !walk_beam::<S, true>(accel, tree, &beam, &lanes, &mut search, work) {
+            for l in 0..n {
+                work.fallbacks += 1;
+                let ray = Ray::new(o[l], d[l], tmin, search.limit[l]);
+                if let Some(hit) = accel.closest_wide::<false>(ray, &mut Traversal::default()) {
+                    if nearer(hit.0, hit.1, search.best[l]) {
+                        search.best[l] = hit;
                     }
                 }
             }
         }
-        true
-    });
-    work.prims += tests;
-    out[..n].copy_from_slice(&best[..n]);
+    } else {
+        // No beam (mixed direction signs) or no wide tree: each lane alone.
+        for l in 0..n {
+            search.best[l] = accel
+                .closest_wide::<false>(Ray::new(o[l], d[l], tmin, f32::INFINITY), &mut Traversal::default())
+                .unwrap_or((f32::INFINITY, u32::MAX));
+        }
+    }
+    work.prims += search.tests;
+    out[..n].copy_from_slice(&search.best[..n]);
 }
 
 /// Any-hit tests of a packet of up to `S::LANES` shadow segments `(0, tmax[l])`:
@@ -211,55 +239,29 @@ pub fn occluded<S: Vector>(
     d: &[Vec3],
     cols: Option<Columns>,
     tmax: &[f32],
-    min_active: u32,
     out: &mut [bool],
     work: &mut PacketWork,
 ) {
     let n = o.len();
     debug_assert!(n == d.len() && n == tmax.len() && n <= S::LANES && out.len() >= n);
-    if accel.depth >= MAX_DEPTH {
-        for l in 0..n {
-            out[l] = accel.occluded::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
-        }
-        return;
-    }
     let lanes = Lanes::<S>::new(o, d, cols, accel.slack);
     let mut t = [f32::NEG_INFINITY; LANES];
     t[..n].copy_from_slice(tmax);
-    let mut blocked = [false; LANES];
-    let mut open = (1u32 << n) - 1;
-    let prims = &accel.prims;
-    let zero = S::splat(0.0);
-    let mut tests = 0u64;
-    walk(accel, &lanes, &mut t, min_active, work, |lanes, mask, range, t| {
-        let mut mask = mask & open;
-        for id in range {
-            if mask == 0 {
-                break;
+    let mut search = AnyHit { tmax: t, blocked: [false; LANES], open: (1u32 << n) - 1, tests: 0 };
+    if let (Some(tree), Some(beam)) = (accel.wide.as_ref(), lanes.beam()) {
+        if !walk_beam::<S, false>(accel, tree, &beam, &lanes, &mut search, work) {
+            for l in lanes_of(search.open) {
+                work.fallbacks += 1;
+                search.blocked[l] =
+                    accel.occluded_wide::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
             }
-            tests += mask.count_ones() as u64;
-            let p = &prims[id];
-            if p.light != NO_LIGHT {
-                continue;
-            }
-            let hits = if mask & (mask - 1) == 0 {
-                let l = mask.trailing_zeros() as usize;
-                ((p.shape.intersect(o[l], d[l], 0.0, t[l]) < t[l]) as u32) << l
-            } else {
-                let tm = S::load(t);
-                let th = lanes.shape(&p.shape, mask, zero, tm);
-                (th.gt(zero) & th.lt(tm)).bits() & mask
-            };
-            for l in lanes_of(hits) {
-                blocked[l] = true;
-                // A blocked lane drops out of every later box test.
-                t[l] = f32::NEG_INFINITY;
-            }
-            mask &= !hits;
-            open &= !hits;
         }
-        open != 0
-    });
-    work.prims += tests;
-    out[..n].copy_from_slice(&blocked[..n]);
+    } else {
+        for l in 0..n {
+            search.blocked[l] =
+                accel.occluded_wide::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
+        }
+    }
+    work.prims += search.tests;
+    out[..n].copy_from_slice(&search.blocked[..n]);
 }

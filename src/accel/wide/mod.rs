@@ -21,9 +21,11 @@
 //! answer independent of the order the tree is walked in: the closest distance is the
 //! binary kernels' bit for bit, and so is the primitive.
 
+mod beam;
 mod collapse;
 mod walk;
 
+pub(crate) use beam::{cull_at, Beam, BeamLeaf};
 pub use walk::INTERLEAVE;
 
 use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};

@@ -1,0 +1,179 @@
+//! The packet walk of the wide tree: a packet's rays bounded as one beam (an interval of
+//! origins and one of reciprocal directions per axis), each node's children tested for
+//! the whole beam with one SIMD test, as one ray's are (interval traversal: Wald, Boulos
+//! and Shirley, "Ray Tracing Deformable Scenes Using Dynamic Bounding Volume
+//! Hierarchies", 2007; Reshetov et al.'s multi-level ray tracing). A node costs a packet
+//! about what it costs one ray, where a per-lane test of every child (Embree's packets
+//! over its BVH8) costs sixteen rays' worth. Leaves are handed to the caller with their
+//! box, to test each lane exactly.
+//!
+//! Exactness: the beam test is conservative bit for bit. Every lane's slab distances are
+//! `fl(fl(bound − o) · inv)`; rounding is monotone in each operand, so with the signs of
+//! `inv` fixed per axis, each lane's entry distance is at least the beam's lower bound
+//! and its exit distance at most the beam's upper bound, both computed from the
+//! intervals' ends. A child that some lane's own test (`slab`) enters is therefore always
+//! entered by the beam, and the caller's per-lane leaf test and tie rule do the rest.
+
+use super::{WideBvh, FIRST_BITS, LEAF_FLAG};
+use crate::accel::CULL;
+use crate::simd::{Vector, LANES};
+
+/// A packet's rays as one beam: per axis, the origins' interval and the reciprocal
+/// directions' interval, the latter of one sign.
+pub(crate) struct Beam {
+    /// Per axis: 0 when the rays go towards +axis (they enter a box through its minimum),
+    /// 1 towards −axis.
+    near: [usize; 3],
+    /// Per axis: the origin coordinate that gives the lowest entry distance (the highest
+    /// origin for a positive direction) and the one that gives the highest exit distance.
+    o_near: [f32; 3],
+    o_far: [f32; 3],
+    /// Per axis: the reciprocal directions' lowest and highest value.
+    inv: [[f32; 2]; 3],
+}
+
+impl Beam {
+    /// The beam of `n` rays given by axis: `origin[k][l]` is lane l's origin on axis k,
+    /// `inv[k][l]` its reciprocal direction ([`inv_dir`](crate::accel::inv_dir)); `None`
+    /// when their directions' signs differ on some axis (the beam would hold every
+    /// direction).
+    pub(crate) fn new(origin: &[[f32; LANES]; 3], inv: &[[f32; LANES]; 3], n: usize) -> Option<Beam> {
+        let mut beam = Beam { near: [0; 3], o_near: [0.0; 3], o_far: [0.0; 3], inv: [[0.0; 2]; 3] };
+        for k in 0..3 {
+            let (mut olo, mut ohi) = (f32::INFINITY, f32::NEG_INFINITY);
+            let (mut ilo, mut ihi) = (f32::INFINITY, f32::NEG_INFINITY);
+            for l in 0..n {
+                let (o, i) = (origin[k][l], inv[k][l]);
+                (olo, ohi) = (olo.min(o), ohi.max(o));
+                (ilo, ihi) = (ilo.min(i), ihi.max(i));
+            }
+            // `inv_dir` is never zero, so one sign means both ends on one side of it.
+            if (ilo < 0.0) != (ihi < 0.0) || !(olo.is_finite() && ohi.is_finite()) {
+                return None;
+            }
+            let down = ihi < 0.0;
+            beam.near[k] = down as usize;
+            (beam.o_near[k], beam.o_far[k]) = if down { (olo, ohi) } else { (ohi, olo) };
+            beam.inv[k] = [ilo, ihi];
+        }
+        Some(beam)
+    }
+}
+
+/// What a beam walk's leaf test tells it.
+pub(crate) enum BeamLeaf {
+    /// Keep walking, skipping boxes entered past this distance (the lanes' largest
+    /// culling distance, `tmax · CULL + slack`, now).
+    Go(f32),
+    /// Stop: every lane has its answer, or the packet gives up.
+    Stop,
+}
+
+thread_local! {
+    /// The beam walk's stack, kept per thread so a packet neither allocates nor zeroes one.
+    static BEAM_STACK: std::cell::RefCell<Vec<(u32, f32, u32, u32)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+impl<S: Vector> WideBvh<S> {
+    /// Children of node `n` that some ray of `beam` may enter before `cull`, as a slot
+    /// mask, with lower bounds of their entry distances (see the module docs).
+    #[inline(always)]
+    fn beam_test(&self, n: u32, beam: &Beam, cull: f32) -> (u32, S) {
+        const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+        let node = &self.nodes[n as usize];
+        let mut near = S::splat(f32::NEG_INFINITY);
+        let mut far = S::splat(f32::INFINITY);
+        for k in 0..3 {
+            let [ilo, ihi] = beam.inv[k].map(S::splat);
+            let x = node.bounds[beam.near[k]][k] - S::splat(beam.o_near[k]);
+            let y = node.bounds[1 - beam.near[k]][k] - S::splat(beam.o_far[k]);
+            near = near.fast_max((x * ilo).fast_min(x * ihi));
+            far = far.fast_min((y * ilo).fast_max(y * ihi));
+        }
+        let far = far * S::splat(WIDEN);
+        let zero = S::splat(0.0);
+        let hit = far.ge(near) & far.ge(zero) & near.lt(S::splat(cull));
+        (hit.bits() & node.valid, near)
+    }
+
+    /// The box of child `slot` of node `n`: minima and maxima.
+    #[inline(always)]
+    fn child_box(&self, n: u32, slot: usize) -> ([f32; 3], [f32; 3]) {
+        let node = &self.nodes[n as usize];
+        let lane = |v: S| {
+            let mut a = [0.0; LANES];
+            v.store(&mut a);
+            a[slot]
+        };
+        (node.bounds[0].map(lane), node.bounds[1].map(lane))
+    }
+
+    /// The primitive ids of a leaf child (its blocks' ids are consecutive).
+    #[inline(always)]
+    fn leaf_ids(&self, child: u32) -> &[u32] {
+        let first = (child & ((1 << FIRST_BITS) - 1)) as usize;
+        let count = ((child & !LEAF_FLAG) >> FIRST_BITS) as usize + 1;
+        let (a, b) = (&self.blocks[first], &self.blocks[first + count - 1]);
+        &self.ids[a.first as usize..(b.first + b.count) as usize]
+    }
+
+    /// Walks the tree for the rays of `beam` whose culling distances are at most `cull`
+    /// (`tmax · CULL + slack` of the farthest lane): every child the beam enters is
+    /// visited, nearest lower bound first when `ORDER` (closest hit; slot order for any
+    /// hit), and each leaf is handed to `leaf(min, max, ids)` with its box. `nodes`
+    /// counts the child boxes tested.
+    pub(crate) fn walk_beam<const ORDER: bool>(
+        &self,
+        beam: &Beam,
+        mut cull: f32,
+        nodes: &mut u64,
+        mut leaf: impl FnMut([f32; 3], [f32; 3], &[u32]) -> BeamLeaf,
+    ) {
+        BEAM_STACK.with_borrow_mut(|stack| {
+            stack.clear();
+            // (child, lower bound of its entry distance, parent node, slot in it).
+            stack.push((0, f32::NEG_INFINITY, u32::MAX, 0));
+            while let Some((child, t, parent, slot)) = stack.pop() {
+                if t >= cull {
+                    continue;
+                }
+                if child & LEAF_FLAG != 0 {
+                    let (min, max) = self.child_box(parent, slot as usize);
+                    match leaf(min, max, self.leaf_ids(child)) {
+                        BeamLeaf::Go(c) => cull = c,
+                        BeamLeaf::Stop => return,
+                    }
+                    continue;
+                }
+                let (mut bits, near) = self.beam_test(child, beam, cull);
+                let node = &self.nodes[child as usize];
+                *nodes += node.valid.count_ones() as u64;
+                let mut t = [0.0f32; LANES];
+                near.store(&mut t);
+                // Pushed farthest first, so the nearest is visited next (ties keep slot
+                // order: deterministic).
+                let base = stack.len();
+                while bits != 0 {
+                    let i = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let e = (node.child[i], t[i], child, i as u32);
+                    stack.push(e);
+                    if ORDER {
+                        let mut j = stack.len() - 1;
+                        while j > base && stack[j - 1].1 < e.1 {
+                            stack[j] = stack[j - 1];
+                            j -= 1;
+                        }
+                        stack[j] = e;
+                    }
+                }
+            }
+        })
+    }
+}
+
+/// The culling distance of a lane whose search ends at `tmax` (see [`CULL`]).
+#[inline(always)]
+pub(crate) fn cull_at(tmax: f32, slack: f32) -> f32 {
+    tmax * CULL + slack
+}
