@@ -19,11 +19,15 @@ use crate::accel::CULL;
 use crate::simd::{Vector, LANES};
 
 /// A packet's rays as one beam: per axis, the origins' interval and the reciprocal
-/// directions' interval, the latter of one sign.
+/// directions' interval, the latter of one sign, or no bound on an axis whose directions'
+/// signs differ.
 pub(crate) struct Beam {
     /// Per axis: 0 when the rays go towards +axis (they enter a box through its minimum),
     /// 1 towards −axis.
     near: [usize; 3],
+    /// Per axis: the directions' signs differ, so the axis bounds no lane's distances
+    /// from one side (a box's slab on it is (−∞, ∞) for the beam).
+    free: [bool; 3],
     /// Per axis: the origin coordinate that gives the lowest entry distance (the highest
     /// origin for a positive direction) and the one that gives the highest exit distance.
     o_near: [f32; 3],
@@ -32,31 +36,34 @@ pub(crate) struct Beam {
     inv: [[f32; 2]; 3],
 }
 
+/// The least and the greatest of `v` (no NaN among them).
+#[inline(always)]
+fn range(v: &[f32]) -> (f32, f32) {
+    v.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &x| {
+        (if x < lo { x } else { lo }, if x > hi { x } else { hi })
+    })
+}
+
 impl Beam {
     /// The beam of `n` rays given by axis: `origin[k][l]` is lane l's origin on axis k,
-    /// `inv[k][l]` its reciprocal direction ([`inv_dir`](crate::accel::inv_dir)); `None`
-    /// when their directions' signs differ on some axis (the beam would hold every
-    /// direction).
+    /// `inv[k][l]` its reciprocal direction ([`inv_dir`](crate::accel::inv_dir), never
+    /// zero or NaN); `None` when an origin is not finite or no axis bounds the beam.
     pub(crate) fn new(origin: &[[f32; LANES]; 3], inv: &[[f32; LANES]; 3], n: usize) -> Option<Beam> {
-        let mut beam = Beam { near: [0; 3], o_near: [0.0; 3], o_far: [0.0; 3], inv: [[0.0; 2]; 3] };
+        let mut beam = Beam { near: [0; 3], free: [false; 3], o_near: [0.0; 3], o_far: [0.0; 3], inv: [[0.0; 2]; 3] };
         for k in 0..3 {
-            let (mut olo, mut ohi) = (f32::INFINITY, f32::NEG_INFINITY);
-            let (mut ilo, mut ihi) = (f32::INFINITY, f32::NEG_INFINITY);
-            for l in 0..n {
-                let (o, i) = (origin[k][l], inv[k][l]);
-                (olo, ohi) = (olo.min(o), ohi.max(o));
-                (ilo, ihi) = (ilo.min(i), ihi.max(i));
-            }
-            // `inv_dir` is never zero, so one sign means both ends on one side of it.
-            if (ilo < 0.0) != (ihi < 0.0) || !(olo.is_finite() && ohi.is_finite()) {
+            let (olo, ohi) = range(&origin[k][..n]);
+            let (ilo, ihi) = range(&inv[k][..n]);
+            if !(olo.is_finite() && ohi.is_finite()) {
                 return None;
             }
+            // `inv_dir` is never zero, so one sign means both ends on one side of it.
+            beam.free[k] = (ilo < 0.0) != (ihi < 0.0);
             let down = ihi < 0.0;
             beam.near[k] = down as usize;
             (beam.o_near[k], beam.o_far[k]) = if down { (olo, ohi) } else { (ohi, olo) };
             beam.inv[k] = [ilo, ihi];
         }
-        Some(beam)
+        (!beam.free.iter().all(|&f| f)).then_some(beam)
     }
 }
 
@@ -84,6 +91,9 @@ impl<S: Vector> WideBvh<S> {
         let mut near = S::splat(f32::NEG_INFINITY);
         let mut far = S::splat(f32::INFINITY);
         for k in 0..3 {
+            if beam.free[k] {
+                continue;
+            }
             let [ilo, ihi] = beam.inv[k].map(S::splat);
             let x = node.bounds[beam.near[k]][k] - S::splat(beam.o_near[k]);
             let y = node.bounds[1 - beam.near[k]][k] - S::splat(beam.o_far[k]);
