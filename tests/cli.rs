@@ -237,7 +237,7 @@ fn up_parallel_to_view_direction() {
 fn unknown_mode_and_zero_samples() {
     bad_scene("samples = 2\n[render.shadows]", "samples = 0\n[render.shadows]", &["render.aa.samples"]);
     bad_scene("[render.aa]", "[render.aa]\nmode = \"fancy\"", &["render.aa.mode", "fancy"]);
-    bad_scene("[render.aa]", "bvh = \"low\"\n[render.aa]", &["render.bvh", "low"]);
+    bad_scene("[render.aa]", "bvh = \"fastest\"\n[render.aa]", &["render.bvh", "fastest"]);
 }
 
 #[test]

@@ -39,7 +39,7 @@ fn bunny_with_packets() {
 
 /// The BVH's build quality changes the tree, never a hit: the same rays of every kind and
 /// the same image, with packets (the hybrid: packets and the wide BVH) and without (the
-/// binary BVH one ray at a time).
+/// wide BVH one ray at a time).
 #[test]
 fn bvh_quality_changes_no_bit() {
     let text =
@@ -47,13 +47,32 @@ fn bvh_quality_changes_no_bit() {
     for packets in ["render.packets=true", "render.packets=false"] {
         let sets = ["render.width=32", "render.height=24", "render.aa.samples=2", "render.shadows.samples=2", packets];
         let high = render_text(&text, &[&sets[..], &["render.bvh=high"]].concat(), 2);
-        let medium = render_text(&text, &[&sets[..], &["render.bvh=medium"]].concat(), 2);
-        assert_eq!(high.stats.kinds(), medium.stats.kinds(), "same rays of every kind ({packets})");
-        assert_eq!(high.image, medium.image, "same image ({packets})");
-        // Different trees: the traversal counters say so (else the test compares nothing).
         let nodes = |o: &wavetrace::RenderOutput| o.stats.stages.iter().map(|c| c.nodes).sum::<u64>();
-        assert_ne!(nodes(&high), nodes(&medium), "the two builds made the same tree ({packets})");
+        for other in ["render.bvh=medium", "render.bvh=low"] {
+            let o = render_text(&text, &[&sets[..], &[other]].concat(), 2);
+            assert_eq!(high.stats.kinds(), o.stats.kinds(), "same rays of every kind ({packets}, {other})");
+            assert_eq!(high.image, o.image, "same image ({packets}, {other})");
+            // Different trees: the traversal counters say so (else the test compares nothing).
+            assert_ne!(nodes(&high), nodes(&o), "the two builds made the same tree ({packets}, {other})");
+        }
     }
+}
+
+/// `render.bvh = "auto"` (the default) builds fast for a render that traces few rays per
+/// primitive and well for one that traces many; a named quality is kept whatever the budget.
+#[test]
+fn auto_bvh_quality_follows_the_ray_budget() {
+    use wavetrace::accel::BvhQuality;
+    let text =
+        std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bunny.toml")).unwrap();
+    let quality = |sets: &[&str]| scene(&text, sets).settings.bvh;
+    // 8×8 pixels, one sample, 1 + 2 shadow rays: under 0.01 rays per triangle.
+    let small = ["render.width=8", "render.height=8", "render.aa.samples=1", "render.shadows.samples=1"];
+    assert_eq!(quality(&small), BvhQuality::Low);
+    // The scene as it is: 320×240, 8 samples, 8 shadow samples of 2 lights: ~150 per triangle.
+    assert_eq!(quality(&[]), BvhQuality::High);
+    assert_eq!(quality(&[&small[..], &["render.bvh=high"]].concat()), BvhQuality::High);
+    assert_eq!(BvhQuality::for_budget(1e6, 0), BvhQuality::High, "an empty scene");
 }
 
 // ---------------------------------------------------------------------------------------

@@ -233,6 +233,9 @@ fn widen_boxes(bvh: &mut Bvh2) {
 /// only the build's and the traversal's times differ (measured: docs/performance.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BvhQuality {
+    /// obvhs's fast preset (a narrow PLOC search, little reinsertion): for renders that
+    /// trace few rays per primitive.
+    Low,
     /// obvhs's medium preset: the build 0.55–0.75× as long as `High`'s, incoherent rays
     /// through the wide kernel up to 11% slower on the scanned meshes.
     Medium,
@@ -240,6 +243,27 @@ pub enum BvhQuality {
     #[default]
     High,
 }
+
+impl BvhQuality {
+    /// The quality that finishes a render soonest when it traces about `rays` rays through
+    /// `prims` primitives: a better tree's faster traversal pays for its longer build only
+    /// over many rays per primitive (thresholds measured: docs/performance.md).
+    pub fn for_budget(rays: f64, prims: usize) -> BvhQuality {
+        let per_prim = rays / prims.max(1) as f64;
+        if per_prim < LOW_BELOW {
+            BvhQuality::Low
+        } else if per_prim < MEDIUM_BELOW {
+            BvhQuality::Medium
+        } else {
+            BvhQuality::High
+        }
+    }
+}
+
+/// Rays per primitive below which [`BvhQuality::for_budget`] builds at `Low`.
+const LOW_BELOW: f64 = 16.0;
+/// Rays per primitive below which [`BvhQuality::for_budget`] builds at `Medium`.
+const MEDIUM_BELOW: f64 = 64.0;
 
 impl Accel {
     /// Builds the BVH over `prims` (which may be empty) with leaves of at most [`MAX_LEAF`]
@@ -276,6 +300,7 @@ impl Accel {
             };
         }
         let preset = match quality {
+            BvhQuality::Low => BvhBuildParams::fast_build(),
             BvhQuality::Medium => BvhBuildParams::medium_build(),
             BvhQuality::High => BvhBuildParams::slow_build(),
         };

@@ -102,6 +102,7 @@ impl KernelName {
 /// `--bvh`: [`BvhQuality`](wavetrace::accel::BvhQuality) on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Quality {
+    Low,
     Medium,
     High,
 }
@@ -109,6 +110,7 @@ pub enum Quality {
 impl Quality {
     fn quality(self) -> wavetrace::accel::BvhQuality {
         match self {
+            Quality::Low => wavetrace::accel::BvhQuality::Low,
             Quality::Medium => wavetrace::accel::BvhQuality::Medium,
             Quality::High => wavetrace::accel::BvhQuality::High,
         }

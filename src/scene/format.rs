@@ -41,8 +41,8 @@ pub struct RenderDesc {
     pub seed: u32,
     /// Trace in SIMD packets (default true; see docs/performance.md).
     pub packets: bool,
-    /// The BVH build's quality: "medium" or "high" (default "high"; see
-    /// docs/performance.md).
+    /// The BVH build's quality: "auto", "low", "medium" or "high" (default "auto": by the
+    /// rays the render will trace per primitive; see docs/performance.md).
     pub bvh: BvhDesc,
     /// Anti-aliasing.
     pub aa: AaDesc,
@@ -60,7 +60,7 @@ impl Default for RenderDesc {
             max_depth: 6,
             seed: 1,
             packets: true,
-            bvh: BvhDesc::High,
+            bvh: BvhDesc::Auto,
             aa: AaDesc::default(),
             shadows: ShadowsDesc::default(),
             dof: DofDesc::default(),
@@ -136,10 +136,14 @@ impl Default for ShadowsDesc {
     }
 }
 
-/// `render.bvh`: "medium" or "high".
+/// `render.bvh`: "auto", "low", "medium" or "high".
 #[derive(Deserialize, Serialize, Debug, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhDesc {
+    /// Chosen by the ray budget: the build that gives the finished image soonest.
+    Auto,
+    /// The fastest build, for renders that trace few rays per primitive.
+    Low,
     /// A faster build, slower incoherent traversal.
     Medium,
     /// A slower build, faster incoherent traversal.

@@ -452,12 +452,22 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         dof_samples,
         packets: r.packets,
         bvh: match r.bvh {
+            // Settled by the ray budget once the primitives are known (`scene`).
+            BvhDesc::Auto | BvhDesc::High => BvhQuality::High,
+            BvhDesc::Low => BvhQuality::Low,
             BvhDesc::Medium => BvhQuality::Medium,
-            BvhDesc::High => BvhQuality::High,
         },
         dof_radius,
         penumbra_stop,
     })
+}
+
+/// Roughly the rays a render with settings `s` and `lights` lights traces: every camera
+/// sample, and at each hit one shadow ray per light sample (what `render.bvh = "auto"`
+/// weighs the build against).
+fn ray_budget(s: &Settings, lights: usize) -> f64 {
+    let samples = s.width as f64 * s.height as f64 * s.aa_samples as f64 * s.dof_samples as f64;
+    samples * (1.0 + lights as f64 * s.shadow_samples as f64)
 }
 
 /// Where the camera is and looks: (position, unit forward, up hint, default focus
@@ -550,7 +560,7 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
 }
 
 fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
-    let settings = settings(&f.render, &f.camera, ctx)?;
+    let mut settings = settings(&f.render, &f.camera, ctx)?;
     let mut info = SceneInfo::default();
     let camera = camera(&f.camera, settings.width, settings.height, ctx)?;
     let background = color(ctx, "background.color", f.background.color)?;
@@ -568,6 +578,9 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = built.prims.len();
     let lights = built.lights.clone();
+    if f.render.bvh == BvhDesc::Auto {
+        settings.bvh = BvhQuality::for_budget(ray_budget(&settings, lights.len()), built.prims.len());
+    }
     let (accel, objects::CornerTables { normals, uvs, frames }) = objects::build_accel(built, settings.bvh);
     info.bvh_seconds = accel.build_seconds;
     Ok(Scene {
