@@ -103,7 +103,7 @@ MIN_CHUNK = 2048
 def wavetrace(args, source, export=None):
     """One `wavetrace bench` run (one timed pass per set and kernel); its JSON."""
     cmd = [args.wavetrace, "bench", *source, "--threads", str(args.threads), "--reps", "1",
-           "--max-rays", str(args.max_rays), "--json"]
+           "--max-rays", str(args.max_rays), "--bvh", args.bvh, "--json"]
     if args.cpu_time:
         cmd.append("--cpu-time")
     if export:
@@ -359,6 +359,8 @@ def main():
     p.add_argument("--threads", type=int, default=1,
                    help="threads on both sides: wavetrace's, Embree's build and its tracing")
     p.add_argument("--sphere", type=int, help="also the generated icosphere of 20·4^LEVEL triangles")
+    p.add_argument("--bvh", choices=["low", "medium", "high"], default="high",
+                   help="wavetrace's build quality (`wavetrace bench --bvh`)")
     p.add_argument("--json", help="write every figure here")
     p.add_argument("--cpu-time", action="store_true",
                    help="divide by process CPU time, not wall time (a shared, loaded machine)")

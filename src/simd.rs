@@ -289,6 +289,8 @@ pub trait Vector: Real + BitAnd<Output = Self> + BitOr<Output = Self> {
     fn load_lanes(a: &[f32]) -> Self;
     /// Writes the lanes to the front of `a`.
     fn store(self, a: &mut [f32; LANES]);
+    /// Lane `i` (below `Self::LANES`).
+    fn lane(self, i: usize) -> f32;
     /// Lane-wise minimum without NaN handling (the kernels never produce NaN there).
     fn fast_min(self, o: Self) -> Self;
     /// Lane-wise maximum without NaN handling.
@@ -334,6 +336,10 @@ macro_rules! vector {
             #[inline(always)]
             fn store(self, a: &mut [f32; LANES]) {
                 a[..$n].copy_from_slice(&self.to_array());
+            }
+            #[inline(always)]
+            fn lane(self, i: usize) -> f32 {
+                self.as_array()[i]
             }
             #[inline(always)]
             fn fast_min(self, o: Self) -> Self {

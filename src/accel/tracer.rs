@@ -40,12 +40,12 @@ pub enum Kernel {
     /// Packets of `width` lanes, formed and traced as `cfg` says (their lone rays over the
     /// binary BVH).
     Packet(Width, PacketConfig),
-    /// Chosen per queue by measured coherence: every queue starts in packets, and when its
-    /// first [`PROBE`] packets keep fewer than `min_lanes` percent of their lanes active
-    /// at the leaves they reach (camera queues: [`CAMERA_MIN_LANES`]), the rest of the
-    /// queue goes over the wide BVH: interleaved ([`Kernel::Interleaved`]) when the tree
-    /// outgrows the last-level cache ([`Accel::interleave`]), else one ray at a time.
-    /// Lone rays (and packets that mix octants) take the wide BVH one at a time.
+    /// Chosen per queue by measured coherence: camera rays in packets; bounce and shadow
+    /// queues start in packets, and when their first [`PROBE`] packets keep fewer than
+    /// `min_lanes` percent of their lanes active at the leaves they reach, the rest of
+    /// the queue goes over the wide BVH: interleaved ([`Kernel::Interleaved`]) when the
+    /// tree outgrows the last-level cache ([`Accel::interleave`]), else one ray at a
+    /// time. Lone rays (and packets that mix octants) take the wide BVH one at a time.
     Hybrid {
         /// Lanes per packet.
         width: Width,
@@ -75,8 +75,7 @@ impl Kernel {
     /// packets; `None`: it never does.
     fn leave_packets(self, coherence: Coherence) -> Option<u32> {
         match self {
-            Kernel::Hybrid { min_lanes, .. } if coherence == Coherence::Camera => Some(min_lanes.min(CAMERA_MIN_LANES)),
-            Kernel::Hybrid { min_lanes, .. } => Some(min_lanes),
+            Kernel::Hybrid { min_lanes, .. } if coherence != Coherence::Camera => Some(min_lanes),
             _ => None,
         }
     }
@@ -87,14 +86,9 @@ impl Kernel {
     }
 }
 
-/// Packets a hybrid kernel traces of a queue before it judges their lane utilisation.
+/// Packets a hybrid kernel traces of a bounce or shadow queue before it judges their lane
+/// utilisation.
 pub const PROBE: usize = 8;
-
-/// The lane utilisation (percent) below which a hybrid kernel's camera queue leaves
-/// packets (at most its `min_lanes`): camera packets pay at a lower utilisation than
-/// bounce and shadow ones, and leave them only where primitives are smaller than the
-/// packet's footprint (measured: docs/performance.md).
-pub const CAMERA_MIN_LANES: u32 = 12;
 
 /// Where a queue's rays come from, which decides how they are ordered into packets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -110,12 +110,7 @@ impl<S: Vector> WideBvh<S> {
     #[inline(always)]
     fn child_box(&self, n: u32, slot: usize) -> ([f32; 3], [f32; 3]) {
         let node = &self.nodes[n as usize];
-        let lane = |v: S| {
-            let mut a = [0.0; LANES];
-            v.store(&mut a);
-            a[slot]
-        };
-        (node.bounds[0].map(lane), node.bounds[1].map(lane))
+        (node.bounds[0].map(|v| v.lane(slot)), node.bounds[1].map(|v| v.lane(slot)))
     }
 
     /// The primitive ids of a leaf child (its blocks' ids are consecutive).
