@@ -182,3 +182,89 @@ impl<S: Vector> WideBvh<S> {
 pub(crate) fn cull_at(tmax: f32, slack: f32) -> f32 {
     tmax * CULL + slack
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::shapes::{Primitive, Shape, NO_LIGHT};
+    use crate::accel::{inv_dir, slab, Accel, Ray};
+    use glam::Vec3;
+
+    /// The beam test never drops a child box that one of its rays enters (by the scalar
+    /// slab test every kernel shares) before that ray's own culling distance: on every node
+    /// of a tree, for coherent and scattered packets, directions with zero, tiny and huge
+    /// components, origins on box faces and far away.
+    #[test]
+    fn beam_test_keeps_every_box_a_lane_enters() {
+        const ROUNDS: usize = 600;
+        let mut h = 99u32;
+        let mut rnd = || {
+            h = crate::sampling::mix(h);
+            crate::sampling::to_unit(h)
+        };
+        let mut prims = Vec::new();
+        for k in 0..600 {
+            let c = Vec3::new(rnd(), rnd(), rnd()) * 8.0 - 4.0;
+            let (a, b) = (Vec3::new(rnd(), rnd(), rnd()) - 0.5, Vec3::new(rnd(), rnd(), rnd()) - 0.5);
+            // Every third triangle lies in an axis plane (boxes of zero thickness).
+            let (a, b) = if k % 3 == 0 { (a * Vec3::new(1.0, 1.0, 0.0), b * Vec3::new(1.0, 1.0, 0.0)) } else { (a, b) };
+            prims.push(Primitive {
+                shape: Shape::Triangle { v0: c, v1: c + a, v2: c + b },
+                material: 0,
+                light: NO_LIGHT,
+            });
+        }
+        let accel = Accel::build(prims);
+        let tree = accel.wide.as_ref().expect("a wide tree");
+        let (mut checked, mut kept) = (0u64, 0u64);
+        for round in 0..ROUNDS {
+            let n = 1 + round % LANES;
+            let base = Vec3::new(rnd(), rnd(), rnd()) * 12.0 - 6.0;
+            let sign = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).signum();
+            let mut rays = Vec::new();
+            for l in 0..n {
+                let spread = [0.0, 1e-3, 0.3, 3.0][round % 4];
+                let mut o = base + (Vec3::new(rnd(), rnd(), rnd()) - 0.5) * spread;
+                let mut d = (Vec3::new(rnd(), rnd(), rnd()) + 0.01) * sign;
+                match (round + l) % 7 {
+                    0 => d.x = 0.0 * sign.x,
+                    1 => d.y = 1e-30 * sign.y,
+                    2 => d *= 1e20,
+                    3 => o.z = 4.0, // near the scene's bounds, where boxes have faces
+                    4 => o *= 1e4,
+                    _ => {}
+                }
+                let tmax = if round % 2 == 0 { f32::INFINITY } else { rnd() * 10.0 };
+                rays.push(Ray::new(o, d, 0.0, tmax));
+            }
+            let mut origin = [[0.0; LANES]; 3];
+            let mut inv = [[0.0; LANES]; 3];
+            for (l, r) in rays.iter().enumerate() {
+                for k in 0..3 {
+                    origin[k][l] = r.origin[k];
+                    inv[k][l] = inv_dir(r.dir[k]);
+                }
+            }
+            let Some(beam) = Beam::new(&origin, &inv, n) else { continue };
+            let cull = rays.iter().map(|r| cull_at(r.tmax, accel.slack)).fold(f32::NEG_INFINITY, f32::max);
+            for j in 0..tree.nodes.len() as u32 {
+                let (mask, _) = tree.beam_test(j, &beam, cull);
+                let valid = tree.nodes[j as usize].valid;
+                for slot in (0..8).filter(|&i| valid & (1 << i) != 0) {
+                    let (min, max) = tree.child_box(j, slot);
+                    let b = obvhs::aabb::Aabb { min: min.into(), max: max.into() };
+                    for r in &rays {
+                        if slab(&b, &r.slab()) < cull_at(r.tmax, accel.slack) {
+                            checked += 1;
+                            assert!(mask & (1 << slot) != 0, "node {j} slot {slot} dropped, ray {r:?}");
+                        }
+                    }
+                    kept += (mask >> slot & 1) as u64;
+                }
+            }
+        }
+        // Both sides were exercised: boxes lanes enter, and boxes the beam could cull.
+        let total: u64 = tree.nodes.iter().map(|n| n.valid.count_ones() as u64).sum::<u64>() * ROUNDS as u64;
+        assert!(checked > 10_000 && kept < total, "{checked} lane entries checked, {kept} of {total} kept");
+    }
+}
