@@ -97,7 +97,7 @@ fn bad_flags_exit_2_with_a_message() {
         (&["--mesh", "no/such/mesh.obj"], "no/such/mesh.obj"),
         (&["--sphere", "11"], "--sphere"),
         (&["--leaf", "0"], "--leaf"),
-        (&["--bvh", "low"], "'low' for '--bvh"),
+        (&["--bvh", "fastest"], "'fastest' for '--bvh"),
         (&["--kernels", "wide,simd"], "'simd' for '--kernels"),
         (
             &["--export-rays", "target/no-such-export-dir", "--set", "render.width=8", "--set", "render.height=8"],
