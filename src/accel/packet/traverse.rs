@@ -21,10 +21,38 @@ struct Closest {
     tests: u64,
 }
 
-impl Closest {
-    /// Tests the primitives `ids` for the lanes in `mask` (rays `o`, `d`; lanes `lanes`).
+/// A packet's any-hit search: per lane the segment's end (−∞ once blocked, which drops
+/// the lane out of every later box test) and whether it is blocked.
+struct AnyHit {
+    tmax: [f32; LANES],
+    blocked: [bool; LANES],
+    /// Lanes not yet blocked.
+    open: u32,
+    /// Primitive tests, summed over lanes.
+    tests: u64,
+}
+
+/// The culling distance of a packet: its farthest lane's (see [`CULL`](crate::accel::CULL)).
+#[inline(always)]
+fn packet_cull(tmax: &[f32; LANES], slack: f32) -> f32 {
+    cull_at(tmax.iter().copied().fold(f32::NEG_INFINITY, f32::max), slack)
+}
+
+/// A packet's search as the beam walk drives it.
+trait Search {
+    /// Each lane's current end of search (−∞ for lanes that take no more part).
+    fn tmax(&self) -> &[f32; LANES];
+    /// Tests the primitives `ids` for the lanes in `mask`; false when every lane has its answer.
+    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool;
+}
+
+impl Search for Closest {
+    fn tmax(&self) -> &[f32; LANES] {
+        &self.tmax
+    }
+
     #[inline(always)]
-    fn test<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) {
+    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
         let (o, d) = (lanes.o, lanes.d);
         self.tests += mask.count_ones() as u64 * ids.len() as u64;
         if mask & (mask - 1) == 0 {
@@ -38,7 +66,7 @@ impl Closest {
                     self.limit[l] = tie_limit(self.best[l], t);
                 }
             }
-            return;
+            return true;
         }
         let tmin_s = S::splat(self.tmin);
         for &id in ids {
@@ -57,24 +85,17 @@ impl Closest {
                 }
             }
         }
+        true
     }
 }
 
-/// A packet's any-hit search: per lane the segment's end (−∞ once blocked, which drops
-/// the lane out of every later box test) and whether it is blocked.
-struct AnyHit {
-    tmax: [f32; LANES],
-    blocked: [bool; LANES],
-    /// Lanes not yet blocked.
-    open: u32,
-    /// Primitive tests, summed over lanes.
-    tests: u64,
-}
+impl Search for AnyHit {
+    fn tmax(&self) -> &[f32; LANES] {
+        &self.tmax
+    }
 
-impl AnyHit {
-    /// Tests the primitives `ids` for the open lanes in `mask`; false once every lane is blocked.
     #[inline(always)]
-    fn test<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
+    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
         let (o, d) = (lanes.o, lanes.d);
         let zero = S::splat(0.0);
         let mut mask = mask & self.open;
@@ -103,43 +124,6 @@ impl AnyHit {
             self.open &= !hits;
         }
         self.open != 0
-    }
-}
-
-/// The culling distance of a packet: its farthest lane's (see [`CULL`](crate::accel::CULL)).
-#[inline(always)]
-fn packet_cull(tmax: &[f32; LANES], slack: f32) -> f32 {
-    cull_at(tmax.iter().copied().fold(f32::NEG_INFINITY, f32::max), slack)
-}
-
-/// A packet's search as the beam walk drives it.
-trait Search {
-    /// Each lane's current end of search (−∞ for lanes that take no more part).
-    fn tmax(&self) -> &[f32; LANES];
-    /// Tests the primitives `ids` for the lanes in `mask`; false when every lane has its answer.
-    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool;
-}
-
-impl Search for Closest {
-    fn tmax(&self) -> &[f32; LANES] {
-        &self.tmax
-    }
-
-    #[inline(always)]
-    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
-        self.test(prims, lanes, mask, ids);
-        true
-    }
-}
-
-impl Search for AnyHit {
-    fn tmax(&self) -> &[f32; LANES] {
-        &self.tmax
-    }
-
-    #[inline(always)]
-    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
-        self.test(prims, lanes, mask, ids)
     }
 }
 
