@@ -1,9 +1,10 @@
 //! The acceleration structure and the rules every kernel shares.
 //!
-//! [`Accel`] holds the primitives in leaf order and the trees over them: obvhs's binary
-//! tree (`bvh2/`: its build and the binary single-ray walk), the wide tree collapsed from
-//! it (`wide/`: the collapse, the node layout, the single-ray walk) and the packet walk
-//! over the binary tree (`packet/`). Every traversal entry point is a method of
+//! [`Accel`] holds the primitives in leaf order and the wide tree over them: obvhs builds
+//! a binary tree (`bvh2/`: its build, and the binary single-ray walk kept as the tests'
+//! reference), collapsed into the wide tree (`wide/`: the collapse, the node layout, the
+//! single-ray and interleaved walks, the beam walk of packets), whose packets' leaf tests
+//! are in `packet/`. Every traversal entry point is a method of
 //! [`Accel`] here and takes a [`Ray`]; every kernel follows the rules defined here (the
 //! conservative box test [`slab`] with [`inv_dir`]'s reciprocals, the culling slack
 //! [`CULL`], the tie rule [`nearer`] with [`tie_limit`], boxes widened by one float), so
@@ -157,6 +158,13 @@ pub(crate) fn nearer(t: f32, id: u32, best: (f32, u32)) -> bool {
 /// scene's largest coordinate) costs a few extra box visits and keeps the scalar and packet
 /// traversals on the same hits.
 pub(crate) const CULL: f32 = 1.0 + 1.0 / 65536.0;
+
+/// The distance past which a search ending at `tmax` skips boxes: `tmax · CULL + slack`
+/// (see [`CULL`]; `slack` is the tree's absolute slack, [`Accel::slack`]).
+#[inline(always)]
+pub(crate) fn cull_at(tmax: f32, slack: f32) -> f32 {
+    tmax * CULL + slack
+}
 
 /// Primitives reordered to the BVH's leaf order, with the BVH over them.
 pub struct Accel {

@@ -8,7 +8,7 @@ use obvhs::ray::RayHit;
 use obvhs::BvhBuildParams;
 
 use super::shapes::{Primitive, NO_LIGHT};
-use super::{nearer, slab, tie_limit, Accel, Ray, SlabRay, Traversal, CULL};
+use super::{cull_at, nearer, slab, tie_limit, Accel, Ray, SlabRay, Traversal};
 
 /// Deepest tree the fixed-size traversal stack handles; deeper trees (never seen from
 /// obvhs's builders on real meshes) fall back to obvhs's own traversal.
@@ -47,9 +47,7 @@ impl NodeStack {
 }
 
 /// Walks, for one ray, the subtree below an inner node whose two children start at
-/// `first` (children adjacent, nearer child first), with the culling `slack` of [`CULL`].
-/// Shared by the single-ray traversal and the packet traversal's fallback for packets
-/// whose active lanes have thinned out.
+/// `first` (children adjacent, nearer child first), with the culling `slack` of [`CULL`](crate::accel::CULL).
 /// `leaf` tests a leaf's primitives, may shrink `ray.tmax`, and returns false to stop.
 #[inline(always)]
 pub(crate) fn subtree<const COUNT: bool>(
@@ -74,7 +72,7 @@ pub(crate) fn subtree<const COUNT: bool>(
         }
         let mut descend = [false; 2];
         for (k, (node, t)) in [(near, t_near), (far, t_far)].into_iter().enumerate() {
-            if t >= ray.tmax * CULL + slack {
+            if t >= cull_at(ray.tmax, slack) {
                 continue;
             }
             if node.is_leaf() {
@@ -135,7 +133,7 @@ fn traverse<const COUNT: bool>(
     if COUNT {
         c.nodes += 1;
     }
-    if slab(root.aabb(), &ray) >= ray.tmax * CULL + accel.slack {
+    if slab(root.aabb(), &ray) >= cull_at(ray.tmax, accel.slack) {
         return;
     }
     if root.is_leaf() {
@@ -148,7 +146,7 @@ fn traverse<const COUNT: bool>(
 
 /// [`Accel::closest_obvhs`]: obvhs's `Bvh2::ray_traverse`, with the tie rule applied in
 /// its callback. Culls boxes at `tmax` exactly, so on a tie within rounding it may return
-/// another hit than the other kernels (see [`CULL`]).
+/// another hit than the other kernels (see [`CULL`](crate::accel::CULL)).
 pub(crate) fn closest_obvhs(accel: &Accel, ray: Ray) -> Option<(f32, u32)> {
     let bvh = accel.bvh.as_ref()?;
     let (prims, o, d) = (&accel.prims, ray.origin, ray.dir);

@@ -6,8 +6,8 @@ use glam::Vec3;
 use super::rays::Lanes;
 use super::{lanes_of, Columns, PacketWork};
 use crate::accel::shapes::{Primitive, NO_LIGHT};
-use crate::accel::wide::{cull_at, Beam, BeamLeaf, Wide, WideBvh};
-use crate::accel::{nearer, tie_limit, Accel, Ray, Traversal};
+use crate::accel::wide::{Beam, BeamLeaf, Wide, WideBvh};
+use crate::accel::{cull_at, nearer, tie_limit, Accel, Ray, Traversal};
 use crate::simd::{Vector, LANES};
 
 /// A packet's closest-hit search: per lane the best hit so far, the distance boxes are

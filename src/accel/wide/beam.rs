@@ -15,7 +15,6 @@
 //! entered by the beam, and the caller's per-lane leaf test and tie rule do the rest.
 
 use super::{WideBvh, FIRST_BITS, LEAF_FLAG};
-use crate::accel::CULL;
 use crate::simd::{Vector, LANES};
 
 /// A packet's rays as one beam: per axis, the origins' interval and the reciprocal
@@ -177,17 +176,11 @@ impl<S: Vector> WideBvh<S> {
     }
 }
 
-/// The culling distance of a lane whose search ends at `tmax` (see [`CULL`]).
-#[inline(always)]
-pub(crate) fn cull_at(tmax: f32, slack: f32) -> f32 {
-    tmax * CULL + slack
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::accel::shapes::{Primitive, Shape, NO_LIGHT};
-    use crate::accel::{inv_dir, slab, Accel, Ray};
+    use crate::accel::{cull_at, inv_dir, slab, Accel, Ray};
     use glam::Vec3;
 
     /// The beam test never drops a child box that one of its rays enters (by the scalar

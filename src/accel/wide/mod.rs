@@ -25,7 +25,7 @@ mod beam;
 mod collapse;
 mod walk;
 
-pub(crate) use beam::{cull_at, Beam, BeamLeaf};
+pub(crate) use beam::{Beam, BeamLeaf};
 pub use walk::INTERLEAVE;
 
 use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};

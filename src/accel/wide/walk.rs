@@ -6,7 +6,7 @@ use glam::Vec3;
 
 use super::{Block, Sheared, Tris, WideBvh, FIRST_BITS, LEAF_FLAG};
 use crate::accel::shapes::{Primitive, NO_LIGHT};
-use crate::accel::{nearer, tie_limit, Ray, SlabRay, Traversal, CULL};
+use crate::accel::{cull_at, nearer, tie_limit, Ray, SlabRay, Traversal};
 use crate::simd::{Vector, LANES};
 
 thread_local! {
@@ -33,7 +33,7 @@ struct Walker<S> {
     o: [S; 3],
     inv: [S; 3],
     ray: SlabRay,
-    /// The tree's absolute culling slack (see [`CULL`]).
+    /// The tree's absolute culling slack (see [`CULL`](crate::accel::CULL)).
     slack: f32,
     /// Boxes entered at or past this distance are skipped.
     cull: f32,
@@ -48,7 +48,7 @@ impl<S: Vector> Walker<S> {
         Walker {
             o: [S::splat(ray.origin.x), S::splat(ray.origin.y), S::splat(ray.origin.z)],
             inv: [S::splat(ray.inv_direction.x), S::splat(ray.inv_direction.y), S::splat(ray.inv_direction.z)],
-            cull: ray.tmax * CULL + slack,
+            cull: cull_at(ray.tmax, slack),
             ray,
             slack,
             current: 0,
@@ -82,7 +82,7 @@ impl<S: Vector> Walker<S> {
                     return false;
                 }
             }
-            self.cull = self.ray.tmax * CULL + self.slack;
+            self.cull = cull_at(self.ray.tmax, self.slack);
         } else {
             let node = &tree.nodes[current as usize];
             // The scalar slab test's min(t1, t2) and max(t1, t2): `(bound − o) · inv`
@@ -206,7 +206,7 @@ impl<S: Vector> WideBvh<S> {
     }
 
     /// Walks the tree for one ray (see [`Walker::step`]). `slack` is the tree's absolute
-    /// culling slack (see [`CULL`]).
+    /// culling slack (see [`CULL`](crate::accel::CULL)).
     #[inline(always)]
     fn walk<const COUNT: bool, const ORDER: bool>(
         &self,
