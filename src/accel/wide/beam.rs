@@ -14,7 +14,7 @@
 //! intervals' ends. A child that some lane's own test (`slab`) enters is therefore always
 //! entered by the beam, and the caller's per-lane leaf test and tie rule do the rest.
 
-use super::{WideBvh, FIRST_BITS, LEAF_FLAG};
+use super::{LeafRef, WideBvh, LEAF_FLAG};
 use crate::simd::{Vector, LANES};
 
 /// A packet's rays as one beam: per axis, the origins' interval and the reciprocal
@@ -112,13 +112,17 @@ impl<S: Vector> WideBvh<S> {
         (node.bounds[0].map(|v| v.lane(slot)), node.bounds[1].map(|v| v.lane(slot)))
     }
 
-    /// The primitive ids of a leaf child (its blocks' ids are consecutive).
+    /// The primitive ids of a leaf child (its lanes' ids are consecutive).
     #[inline(always)]
     fn leaf_ids(&self, child: u32) -> &[u32] {
-        let first = (child & ((1 << FIRST_BITS) - 1)) as usize;
-        let count = ((child & !LEAF_FLAG) >> FIRST_BITS) as usize + 1;
-        let (a, b) = (&self.blocks[first], &self.blocks[first + count - 1]);
-        &self.ids[a.first as usize..(b.first + b.count) as usize]
+        let l = LeafRef::of(child);
+        let (a, b) = (&self.blocks[l.first], &self.blocks[l.first + l.blocks - 1]);
+        // Lanes past the last block's count are empty, so the leaf ends at the last of
+        // its lanes that the last block holds.
+        let (first, last) = (l.lanes & a.lanes(), l.lanes & b.lanes());
+        let start = a.first as usize + first.trailing_zeros() as usize;
+        let end = b.first as usize + (u32::BITS - last.leading_zeros()) as usize;
+        &self.ids[start..end]
     }
 
     /// Walks the tree for the rays of `beam` whose culling distances are at most `cull`

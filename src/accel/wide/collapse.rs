@@ -3,7 +3,7 @@
 
 use obvhs::bvh2::Bvh2;
 
-use super::{is_triangle, Block, Node, Tris, WideBvh, FIRST_BITS, LEAF_FLAG, MAX_BLOCKS, MAX_W, TRIS};
+use super::{is_triangle, Block, LeafRef, Node, Tris, WideBvh, FIRST_BITS, MAX_BLOCKS, MAX_W, TRIS};
 use crate::accel::shapes::{Primitive, Shape, NO_LIGHT};
 use crate::simd::{Vector, LANES};
 
@@ -60,7 +60,9 @@ impl<S: Vector> WideBvh<S> {
             kids
         };
         tree.nodes.push(Node { bounds: [[S::splat(0.0); 3]; 2], child: [u32::MAX; MAX_W], valid: 0 });
-        tree.fill(fine, &plan, prims, 0, &top, 1)?;
+        let mut packer = Packer { fine, prims, blocks: Vec::new(), open: Vec::new() };
+        tree.fill(&plan, &mut packer, 0, &top, 1)?;
+        tree.blocks = packer.blocks.iter().map(|ids| block(prims, ids, &mut tree.ids)).collect();
         Some(tree)
     }
 
@@ -143,20 +145,20 @@ impl<S: Vector> WideBvh<S> {
         }
     }
 
-    /// Fills wide node `index` (already appended) with the binary nodes `kids`, one per
-    /// slot: its leaves' blocks are appended first, then its inner children, side by side,
-    /// then each of their subtrees in turn, so what one node leads to lies together in
-    /// memory.
+    /// Fills wide node `index` (already appended) with the binary nodes `kids` of
+    /// `packer`'s tree, one per slot: its leaves are packed first, then its inner children
+    /// appended side by side, then each of their subtrees filled in turn, so what one node
+    /// leads to lies together in memory.
     fn fill(
         &mut self,
-        fine: &Bvh2,
         plan: &[[Decision; MAX_W]],
-        prims: &[Primitive],
+        packer: &mut Packer,
         index: usize,
         kids: &[usize],
         depth: usize,
     ) -> Option<()> {
         self.depth = self.depth.max(depth);
+        let fine = packer.fine;
         let mut lo = [[f32::INFINITY; LANES]; 3];
         let mut hi = [[f32::INFINITY; LANES]; 3];
         let mut child = [u32::MAX; MAX_W];
@@ -168,7 +170,7 @@ impl<S: Vector> WideBvh<S> {
                 hi[axis][slot] = b.max[axis];
             }
             if !inner(k) {
-                child[slot] = self.leaf(fine, prims, k)?;
+                child[slot] = packer.leaf(k)?;
             }
         }
         for (slot, &k) in kids.iter().enumerate() {
@@ -184,15 +186,37 @@ impl<S: Vector> WideBvh<S> {
             if inner(k) {
                 below.clear();
                 Self::children(fine, plan, k, 0, &mut below);
-                self.fill(fine, plan, prims, child[slot] as usize, &below, depth + 1)?;
+                self.fill(plan, packer, child[slot] as usize, &below, depth + 1)?;
             }
         }
         Some(())
     }
+}
 
-    /// Appends the blocks of a leaf holding every primitive below binary node `k`; returns
-    /// its child reference.
-    fn leaf(&mut self, fine: &Bvh2, prims: &[Primitive], k: usize) -> Option<u32> {
+/// Blocks a leaf may still be packed into: the most recently opened ones with free lanes
+/// (a few, so that what one node leads to stays together in memory; measured:
+/// docs/performance.md).
+const OPEN: usize = 4;
+
+/// The leaf blocks as they are filled from a binary tree's leaves: each block's primitive
+/// ids, and the blocks still open to more leaves.
+struct Packer<'a> {
+    /// The binary tree being collapsed, with one primitive per leaf.
+    fine: &'a Bvh2,
+    /// The primitives its leaves index.
+    prims: &'a [Primitive],
+    blocks: Vec<Vec<u32>>,
+    /// Open blocks, oldest first (at most [`OPEN`]).
+    open: Vec<usize>,
+}
+
+impl Packer<'_> {
+    /// Places a leaf holding every primitive below binary node `k` and returns its child
+    /// reference ([`LeafRef`]). A leaf of triangles that fits in a block goes into the open
+    /// block it fills best, or a new one; a larger leaf, or one holding another shape,
+    /// takes blocks of its own. `None` past the encoding's limits.
+    fn leaf(&mut self, k: usize) -> Option<u32> {
+        let (fine, prims) = (self.fine, self.prims);
         let mut ids = Vec::new();
         let mut stack = vec![k];
         while let Some(n) = stack.pop() {
@@ -204,30 +228,135 @@ impl<S: Vector> WideBvh<S> {
                 stack.extend([node.first_index as usize + 1, node.first_index as usize]);
             }
         }
-        let (start, n) = (self.blocks.len(), ids.len().div_ceil(TRIS));
-        if start + n > 1 << FIRST_BITS || n > MAX_BLOCKS || n == 0 {
+        let n = ids.len();
+        if n == 0 || n > MAX_BLOCKS * TRIS || self.blocks.len() + n.div_ceil(TRIS) > 1 << FIRST_BITS {
             return None;
         }
-        for lanes in ids.chunks(TRIS) {
-            let mut v = [[[0.0f32; LANES]; 3]; 3];
-            let mut blockers = 0;
-            for (l, &id) in lanes.iter().enumerate() {
-                let p = &prims[id as usize];
-                if let Shape::Triangle { v0, v1, v2 } = p.shape {
-                    for (j, vert) in [v0, v1, v2].iter().enumerate() {
-                        for axis in 0..3 {
-                            v[j][axis][l] = vert[axis];
-                        }
-                    }
-                }
-                blockers |= ((p.light == NO_LIGHT) as u32) << l;
-            }
-            let triangles = lanes.iter().all(|&id| is_triangle(&prims[id as usize]));
-            let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
-            let first = self.ids.len() as u32;
-            self.ids.extend_from_slice(lanes);
-            self.blocks.push(Block { v, first, count: lanes.len() as u32, blockers, triangles });
+        if n > TRIS || !ids.iter().all(|&id| is_triangle(&prims[id as usize])) {
+            let first = self.blocks.len();
+            self.blocks.extend(ids.chunks(TRIS).map(<[u32]>::to_vec));
+            let blocks = self.blocks.len() - first;
+            return Some(LeafRef::encode(first, (blocks == 1).then_some((0, n - 1)), blocks));
         }
-        Some(LEAF_FLAG | ((n - 1) as u32) << FIRST_BITS | start as u32)
+        // Best fit: the open block with the fewest free lanes that still holds the leaf.
+        let fit = (0..self.open.len())
+            .filter(|&i| self.blocks[self.open[i]].len() + n <= TRIS)
+            .max_by_key(|&i| (self.blocks[self.open[i]].len(), i));
+        let at = match fit {
+            Some(i) => self.open[i],
+            None => {
+                self.blocks.push(Vec::with_capacity(TRIS));
+                self.open.push(self.blocks.len() - 1);
+                if self.open.len() > OPEN {
+                    self.open.remove(0);
+                }
+                self.blocks.len() - 1
+            }
+        };
+        let a = self.blocks[at].len();
+        self.blocks[at].extend_from_slice(&ids);
+        if a + n == TRIS {
+            self.open.retain(|&b| b != at);
+        }
+        Some(LeafRef::encode(at, Some((a, a + n - 1)), 1))
+    }
+}
+
+/// The leaf block holding primitives `lanes` (one per lane), its ids appended to `ids`.
+fn block(prims: &[Primitive], lanes: &[u32], ids: &mut Vec<u32>) -> Block {
+    let mut v = [[[0.0f32; LANES]; 3]; 3];
+    let mut blockers = 0;
+    for (l, &id) in lanes.iter().enumerate() {
+        let p = &prims[id as usize];
+        if let Shape::Triangle { v0, v1, v2 } = p.shape {
+            for (j, vert) in [v0, v1, v2].iter().enumerate() {
+                for axis in 0..3 {
+                    v[j][axis][l] = vert[axis];
+                }
+            }
+        }
+        blockers |= ((p.light == NO_LIGHT) as u32) << l;
+    }
+    let triangles = lanes.iter().all(|&id| is_triangle(&prims[id as usize]));
+    let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
+    let first = ids.len() as u32;
+    ids.extend_from_slice(lanes);
+    Block { v, first, count: lanes.len() as u32, blockers, triangles }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::accel::shapes::{Primitive, Shape, NO_LIGHT};
+    use crate::accel::{nearer, Accel, BvhQuality, Ray, Traversal};
+    use glam::Vec3;
+
+    /// Leaves packed into shared blocks, larger leaves over several blocks and leaves of
+    /// other shapes in blocks of their own all give every kernel of the wide tree the
+    /// brute-force answer (closest hit with the tie rule; any hit ignoring emitters), at
+    /// every leaf size; at the renderer's leaf size the blocks are mostly full.
+    #[test]
+    fn packed_leaves_give_brute_force_answers_at_every_leaf_size() {
+        let mut h = 7u32;
+        let mut rnd = || {
+            h = crate::sampling::mix(h);
+            crate::sampling::to_unit(h)
+        };
+        let mut prims = Vec::new();
+        for k in 0..3000u32 {
+            let c = Vec3::new(rnd(), rnd(), rnd()) * 10.0 - 5.0;
+            let e = |r: &mut dyn FnMut() -> f32| Vec3::new(r() - 0.5, r() - 0.5, r() - 0.5) * 0.8;
+            let shape = match k % 97 {
+                0 => Shape::Sphere { center: c, radius: 0.2 },
+                1 => Shape::Quad { corner: c, u: e(&mut rnd), v: e(&mut rnd) },
+                _ => Shape::Triangle { v0: c, v1: c + e(&mut rnd), v2: c + e(&mut rnd) },
+            };
+            let light = if k % 13 == 0 { 0 } else { NO_LIGHT };
+            prims.push(Primitive { shape, material: 0, light });
+        }
+        for max_leaf in [1, 3, 8, 16, 64] {
+            let accel = Accel::build_with(prims.clone(), max_leaf, BvhQuality::High);
+            let wide = accel.wide.as_ref().expect("a wide tree");
+            let filled = wide.blocks.iter().map(|b| b.count as f32).sum::<f32>() / wide.blocks.len() as f32;
+            if max_leaf == 8 {
+                assert!(filled > 6.5, "{filled} primitives per block");
+            }
+            let mut rays = Vec::new();
+            for _ in 0..2000 {
+                let o = Vec3::new(rnd(), rnd(), rnd()) * 14.0 - 7.0;
+                let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
+                rays.push(Ray::new(o, d, 0.0, 1.0 + rnd() * 20.0));
+            }
+            let mut many = vec![None; rays.len()];
+            accel.closest_many::<false>(
+                rays.len(),
+                |i| Ray { tmax: f32::INFINITY, ..rays[i] },
+                |i, hit| many[i] = Some(hit),
+                &mut Traversal::default(),
+            );
+            for (i, r) in rays.iter().enumerate() {
+                let mut best = (f32::INFINITY, u32::MAX);
+                let mut blocked = false;
+                for (id, p) in accel.prims.iter().enumerate() {
+                    let t = p.shape.intersect(r.origin, r.dir, 0.0, f32::INFINITY);
+                    if t < f32::INFINITY && nearer(t, id as u32, best) {
+                        best = (t, id as u32);
+                    }
+                    blocked |= p.light == NO_LIGHT && t < r.tmax;
+                }
+                let expect = (best.1 != u32::MAX).then_some(best);
+                let whole = Ray { tmax: f32::INFINITY, ..*r };
+                assert_eq!(
+                    accel.closest_wide::<false>(whole, &mut Traversal::default()),
+                    expect,
+                    "leaf {max_leaf}, ray {i}"
+                );
+                assert_eq!(many[i], Some(expect), "leaf {max_leaf}, ray {i}, interleaved");
+                assert_eq!(
+                    accel.occluded_wide::<false>(*r, &mut Traversal::default()),
+                    blocked,
+                    "leaf {max_leaf}, ray {i}"
+                );
+            }
+        }
     }
 }

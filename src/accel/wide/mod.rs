@@ -44,12 +44,53 @@ const TRIS: usize = <Tris as Vector>::LANES;
 
 /// Child slot flag: the child is a leaf.
 const LEAF_FLAG: u32 = 1 << 31;
-/// Bits of a leaf's first block; the bits above (below [`LEAF_FLAG`]) hold its block count − 1.
-const FIRST_BITS: u32 = 27;
+/// Bits of a leaf's first block (see [`LeafRef`] for the bits above it).
+const FIRST_BITS: u32 = 25;
+/// Bits of a lane number in a block.
+const LANE_BITS: u32 = TRIS.trailing_zeros();
 /// Most blocks per leaf the encoding holds.
-const MAX_BLOCKS: usize = 1 << (31 - FIRST_BITS);
+const MAX_BLOCKS: usize = TRIS;
 /// Most children per node (the width of [`Node::child`]).
 const MAX_W: usize = 8;
+
+const _: () = assert!(FIRST_BITS + 2 * LANE_BITS == 31 && TRIS.is_power_of_two(), "a leaf reference fills 31 bits");
+
+/// A leaf child's blocks and lanes, as its child reference encodes them: [`LEAF_FLAG`] |
+/// e << (`FIRST_BITS` + `LANE_BITS`) | a << `FIRST_BITS` | first block. With a ≤ e the
+/// leaf is lanes a..=e of one block, which it may share with other leaves (leaves are
+/// packed, so blocks are mostly full); with a > e it is blocks first..first + e + 2, whole
+/// (a leaf of more than [`TRIS`] primitives, never shared).
+#[derive(Clone, Copy)]
+struct LeafRef {
+    /// The first block.
+    first: usize,
+    /// Blocks in the leaf.
+    blocks: usize,
+    /// The lanes of each block that are the leaf's (a lane past a block's count is empty).
+    lanes: u32,
+}
+
+impl LeafRef {
+    /// Decodes a leaf's child reference.
+    #[inline(always)]
+    fn of(c: u32) -> LeafRef {
+        let first = (c & ((1 << FIRST_BITS) - 1)) as usize;
+        let a = (c >> FIRST_BITS) & (TRIS as u32 - 1);
+        let e = (c >> (FIRST_BITS + LANE_BITS)) & (TRIS as u32 - 1);
+        if a <= e {
+            LeafRef { first, blocks: 1, lanes: ((2 << e) - 1) & !((1 << a) - 1) }
+        } else {
+            LeafRef { first, blocks: e as usize + 2, lanes: u32::MAX }
+        }
+    }
+
+    /// The reference of lanes `a..=e` of block `first` (`a ≤ e`), or of `blocks` (2 to
+    /// [`MAX_BLOCKS`]) whole blocks from `first` (`None` for `a`, `e`).
+    fn encode(first: usize, lanes: Option<(usize, usize)>, blocks: usize) -> u32 {
+        let (a, e) = lanes.unwrap_or((TRIS - 1, blocks - 2));
+        LEAF_FLAG | (e as u32) << (FIRST_BITS + LANE_BITS) | (a as u32) << FIRST_BITS | first as u32
+    }
+}
 
 /// One node: up to `S::LANES` children, their boxes by axis with one lane per child.
 #[derive(Clone, Copy)]
@@ -58,14 +99,14 @@ struct Node<S> {
     /// `bounds[0]`: box minima per axis (x, y, z), one lane per child; `bounds[1]`: maxima.
     /// Empty slots hold +∞ in both (a box no ray enters).
     bounds: [[S; 3]; 2],
-    /// Per child: an inner node's index, or [`LEAF_FLAG`] | (blocks − 1) << [`FIRST_BITS`] | first block.
+    /// Per child: an inner node's index, or a leaf's reference ([`LeafRef`]).
     child: [u32; MAX_W],
     /// One bit per occupied child slot.
     valid: u32,
 }
 
-/// Up to [`TRIS`] consecutive primitives of a leaf; their vertices by lane when all are
-/// triangles.
+/// Up to [`TRIS`] primitives of one or more leaves (see [`LeafRef`]); their vertices by
+/// lane when all are triangles.
 #[derive(Clone, Copy)]
 #[repr(C)]
 struct Block {
@@ -163,6 +204,14 @@ impl Sheared {
     }
 }
 
+impl Block {
+    /// The lanes that hold a primitive.
+    #[inline(always)]
+    fn lanes(&self) -> u32 {
+        (1 << self.count) - 1
+    }
+}
+
 /// True for a triangle: the shape leaf blocks test on lanes (others take the scalar
 /// kernels, and the collapse costs them per primitive).
 fn is_triangle(p: &Primitive) -> bool {
@@ -178,7 +227,7 @@ impl<S: Vector> WideBvh<S> {
         {
             use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
             let (p, bytes) = if c & LEAF_FLAG != 0 {
-                let first = (c & ((1 << FIRST_BITS) - 1)) as usize;
+                let first = LeafRef::of(c).first;
                 (self.blocks.as_ptr().wrapping_add(first).cast::<i8>(), std::mem::size_of::<Block>())
             } else {
                 (self.nodes.as_ptr().wrapping_add(c as usize).cast::<i8>(), std::mem::size_of::<Node<S>>())

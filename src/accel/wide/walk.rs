@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{Block, Sheared, Tris, WideBvh, FIRST_BITS, LEAF_FLAG};
+use super::{Block, LeafRef, Sheared, Tris, WideBvh, LEAF_FLAG};
 use crate::accel::shapes::{Primitive, NO_LIGHT};
 use crate::accel::{cull_at, nearer, tie_limit, Ray, SlabRay, Traversal};
 use crate::simd::{Vector, LANES};
@@ -57,8 +57,8 @@ impl<S: Vector> Walker<S> {
     }
 
     /// Visits the current node (tests its children's boxes, nearest first when `ORDER`,
-    /// in slot order for any-hit) or leaf (`leaf(ray, block)` tests each block, may lower
-    /// `ray.tmax`, and says whether to go on), then moves to the next; false when the walk
+    /// in slot order for any-hit) or leaf (`leaf(ray, block, lanes)` tests the leaf's
+    /// lanes of each of its blocks, may lower `ray.tmax`, and says whether to go on), then moves to the next; false when the walk
     /// is over. `stack` is long enough for the tree's depth ([`WideBvh::stack_len`]).
     #[inline(always)]
     fn step<const COUNT: bool, const ORDER: bool>(
@@ -66,19 +66,19 @@ impl<S: Vector> Walker<S> {
         tree: &WideBvh<S>,
         stack: &mut [(u32, f32)],
         c: &mut Traversal,
-        leaf: &mut impl FnMut(&mut SlabRay, &Block) -> Leaf,
+        leaf: &mut impl FnMut(&mut SlabRay, &Block, u32) -> Leaf,
     ) -> bool {
         const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let (o, inv) = (&self.o, &self.inv);
         let current = self.current;
         if current & LEAF_FLAG != 0 {
-            let first = (current & ((1 << FIRST_BITS) - 1)) as usize;
-            let count = ((current & !LEAF_FLAG) >> FIRST_BITS) as usize + 1;
-            for block in &tree.blocks[first..first + count] {
+            let l = LeafRef::of(current);
+            for block in &tree.blocks[l.first..l.first + l.blocks] {
+                let lanes = l.lanes & block.lanes();
                 if COUNT {
-                    c.prims += block.count as u64;
+                    c.prims += lanes.count_ones() as u64;
                 }
-                if let Leaf::Stop = leaf(&mut self.ray, block) {
+                if let Leaf::Stop = leaf(&mut self.ray, block, lanes) {
                     return false;
                 }
             }
@@ -213,7 +213,7 @@ impl<S: Vector> WideBvh<S> {
         slack: f32,
         ray: SlabRay,
         c: &mut Traversal,
-        mut leaf: impl FnMut(&mut SlabRay, &Block) -> Leaf,
+        mut leaf: impl FnMut(&mut SlabRay, &Block, u32) -> Leaf,
     ) {
         WALK_STACK.with_borrow_mut(|stack| {
             let need = self.stack_len();
@@ -225,14 +225,16 @@ impl<S: Vector> WideBvh<S> {
         })
     }
 
-    /// Tests leaf block `b` for the closest hit of the ray `o`, `d` (sheared: `sheared`)
-    /// within `r`'s segment, lowering `r.tmax` and updating `best` by the tie rule.
+    /// Tests lanes `lanes` of leaf block `b` for the closest hit of the ray `o`, `d`
+    /// (sheared: `sheared`) within `r`'s segment, lowering `r.tmax` and updating `best` by
+    /// the tie rule.
     #[allow(clippy::too_many_arguments)] // the block, the ray in three forms, the search's state
     #[inline(always)]
     fn closest_block(
         &self,
         prims: &[Primitive],
         b: &Block,
+        lanes: u32,
         o: Vec3,
         d: Vec3,
         sheared: &Sheared,
@@ -240,8 +242,7 @@ impl<S: Vector> WideBvh<S> {
         best: &mut (f32, u32),
     ) {
         if !b.triangles {
-            let first = b.first as usize;
-            for &id in &self.ids[first..first + b.count as usize] {
+            for id in self.lane_ids(b, lanes) {
                 let limit = tie_limit(*best, r.tmax);
                 let t = prims[id as usize].shape.intersect(o, d, r.tmin, limit);
                 if t < limit && nearer(t, id, *best) {
@@ -251,7 +252,6 @@ impl<S: Vector> WideBvh<S> {
             }
             return;
         }
-        let lanes = (1 << b.count) - 1;
         let t = sheared.triangles(b, lanes, o, d);
         let limit = tie_limit(*best, r.tmax);
         let ok = (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(limit))).bits() & lanes;
@@ -273,19 +273,40 @@ impl<S: Vector> WideBvh<S> {
         }
     }
 
-    /// True when a non-emitting primitive of leaf block `b` blocks `r`'s segment of the
-    /// ray `o`, `d` (sheared: `sheared`).
+    /// True when a non-emitting primitive in lanes `lanes` of leaf block `b` blocks `r`'s
+    /// segment of the ray `o`, `d` (sheared: `sheared`).
+    #[allow(clippy::too_many_arguments)] // the block and its lanes, the ray in three forms
     #[inline(always)]
-    fn block_blocks(&self, prims: &[Primitive], b: &Block, o: Vec3, d: Vec3, sheared: &Sheared, r: &SlabRay) -> bool {
+    fn block_blocks(
+        &self,
+        prims: &[Primitive],
+        b: &Block,
+        lanes: u32,
+        o: Vec3,
+        d: Vec3,
+        sheared: &Sheared,
+        r: &SlabRay,
+    ) -> bool {
         if !b.triangles {
-            let first = b.first as usize;
-            return self.ids[first..first + b.count as usize]
-                .iter()
-                .map(|&id| &prims[id as usize])
+            return self
+                .lane_ids(b, lanes)
+                .map(|id| &prims[id as usize])
                 .any(|p| p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax);
         }
-        let t = sheared.triangles(b, b.blockers, o, d);
-        (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(r.tmax))).bits() & b.blockers != 0
+        let blockers = b.blockers & lanes;
+        let t = sheared.triangles(b, blockers, o, d);
+        (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(r.tmax))).bits() & blockers != 0
+    }
+
+    /// The primitive ids of lanes `lanes` of block `b`, in lane order.
+    #[inline(always)]
+    fn lane_ids(&self, b: &Block, mut lanes: u32) -> impl Iterator<Item = u32> + '_ {
+        let first = b.first as usize;
+        std::iter::from_fn(move || {
+            let l = lanes.trailing_zeros() as usize;
+            lanes &= lanes.wrapping_sub(1);
+            (l < 32).then(|| self.ids[first + l])
+        })
     }
 
     /// Closest hit along `ray` among `prims` (the primitives the leaves index):
@@ -302,8 +323,8 @@ impl<S: Vector> WideBvh<S> {
         let mut best = (f32::INFINITY, u32::MAX);
         let (o, d) = (ray.origin, ray.dir);
         let sheared = Sheared::new(o, d);
-        self.walk::<COUNT, true>(slack, ray.slab(), c, |r, b| {
-            self.closest_block(prims, b, o, d, &sheared, r, &mut best);
+        self.walk::<COUNT, true>(slack, ray.slab(), c, |r, b, lanes| {
+            self.closest_block(prims, b, lanes, o, d, &sheared, r, &mut best);
             Leaf::Go
         });
         (best.1 != u32::MAX).then_some(best)
@@ -316,8 +337,8 @@ impl<S: Vector> WideBvh<S> {
         let mut blocked = false;
         let (o, d) = (ray.origin, ray.dir);
         let sheared = Sheared::new(o, d);
-        self.walk::<COUNT, false>(slack, ray.slab(), c, |r, b| {
-            if self.block_blocks(prims, b, o, d, &sheared, r) {
+        self.walk::<COUNT, false>(slack, ray.slab(), c, |r, b, lanes| {
+            if self.block_blocks(prims, b, lanes, o, d, &sheared, r) {
                 blocked = true;
                 return Leaf::Stop;
             }
@@ -343,7 +364,7 @@ impl<S: Vector> WideBvh<S> {
         n: usize,
         ray: impl Fn(usize) -> Ray,
         search: impl Fn(Ray) -> T,
-        mut test: impl FnMut(&mut T, &mut SlabRay, &Block) -> Leaf,
+        mut test: impl FnMut(&mut T, &mut SlabRay, &Block, u32) -> Leaf,
         mut done: impl FnMut(usize, T),
         c: &mut Traversal,
     ) {
@@ -368,7 +389,7 @@ impl<S: Vector> WideBvh<S> {
             while live > 0 {
                 for (slot, stack) in slots.iter_mut().zip(stack.chunks_exact_mut(need)) {
                     let Some((walker, _, state)) = slot else { continue };
-                    if walker.step::<COUNT, ORDER>(self, stack, c, &mut |r, b| test(state, r, b)) {
+                    if walker.step::<COUNT, ORDER>(self, stack, c, &mut |r, b, lanes| test(state, r, b, lanes)) {
                         self.prefetch(walker.current);
                         continue;
                     }
@@ -406,8 +427,8 @@ impl<S: Vector> WideBvh<S> {
             n,
             ray,
             search,
-            |(o, d, sheared, best), r, b| {
-                self.closest_block(prims, b, *o, *d, sheared, r, best);
+            |(o, d, sheared, best), r, b, lanes| {
+                self.closest_block(prims, b, lanes, *o, *d, sheared, r, best);
                 Leaf::Go
             },
             |i, (_, _, _, best)| out(i, (best.1 != u32::MAX).then_some(best)),
@@ -432,8 +453,8 @@ impl<S: Vector> WideBvh<S> {
             n,
             ray,
             search,
-            |(o, d, sheared, blocked), r, b| {
-                if self.block_blocks(prims, b, *o, *d, sheared, r) {
+            |(o, d, sheared, blocked), r, b, lanes| {
+                if self.block_blocks(prims, b, lanes, *o, *d, sheared, r) {
                     *blocked = true;
                     return Leaf::Stop;
                 }
