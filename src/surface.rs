@@ -60,7 +60,7 @@ pub struct Surface {
 #[inline]
 pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
     let Some(&vn) = scene.normals.get(prim) else { return n };
-    let Shape::Triangle { v0, v1, v2 } = scene.accel.prims[prim].shape else { return n };
+    let Shape::Triangle { v0, v1, v2 } = scene.accel.prim(prim as u32).shape else { return n };
     if vn[0] == Vec3::ZERO {
         return n;
     }
@@ -83,7 +83,7 @@ pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
 /// `prim` when it is a diffuse non-emitter, else `None`.
 #[inline]
 pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> {
-    let prim = scene.accel.prims.get(prim as usize)?;
+    let prim = (prim < scene.accel.len() as u32).then(|| scene.accel.prim(prim))?;
     if prim.light != NO_LIGHT {
         return None;
     }
@@ -98,7 +98,7 @@ pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> 
 /// through its corners' UVs when it has them), a triangle's corner UVs interpolated (its
 /// barycentric (b1, b2) when its mesh has none).
 pub fn uv_at(scene: &Scene, prim: usize, x: Vec3) -> Vec2 {
-    match scene.accel.prims[prim].shape {
+    match scene.accel.prim(prim as u32).shape {
         Shape::Sphere { center, .. } => match scene.uv_frames.get(prim) {
             Some(frame) => uv::sphere(Vec3::ZERO, *frame * (x - center)),
             None => uv::sphere(center, x),
@@ -131,7 +131,7 @@ pub fn color_at(scene: &Scene, color: Color, prim: usize, x: Vec3) -> Vec3 {
 #[inline]
 pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
     let (color, specular, shininess) = diffuse_material(scene, hits.prim[i])?;
-    let prim = &scene.accel.prims[hits.prim[i] as usize];
+    let prim = scene.accel.prim(hits.prim[i]);
     let d = rays.dir(i);
     let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
     let color = color_at(scene, color, hits.prim[i] as usize, x);
@@ -175,7 +175,7 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
     let d = V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) };
     // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
     // and edges, a triangle's vertices.
-    let points = |prim: u32| match scene.accel.prims[prim as usize].shape {
+    let points = |prim: u32| match scene.accel.prim(prim).shape {
         Shape::Sphere { center, radius } => (center, Vec3::splat(radius), Vec3::ZERO, 0),
         Shape::Quad { corner, u, v } => (corner, u, v, 1),
         Shape::Triangle { v0, v1, v2 } => (v0, v1, v2, 2),

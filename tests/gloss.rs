@@ -188,7 +188,7 @@ fn a_rotated_textured_sphere_has_mitsubas_uvs() {
          transform = [{ scale = [0.5, 0.5, 0.5] }, { rotate = { axis = [1, 0, 0], angle = 90 } }, { translate = [1, 2, 3] }]\n",
     );
     let scene = scene(&text, &[]);
-    let prim = scene.accel.prims.iter().position(|p| p.light == wavetrace::accel::NO_LIGHT).unwrap();
+    let prim = scene.accel.prims().position(|p| p.light == wavetrace::accel::NO_LIGHT).unwrap();
     for (p, want) in [
         (Vec3::new(1.0, 2.5, 3.0), glam::Vec2::new(0.25, 1.0)),
         (Vec3::new(1.5, 2.0, 3.0), glam::Vec2::new(0.0, 0.5)),

@@ -282,7 +282,7 @@ fn packet_kernels_equal_scalar_on_the_bunny_and_the_default_scene() {
     let bunny = mesh_accel(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/stanford-bunny.obj"));
     check_accel(&bunny, 20_000, "bunny");
     // Spheres and parallelograms (and an emitter, which never blocks).
-    let default = Accel::build_reference(scene(wavetrace::DEFAULT_SCENE, &[]).accel.prims.clone());
+    let default = Accel::build_reference(scene(wavetrace::DEFAULT_SCENE, &[]).accel.prims().collect());
     check_accel(&default, 20_000, "default scene");
 }
 
@@ -306,10 +306,14 @@ fn packet_kernels_equal_scalar_on_every_mesh_full() {
     assert!(!meshes.is_empty(), "no .obj in {}", dir.display());
     for path in meshes {
         let accel = mesh_accel(&path);
-        eprintln!("{}: {} triangles, {n} rays per kind", path.display(), accel.prims.len());
+        eprintln!("{}: {} triangles, {n} rays per kind", path.display(), accel.len());
         check_accel(&accel, n, &path.display().to_string());
     }
-    check_accel(&Accel::build_reference(scene(wavetrace::DEFAULT_SCENE, &[]).accel.prims.clone()), n, "default scene");
+    check_accel(
+        &Accel::build_reference(scene(wavetrace::DEFAULT_SCENE, &[]).accel.prims().collect()),
+        n,
+        "default scene",
+    );
 }
 
 /// A closed icosphere (subdivided `levels` times, vertices shared exactly between
@@ -475,8 +479,8 @@ fn axis_parallel_rays_along_a_shared_edge_hit_the_wall_in_every_kernel() {
         // Every primitive the triangle test says is hit was met, whichever box it sits in
         // (a ray along the shared edge runs in a face of both boxes): the answer is the
         // brute-force one, the nearest and on a tie the lowest id.
-        let brute = (0..accel.prims.len() as u32)
-            .map(|id| (accel.prims[id as usize].shape.intersect(o, d, 0.0, f32::INFINITY), id))
+        let brute = (0..accel.len() as u32)
+            .map(|id| (accel.prim(id).shape.intersect(o, d, 0.0, f32::INFINITY), id))
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         assert_eq!(hit, brute, "ray from {o:?} along {d:?}");
         assert!(

@@ -166,8 +166,7 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
         wavetrace::stages::camera::generate(&small, &tile, 0..16 * 12 * 4, &mut rays);
         let (lo, hi) = scene
             .accel
-            .prims
-            .iter()
+            .prims()
             .map(|p| p.shape.bounds())
             .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), (a, b)| {
                 (lo.min(a), hi.max(b))
@@ -178,9 +177,9 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
         }
         // And at the middle of diffuse primitives, so every shape gets hit.
         let diffuse = |p: usize| wavetrace::surface::diffuse_material(&scene, p as u32).is_some();
-        let prims: Vec<usize> = (0..scene.accel.prims.len()).filter(|&p| diffuse(p)).collect();
+        let prims: Vec<usize> = (0..scene.accel.len()).filter(|&p| diffuse(p)).collect();
         for k in 0..3000u32 {
-            let (a, b) = scene.accel.prims[prims[(k as usize * 7919) % prims.len()]].shape.bounds();
+            let (a, b) = scene.accel.prim(prims[(k as usize * 7919) % prims.len()] as u32).shape.bounds();
             let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
             rays.push(o, (0.5 * (a + b) - o).normalize(), k, Vec3::ONE, 0, k, k);
         }
@@ -208,7 +207,7 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
                 (want.shininess.to_bits(), want.slot, want.key, want.sample)
             );
             assert_eq!(lanes.ray[p], i);
-            shapes[match scene.accel.prims[hits.prim[i as usize] as usize].shape {
+            shapes[match scene.accel.prim(hits.prim[i as usize]).shape {
                 wavetrace::accel::shapes::Shape::Sphere { .. } => 0,
                 wavetrace::accel::shapes::Shape::Quad { .. } => 1,
                 wavetrace::accel::shapes::Shape::Triangle { .. } => 2,
@@ -227,7 +226,7 @@ fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32
     let mut next = RayQueue::default();
     for &i in ids {
         let i = i as usize;
-        let prim = &scene.accel.prims[hits.prim[i] as usize];
+        let prim = scene.accel.prim(hits.prim[i]);
         let (d, w) = (rays.dir(i), rays.weight(i));
         let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
         let ng = prim.shape.normal(x).normalize();
@@ -281,13 +280,13 @@ fn scatter_on_lanes_gives_the_scalar_functions_rays_bit_for_bit() {
         let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
         let scene = support::scene_in(dir, &text, &sets);
         let specular = |p: u32| {
-            let prim = &scene.accel.prims[p as usize];
+            let prim = scene.accel.prim(p);
             prim.light == wavetrace::accel::NO_LIGHT && wavetrace::surface::diffuse_material(&scene, p).is_none()
         };
-        let prims: Vec<usize> = (0..scene.accel.prims.len()).filter(|&p| specular(p as u32)).collect();
+        let prims: Vec<usize> = (0..scene.accel.len()).filter(|&p| specular(p as u32)).collect();
         let mut rays = RayQueue::default();
         for k in 0..4000u32 {
-            let (a, b) = scene.accel.prims[prims[k as usize % prims.len()]].shape.bounds();
+            let (a, b) = scene.accel.prim(prims[k as usize % prims.len()] as u32).shape.bounds();
             let target = a + (b - a) * Vec3::new(rng.range(0.2, 0.8), rng.range(0.2, 0.8), rng.range(0.2, 0.8));
             // From afar, or from inside the object's bounds (leaving a sphere from within).
             let o = if k % 3 == 0 { 0.5 * (a + b) + 0.01 * rng.unit() } else { target + 5.0 * rng.unit() };

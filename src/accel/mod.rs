@@ -168,8 +168,12 @@ pub(crate) fn cull_at(tmax: f32, slack: f32) -> f32 {
 
 /// Primitives reordered to the BVH's leaf order, with the BVH over them.
 pub struct Accel {
-    /// Primitives, in BVH order: a traversal's primitive id indexes this directly.
-    pub prims: Vec<Primitive>,
+    /// Per primitive, in BVH order (a traversal's primitive id indexes it): its material,
+    /// light and where its shape is ([`Accel::prim`] puts them together).
+    meta: Vec<Meta>,
+    /// The shapes [`Meta::at`] indexes when there is no wide tree (which otherwise holds
+    /// every shape: its leaf blocks hold the triangles' vertices).
+    flat: Vec<Shape>,
     /// The binary tree (obvhs's, its leaves collapsed), walked one ray at a time by
     /// [`Accel::closest`]: kept only by [`Accel::build_reference`] (the tests' reference
     /// kernel) and where the wide tree cannot be encoded. Every other kernel walks the
@@ -192,6 +196,18 @@ pub struct Accel {
     /// work per step, so it pays only where the walks wait on memory (measured:
     /// docs/performance.md). Either way the answers are the same.
     pub interleave: bool,
+}
+
+/// What the accelerator keeps of a primitive beside its shape (12 bytes).
+#[derive(Clone, Copy, Debug)]
+struct Meta {
+    /// Index into the scene's materials.
+    material: u32,
+    /// Index into the scene's lights, or [`NO_LIGHT`].
+    light: u32,
+    /// The shape's slot in the wide tree ([`WideBvh::shape`]), or without one its index in
+    /// [`Accel::flat`].
+    at: u32,
 }
 
 /// Bytes of this machine's largest CPU cache (Linux sysfs; 32 MiB where it cannot be read).
@@ -297,7 +313,8 @@ impl Accel {
         let start = Instant::now();
         if prims.is_empty() {
             return Accel {
-                prims,
+                meta: Vec::new(),
+                flat: Vec::new(),
                 bvh: None,
                 bounds: (Vec3::ZERO, Vec3::ZERO),
                 wide: None,
@@ -343,18 +360,58 @@ impl Accel {
         let interleave = wide.as_ref().is_some_and(|w| w.bytes() > last_level_cache());
         let bounds = (root.min.into(), root.max.into());
         let bvh = (keep_binary || wide.is_none()).then_some(bvh);
+        // The wide tree holds every shape; without one, the shapes are kept here.
+        let at = match &wide {
+            Some(w) => w.slots(prims.len()),
+            None => (0..prims.len() as u32).collect(),
+        };
+        let flat = if wide.is_some() { Vec::new() } else { prims.iter().map(|p| p.shape).collect() };
+        let meta = prims.iter().zip(at).map(|(p, at)| Meta { material: p.material, light: p.light, at }).collect();
         let build_seconds = start.elapsed().as_secs_f64();
-        Accel { prims, bvh, bounds, wide, depth, slack, build_seconds, interleave }
+        Accel { meta, flat, bvh, bounds, wide, depth, slack, build_seconds, interleave }
     }
 
-    /// Bytes of the acceleration structure beside the primitives: the binary nodes, the
-    /// wide nodes and the primitives themselves, in that order.
+    /// Bytes of the acceleration structure: the binary nodes, the wide tree (with every
+    /// shape it holds) and the primitives' materials, lights and shapes kept beside it, in
+    /// that order.
     pub fn bytes(&self) -> [usize; 3] {
         [
             self.bvh.as_ref().map_or(0, |b| b.nodes.len() * std::mem::size_of::<obvhs::bvh2::node::Bvh2Node>()),
             self.wide.as_ref().map_or(0, WideBvh::bytes),
-            self.prims.len() * std::mem::size_of::<Primitive>(),
+            self.meta.len() * std::mem::size_of::<Meta>() + self.flat.len() * std::mem::size_of::<Shape>(),
         ]
+    }
+
+    /// Primitives in the tree.
+    pub fn len(&self) -> usize {
+        self.meta.len()
+    }
+
+    /// True when the tree holds no primitive.
+    pub fn is_empty(&self) -> bool {
+        self.meta.is_empty()
+    }
+
+    /// Primitive `id` (a traversal's primitive index: BVH order, not the scene's), put
+    /// together from where the tree keeps its parts.
+    #[inline]
+    pub fn prim(&self, id: u32) -> Primitive {
+        let m = self.meta[id as usize];
+        let shape = match &self.wide {
+            Some(w) => w.shape(m.at),
+            None => self.flat[m.at as usize],
+        };
+        Primitive { shape, material: m.material, light: m.light }
+    }
+
+    /// Every primitive, by id ([`Accel::prim`]).
+    pub fn prims(&self) -> impl ExactSizeIterator<Item = Primitive> + '_ {
+        (0..self.len() as u32).map(|id| self.prim(id))
+    }
+
+    /// Sets primitive `id`'s material.
+    pub fn set_material(&mut self, id: u32, material: u32) {
+        self.meta[id as usize].material = material;
     }
 
     /// Bounds of everything in the tree (zero-size at the origin when empty).
@@ -389,7 +446,7 @@ impl Accel {
     #[inline]
     pub fn closest_wide<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
         match &self.wide {
-            Some(w) => w.closest::<COUNT>(&self.prims, self.slack, ray, c),
+            Some(w) => w.closest::<COUNT>(self.slack, ray, c),
             None => bvh2::closest::<COUNT>(self, ray, c),
         }
     }
@@ -398,7 +455,7 @@ impl Accel {
     #[inline]
     pub fn occluded_wide<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
         match &self.wide {
-            Some(w) => w.occluded::<COUNT>(&self.prims, self.slack, ray, c),
+            Some(w) => w.occluded::<COUNT>(self.slack, ray, c),
             None => bvh2::occluded::<COUNT>(self, ray, c),
         }
     }
@@ -415,7 +472,7 @@ impl Accel {
         c: &mut Traversal,
     ) {
         match &self.wide {
-            Some(w) => w.closest_many::<COUNT>(&self.prims, self.slack, n, ray, out, c),
+            Some(w) => w.closest_many::<COUNT>(self.slack, n, ray, out, c),
             None => (0..n).for_each(|i| out(i, bvh2::closest::<COUNT>(self, ray(i), c))),
         }
     }
@@ -431,7 +488,7 @@ impl Accel {
         c: &mut Traversal,
     ) {
         match &self.wide {
-            Some(w) => w.occluded_many::<COUNT>(&self.prims, self.slack, n, ray, out, c),
+            Some(w) => w.occluded_many::<COUNT>(self.slack, n, ray, out, c),
             None => (0..n).for_each(|i| out(i, bvh2::occluded::<COUNT>(self, ray(i), c))),
         }
     }

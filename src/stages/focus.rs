@@ -62,7 +62,7 @@ pub fn blur(scene: &Scene, rays: &RayQueue, hits: &HitQueue, first: usize, sharp
         for (k, &r) in r.iter().enumerate().take(rays.len() - i0) {
             let i = i0 + k;
             let specular = hits.prim[i] != MISS && {
-                let prim = &scene.accel.prims[hits.prim[i] as usize];
+                let prim = scene.accel.prim(hits.prim[i]);
                 prim.light == NO_LIGHT && !matches!(scene.materials[prim.material as usize], Material::Diffuse { .. })
             };
             let at = first + rays.slot[i] as usize;

@@ -124,7 +124,7 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &Index
     for ids in specular.index.chunks(LANES) {
         let (mut smooth, mut n) = ([0u32; LANES], 0);
         for &i in ids {
-            let prim = &scene.accel.prims[hits.prim[i as usize] as usize];
+            let prim = scene.accel.prim(hits.prim[i as usize]);
             let material = &scene.materials[prim.material as usize];
             if is_glossy(material) {
                 glossy(scene, rays, hits, i as usize, material, next);
@@ -164,7 +164,7 @@ fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// [`dim::GLOSS`], [`dim::GLOSS_BRANCH`]: stratified over the pixel's samples.
 fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &Material, next: &mut RayQueue) {
     let prim_id = hits.prim[i] as usize;
-    let prim = &scene.accel.prims[prim_id];
+    let prim = scene.accel.prim(prim_id as u32);
     let d = rays.dir(i);
     let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
     let ng = prim.shape.normal(x).normalize();
@@ -253,7 +253,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     // whether it is a mirror (None: not a specular material, nothing to spawn).
     let mut mat = [(1.0f32, 1.0f32, Vec3::ONE, None); LANES];
     for (k, &i) in ids.iter().enumerate() {
-        let prim = &scene.accel.prims[hits.prim[i as usize] as usize];
+        let prim = scene.accel.prim(hits.prim[i as usize]);
         mat[k] = match scene.materials[prim.material as usize] {
             Material::Mirror { color } => (1.0, 1.0, color, Some(true)),
             Material::Dielectric { ior, ratio: ReflectRatio::Fixed(c), tint, .. } => (ior, c, tint, Some(false)),

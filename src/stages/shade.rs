@@ -76,7 +76,7 @@ pub fn shade(
             }
             continue;
         }
-        let prim = &scene.accel.prims[hits.prim[i] as usize];
+        let prim = scene.accel.prim(hits.prim[i]);
         if prim.light != NO_LIGHT {
             if let Some(radiance) = emitted(&scene.lights[prim.light as usize], rays.dir(i)) {
                 film.push(rays.slot[i], rays.weight(i) * radiance);

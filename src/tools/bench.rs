@@ -401,10 +401,10 @@ pub fn run(accel: &Accel, sets: &[(&'static str, RaySet)], opts: &BenchOptions) 
             out.push(SetResult { set: name, kernel: kernels[k].0, rays: set.len(), mrays_per_s: mrays });
         }
     }
-    let n = accel.prims.len().max(1) as f64;
+    let n = accel.len().max(1) as f64;
     Ok(BenchReport {
         bvh_build_seconds: accel.build_seconds,
-        primitives: accel.prims.len(),
+        primitives: accel.len(),
         bytes_per_primitive: accel.bytes().map(|b| b as f64 / n),
         threads: opts.threads,
         renderer_kernel: RENDERER_KERNEL,

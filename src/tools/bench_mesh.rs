@@ -116,7 +116,7 @@ fn sphere_dir(u1: f32, u2: f32) -> Vec3 {
 
 /// Where a ray hit, lifted off the surface on the side it arrived from: (origin, normal).
 fn hit_point(accel: &Accel, o: Vec3, d: Vec3, t: f32, prim: u32) -> (Vec3, Vec3) {
-    let shape = &accel.prims[prim as usize].shape;
+    let shape = accel.prim(prim).shape;
     let (x, err) = shape.surface_point(o, d, t);
     let ng = shape.normal(x).normalize();
     let n = if ng.dot(d) < 0.0 { ng } else { -ng };
@@ -217,8 +217,8 @@ fn f32_bytes(v: impl Iterator<Item = f32>) -> Vec<u8> {
 /// (`SET.t.npy`: closest distance, infinity for a miss; `SET.prim.npy` i32, −1 for a miss;
 /// or `SET.blocked.npy` u8). `sets.txt` lists `SET closest|anyhit` per line.
 pub fn export(dir: &Path, accel: &Accel, sets: &[(&'static str, RaySet)]) -> Result<()> {
-    let mut tris = Vec::with_capacity(accel.prims.len() * 9);
-    for p in &accel.prims {
+    let mut tris = Vec::with_capacity(accel.len() * 9);
+    for p in accel.prims() {
         let Shape::Triangle { v0, v1, v2 } = p.shape else {
             return Err(Error::input("--export-rays: the scene has spheres or parallelograms; Embree gets triangles only (use --mesh or --sphere)"));
         };
@@ -226,7 +226,7 @@ pub fn export(dir: &Path, accel: &Accel, sets: &[(&'static str, RaySet)]) -> Res
     }
     // Only now, so a refused scene leaves nothing behind.
     std::fs::create_dir_all(dir).map_err(|e| Error::input(format!("{}: {e}", dir.display())))?;
-    write_npy(&dir.join("triangles.npy"), "<f4", &[accel.prims.len(), 3, 3], &f32_bytes(tris.into_iter()))?;
+    write_npy(&dir.join("triangles.npy"), "<f4", &[accel.len(), 3, 3], &f32_bytes(tris.into_iter()))?;
     let mut list = String::new();
     let mut c = Traversal::default();
     for (name, set) in sets {

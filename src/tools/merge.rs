@@ -93,7 +93,7 @@ impl RenderId {
     pub fn of(scene: &Scene) -> RenderId {
         let mut scene_hash = Fnv::new();
         let _ = write!(scene_hash, "{:?}", (&scene.camera, scene.background, &scene.materials, &scene.lights));
-        scene.accel.prims.iter().for_each(|p| scene_hash.primitive(p));
+        scene.accel.prims().for_each(|p| scene_hash.primitive(&p));
         RenderId {
             scene_hash: scene_hash.hex(),
             settings_hash: Fnv::of(&scene.settings),

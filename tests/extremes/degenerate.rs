@@ -58,7 +58,7 @@ material = "m"
         // Exact counts.
         assert_eq!(scene.info.degenerate_triangles, 4, "{ty}");
         assert_eq!(scene.info.triangles, 5, "{ty}");
-        assert_eq!(scene.accel.prims.len(), 5 + 1, "{ty}: triangles and the quad light");
+        assert_eq!(scene.accel.len(), 5 + 1, "{ty}: triangles and the quad light");
         for mode in ["render.shadows.mode=uniform", "render.shadows.mode=adaptive"] {
             let out = render_in(dir.path(), &text, &[mode]);
             assert!(out.image.pixels.iter().any(|p| *p != out.image.pixels[0]), "{ty}: the mesh is visible");

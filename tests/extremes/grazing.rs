@@ -99,7 +99,7 @@ fn rays_in_a_triangle_plane_and_along_its_edges_are_finite() {
     let text = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n[materials.m]\ntype = \"diffuse\"\n\
                 color = [1, 1, 1]\n[[objects]]\ntype = \"mesh\"\nfile = \"tri.obj\"\nmaterial = \"m\"\n";
     let scene = scene_in(dir.path(), text, &[]);
-    let tri = scene.accel.prims[0].shape;
+    let tri = scene.accel.prim(0).shape;
     let inf = f32::INFINITY;
     // In the plane, along each edge and through the interior: no hit (the ray is parallel
     // to the plane), and never NaN.

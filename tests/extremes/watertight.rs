@@ -49,12 +49,8 @@ fn leaks(mesh: &str, translate: [f64; 3], scale: f64) -> (usize, usize, usize) {
         for &target in &targets {
             let d = (target - o).normalize();
             total += 1;
-            let direct = scene
-                .accel
-                .prims
-                .iter()
-                .map(|p| p.shape.intersect(o, d, 0.0, f32::INFINITY))
-                .fold(f32::INFINITY, f32::min);
+            let direct =
+                scene.accel.prims().map(|p| p.shape.intersect(o, d, 0.0, f32::INFINITY)).fold(f32::INFINITY, f32::min);
             brute += direct.is_infinite() as usize;
             match closest(&scene, o, d) {
                 None => escaped += 1,
@@ -82,7 +78,7 @@ fn closed_mesh_winding_is_outward() {
         );
         let scene = scene_in(dir.path(), &text, &[]);
         assert_eq!(scene.info.triangles, if mesh == "cube.obj" { 12 } else { 8 });
-        for prim in &scene.accel.prims {
+        for prim in scene.accel.prims() {
             let (lo, hi) = prim.shape.bounds();
             let inside_face = (lo + hi) * 0.5; // on the face's outer side of the centre
             assert!(prim.shape.normal(inside_face).dot(inside_face) > 0.0, "{mesh}: inward triangle");

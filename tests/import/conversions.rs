@@ -80,7 +80,7 @@ fn transform_composition_matches_a_hand_computed_matrix() {
     let f = Files::temp();
     let body = "<shape type=\"rectangle\"><transform name=\"to_world\"><scale x=\"2\"/><rotate z=\"1\" angle=\"90\"/><translate x=\"1\" y=\"2\" z=\"3\"/></transform></shape>";
     let scene = load_file(&f.write("t.xml", crate::xml_scene(body)));
-    let Shape::Quad { corner, u, v } = scene.accel.prims[0].shape else { panic!("not a quad") };
+    let Shape::Quad { corner, u, v } = scene.accel.prim(0).shape else { panic!("not a quad") };
     let eq = |a: Vec3, b: Vec3| a.abs_diff_eq(b, 1e-6);
     assert!(
         eq(corner, Vec3::new(2.0, 0.0, 3.0)) && eq(u, Vec3::new(0.0, 4.0, 0.0)) && eq(v, Vec3::new(-2.0, 0.0, 0.0)),
@@ -90,6 +90,6 @@ fn transform_composition_matches_a_hand_computed_matrix() {
     let m = "<matrix value=\"0 -1 0 1  2 0 0 2  0 0 1 3  0 0 0 1\"/>";
     let body = format!("<shape type=\"rectangle\"><transform name=\"to_world\">{m}</transform></shape>");
     let scene = load_file(&f.write("m.xml", crate::xml_scene(&body)));
-    let Shape::Quad { corner: c2, u: u2, v: v2 } = scene.accel.prims[0].shape else { panic!("not a quad") };
+    let Shape::Quad { corner: c2, u: u2, v: v2 } = scene.accel.prim(0).shape else { panic!("not a quad") };
     assert!(eq(c2, corner) && eq(u2, u) && eq(v2, v), "{c2} {u2} {v2}");
 }

@@ -68,7 +68,7 @@ fn ply_encodings_give_the_same_triangles() {
     for format in ["ascii", "binary_little_endian", "binary_big_endian"] {
         f.write("m.ply", ply(format, &v, None, &t));
         let scene = scene_in(f.dir(), &mesh_scene("m.ply", ""), &[]);
-        let mut shapes: Vec<String> = scene.accel.prims.iter().map(|p| format!("{:?}", p.shape)).collect();
+        let mut shapes: Vec<String> = scene.accel.prims().map(|p| format!("{:?}", p.shape)).collect();
         shapes.sort();
         prims.push(shapes);
     }
@@ -155,9 +155,9 @@ fn emissive_mesh_triangles_become_one_sided_lights() {
         assert!(normal.y > 0.0, "counter-clockwise front: {normal}");
     }
     // Every emitting primitive names its light.
-    let lit: Vec<u32> = scene.accel.prims.iter().map(|p| p.light).collect();
+    let lit: Vec<u32> = scene.accel.prims().map(|p| p.light).collect();
     assert!(lit.contains(&0) && lit.contains(&1));
-    assert!(scene.accel.prims.iter().all(|p| matches!(p.shape, Shape::Triangle { .. })));
+    assert!(scene.accel.prims().all(|p| matches!(p.shape, Shape::Triangle { .. })));
     // flip_normals turns the emitting side over.
     let flipped = scene_in(f.dir(), &format!("{text}flip_normals = true\n"), &[]);
     assert!(flipped.lights.iter().all(|l| matches!(l, Light::Triangle { normal, .. } if normal.y < 0.0)));

@@ -95,7 +95,7 @@ fn defaults_are_substituted_and_dash_d_wins() {
         "<default name=\"r\" value=\"0.25\"/>\n<shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>",
     );
     let path = f.write("d.xml", text);
-    let radius = |s: &wavetrace::Scene| match s.accel.prims[0].shape {
+    let radius = |s: &wavetrace::Scene| match s.accel.prim(0).shape {
         Shape::Sphere { radius, .. } => radius,
         _ => panic!("not a sphere"),
     };
@@ -144,7 +144,7 @@ fn cube_is_six_outward_faces_and_instances_are_flattened() {
     let scene = load_file(&f.write("c.xml", xml_scene(body)));
     let mut quads = 0;
     let mut spheres = Vec::new();
-    for p in &scene.accel.prims {
+    for p in scene.accel.prims() {
         match p.shape {
             Shape::Quad { corner, u, v } => {
                 quads += 1;

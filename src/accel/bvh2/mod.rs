@@ -149,13 +149,13 @@ fn traverse<const COUNT: bool>(
 /// another hit than the other kernels (see [`CULL`](crate::accel::CULL)).
 pub(crate) fn closest_obvhs(accel: &Accel, ray: Ray) -> Option<(f32, u32)> {
     let bvh = accel.bvh.as_ref()?;
-    let (prims, o, d) = (&accel.prims, ray.origin, ray.dir);
+    let (o, d) = (ray.origin, ray.dir);
     let mut hit = RayHit::none();
     let mut best = (f32::INFINITY, u32::MAX);
     // obvhs keeps the strictly nearer hit; the tie rule is applied here.
     bvh.ray_traverse(ray.slab(), &mut hit, |r, id| {
         let limit = tie_limit(best, r.tmax);
-        let t = prims[id].shape.intersect(o, d, r.tmin, limit);
+        let t = accel.prim(id as u32).shape.intersect(o, d, r.tmin, limit);
         if t < limit && nearer(t, id as u32, best) {
             best = (t, id as u32);
         }
@@ -171,9 +171,9 @@ pub(crate) fn closest_obvhs(accel: &Accel, ray: Ray) -> Option<(f32, u32)> {
 /// [`Accel::occluded_obvhs`]: obvhs's `Bvh2::ray_traverse_miss`.
 pub(crate) fn occluded_obvhs(accel: &Accel, ray: Ray) -> bool {
     let Some(bvh) = accel.bvh.as_ref() else { return false };
-    let (prims, o, d) = (&accel.prims, ray.origin, ray.dir);
+    let (o, d) = (ray.origin, ray.dir);
     !bvh.ray_traverse_miss(ray.slab(), |r, id| {
-        let p = &prims[id];
+        let p = accel.prim(id as u32);
         if p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax {
             0.0
         } else {
@@ -189,7 +189,7 @@ pub(crate) fn closest<const COUNT: bool>(accel: &Accel, ray: Ray, c: &mut Traver
     if accel.depth >= MAX_DEPTH {
         return closest_obvhs(accel, ray);
     }
-    let (prims, o, d) = (&accel.prims, ray.origin, ray.dir);
+    let (o, d) = (ray.origin, ray.dir);
     let mut best = (f32::INFINITY, u32::MAX);
     traverse::<COUNT>(accel, bvh, ray.slab(), c, |r, range, c| {
         if COUNT {
@@ -197,7 +197,7 @@ pub(crate) fn closest<const COUNT: bool>(accel: &Accel, ray: Ray, c: &mut Traver
         }
         for id in range {
             let limit = tie_limit(best, r.tmax);
-            let t = prims[id].shape.intersect(o, d, r.tmin, limit);
+            let t = accel.prim(id as u32).shape.intersect(o, d, r.tmin, limit);
             if t < limit && nearer(t, id as u32, best) {
                 r.tmax = t;
                 best = (t, id as u32);
@@ -215,7 +215,7 @@ pub(crate) fn occluded<const COUNT: bool>(accel: &Accel, ray: Ray, c: &mut Trave
     if accel.depth >= MAX_DEPTH {
         return occluded_obvhs(accel, ray);
     }
-    let (prims, o, d) = (&accel.prims, ray.origin, ray.dir);
+    let (o, d) = (ray.origin, ray.dir);
     let blocks = |p: &Primitive, r: &SlabRay| p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax;
     let mut hit = false;
     traverse::<COUNT>(accel, bvh, ray.slab(), c, |r, range, c| {
@@ -223,7 +223,7 @@ pub(crate) fn occluded<const COUNT: bool>(accel: &Accel, ray: Ray, c: &mut Trave
             if COUNT {
                 c.prims += 1;
             }
-            if blocks(&prims[id], r) {
+            if blocks(&accel.prim(id as u32), r) {
                 hit = true;
                 return false;
             }
@@ -266,7 +266,7 @@ mod tests {
         // Along the row: the first sphere is closest.
         let hit =
             accel.closest::<true>(Ray::new(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, 0.0, f32::INFINITY), &mut c).unwrap();
-        assert!((hit.1 as usize) < accel.prims.len());
+        assert!((hit.1 as usize) < accel.len());
         assert!((hit.0 - 4.5).abs() < 1e-5);
     }
 

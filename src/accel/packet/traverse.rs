@@ -5,8 +5,7 @@ use glam::Vec3;
 
 use super::rays::Lanes;
 use super::{lanes_of, Columns, PacketWork};
-use crate::accel::shapes::{Primitive, NO_LIGHT};
-use crate::accel::wide::{Beam, BeamLeaf, Wide, WideBvh};
+use crate::accel::wide::{Beam, BeamLeaf, LeafRef, Wide, WideBvh};
 use crate::accel::{cull_at, nearer, tie_limit, Accel, Ray, Traversal};
 use crate::simd::{Vector, LANES};
 
@@ -42,8 +41,9 @@ fn packet_cull(tmax: &[f32; LANES], slack: f32) -> f32 {
 trait Search {
     /// Each lane's current end of search (−∞ for lanes that take no more part).
     fn tmax(&self) -> &[f32; LANES];
-    /// Tests the primitives `ids` for the lanes in `mask`; false when every lane has its answer.
-    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool;
+    /// Tests the primitives of `leaf` for the lanes in `mask`; false when every lane has
+    /// its answer.
+    fn leaf<S: Vector>(&mut self, tree: &WideBvh<Wide>, leaf: LeafRef, lanes: &Lanes<S>, mask: u32) -> bool;
 }
 
 impl Search for Closest {
@@ -52,26 +52,28 @@ impl Search for Closest {
     }
 
     #[inline(always)]
-    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
+    fn leaf<S: Vector>(&mut self, tree: &WideBvh<Wide>, leaf: LeafRef, lanes: &Lanes<S>, mask: u32) -> bool {
         let (o, d) = (lanes.o, lanes.d);
-        self.tests += mask.count_ones() as u64 * ids.len() as u64;
         if mask & (mask - 1) == 0 {
             // One lane: the scalar kernels.
             let l = mask.trailing_zeros() as usize;
-            for &id in ids {
-                let t = prims[id as usize].shape.intersect(o[l], d[l], self.tmin, self.limit[l]);
+            tree.leaf_prims(leaf, |id, shape, _| {
+                self.tests += 1;
+                let t = shape.intersect(o[l], d[l], self.tmin, self.limit[l]);
                 if t < self.limit[l] && nearer(t, id, self.best[l]) {
                     self.best[l] = (t, id);
                     self.tmax[l] = t;
                     self.limit[l] = tie_limit(self.best[l], t);
                 }
-            }
+                true
+            });
             return true;
         }
         let tmin_s = S::splat(self.tmin);
-        for &id in ids {
+        tree.leaf_prims(leaf, |id, shape, _| {
+            self.tests += mask.count_ones() as u64;
             let tm = S::load(&self.limit);
-            let t = lanes.shape(&prims[id as usize].shape, mask, tmin_s, tm);
+            let t = lanes.shape(&shape, mask, tmin_s, tm);
             let hits = (t.gt(tmin_s) & t.lt(tm)).bits() & mask;
             if hits != 0 {
                 let mut a = [0.0; LANES];
@@ -84,7 +86,8 @@ impl Search for Closest {
                     }
                 }
             }
-        }
+            true
+        });
         true
     }
 }
@@ -95,25 +98,24 @@ impl Search for AnyHit {
     }
 
     #[inline(always)]
-    fn leaf<S: Vector>(&mut self, prims: &[Primitive], lanes: &Lanes<S>, mask: u32, ids: &[u32]) -> bool {
+    fn leaf<S: Vector>(&mut self, tree: &WideBvh<Wide>, leaf: LeafRef, lanes: &Lanes<S>, mask: u32) -> bool {
         let (o, d) = (lanes.o, lanes.d);
         let zero = S::splat(0.0);
         let mut mask = mask & self.open;
-        for &id in ids {
+        tree.leaf_prims(leaf, |_, shape, blocker| {
             if mask == 0 {
-                break;
+                return false;
             }
             self.tests += mask.count_ones() as u64;
-            let p = &prims[id as usize];
-            if p.light != NO_LIGHT {
-                continue;
+            if !blocker {
+                return true;
             }
             let hits = if mask & (mask - 1) == 0 {
                 let l = mask.trailing_zeros() as usize;
-                ((p.shape.intersect(o[l], d[l], 0.0, self.tmax[l]) < self.tmax[l]) as u32) << l
+                ((shape.intersect(o[l], d[l], 0.0, self.tmax[l]) < self.tmax[l]) as u32) << l
             } else {
                 let tm = S::load(&self.tmax);
-                let th = lanes.shape(&p.shape, mask, zero, tm);
+                let th = lanes.shape(&shape, mask, zero, tm);
                 (th.gt(zero) & th.lt(tm)).bits() & mask
             };
             for l in lanes_of(hits) {
@@ -122,7 +124,8 @@ impl Search for AnyHit {
             }
             mask &= !hits;
             self.open &= !hits;
-        }
+            true
+        });
         self.open != 0
     }
 }
@@ -145,7 +148,7 @@ fn walk_beam<S: Vector, const ORDER: bool>(
     let mut gave_up = false;
     let mut nodes = 0;
     let mut cull = packet_cull(search.tmax(), accel.slack);
-    tree.walk_beam::<ORDER>(beam, cull, &mut nodes, |min, max, ids| {
+    tree.walk_beam::<ORDER>(beam, cull, &mut nodes, |min, max, leaf| {
         let (mask, _) = lanes.slab_box(min, max, S::load(search.tmax()));
         work.steps += 1;
         work.lanes += mask.count_ones() as u64;
@@ -158,7 +161,7 @@ fn walk_beam<S: Vector, const ORDER: bool>(
             return BeamLeaf::Go(cull);
         }
         useful += mask.count_ones() as u64;
-        if !search.leaf(&accel.prims, lanes, mask, ids) {
+        if !search.leaf(tree, leaf, lanes, mask) {
             return BeamLeaf::Stop;
         }
         cull = packet_cull(search.tmax(), accel.slack);

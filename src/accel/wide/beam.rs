@@ -112,30 +112,18 @@ impl<S: Vector> WideBvh<S> {
         (node.bounds[0].map(|v| v.lane(slot)), node.bounds[1].map(|v| v.lane(slot)))
     }
 
-    /// The primitive ids of a leaf child (its lanes' ids are consecutive).
-    #[inline(always)]
-    fn leaf_ids(&self, child: u32) -> &[u32] {
-        let l = LeafRef::of(child);
-        let (a, b) = (&self.blocks[l.first], &self.blocks[l.first + l.blocks - 1]);
-        // Lanes past the last block's count are empty, so the leaf ends at the last of
-        // its lanes that the last block holds.
-        let (first, last) = (l.lanes & a.lanes(), l.lanes & b.lanes());
-        let start = a.first as usize + first.trailing_zeros() as usize;
-        let end = b.first as usize + (u32::BITS - last.leading_zeros()) as usize;
-        &self.ids[start..end]
-    }
-
     /// Walks the tree for the rays of `beam` whose culling distances are at most `cull`
     /// (`tmax · CULL + slack` of the farthest lane): every child the beam enters is
     /// visited, nearest lower bound first when `ORDER` (closest hit; slot order for any
-    /// hit), and each leaf is handed to `leaf(min, max, ids)` with its box. `nodes`
+    /// hit), and each leaf is handed to `leaf(min, max, leaf)` with its box
+    /// ([`WideBvh::leaf_prims`] gives its primitives). `nodes`
     /// counts the child boxes tested.
     pub(crate) fn walk_beam<const ORDER: bool>(
         &self,
         beam: &Beam,
         mut cull: f32,
         nodes: &mut u64,
-        mut leaf: impl FnMut([f32; 3], [f32; 3], &[u32]) -> BeamLeaf,
+        mut leaf: impl FnMut([f32; 3], [f32; 3], LeafRef) -> BeamLeaf,
     ) {
         BEAM_STACK.with_borrow_mut(|stack| {
             stack.clear();
@@ -147,7 +135,7 @@ impl<S: Vector> WideBvh<S> {
                 }
                 if child & LEAF_FLAG != 0 {
                     let (min, max) = self.child_box(parent, slot as usize);
-                    match leaf(min, max, self.leaf_ids(child)) {
+                    match leaf(min, max, LeafRef::of(child)) {
                         BeamLeaf::Go(c) => cull = c,
                         BeamLeaf::Stop => return,
                     }

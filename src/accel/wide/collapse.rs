@@ -50,7 +50,7 @@ impl<S: Vector> WideBvh<S> {
         assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
         fine.nodes.first()?;
         let plan = Self::plan(fine, prims, max_leaf);
-        let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), ids: Vec::new(), depth: 0 };
+        let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), ids: Vec::new(), other: Vec::new(), depth: 0 };
         let root = &fine.nodes[0];
         let top = if root.is_leaf() || plan[0][0].kind == LEAF_SLOT {
             vec![0]
@@ -62,7 +62,7 @@ impl<S: Vector> WideBvh<S> {
         tree.nodes.push(Node { bounds: [[S::splat(0.0); 3]; 2], child: [u32::MAX; MAX_W], valid: 0 });
         let mut packer = Packer { fine, prims, blocks: Vec::new(), open: Vec::new() };
         tree.fill(&plan, &mut packer, 0, &top, 1)?;
-        tree.blocks = packer.blocks.iter().map(|ids| block(prims, ids, &mut tree.ids)).collect();
+        tree.blocks = packer.blocks.iter().map(|ids| block(prims, ids, &mut tree.ids, &mut tree.other)).collect();
         Some(tree)
     }
 
@@ -262,8 +262,9 @@ impl Packer<'_> {
     }
 }
 
-/// The leaf block holding primitives `lanes` (one per lane), its ids appended to `ids`.
-fn block(prims: &[Primitive], lanes: &[u32], ids: &mut Vec<u32>) -> Block {
+/// The leaf block holding primitives `lanes` (one per lane), its ids appended to `ids`
+/// and, unless all are triangles, its shapes to `other`.
+fn block(prims: &[Primitive], lanes: &[u32], ids: &mut Vec<u32>, other: &mut Vec<Shape>) -> Block {
     let mut v = [[[0.0f32; LANES]; 3]; 3];
     let mut blockers = 0;
     for (l, &id) in lanes.iter().enumerate() {
@@ -279,9 +280,12 @@ fn block(prims: &[Primitive], lanes: &[u32], ids: &mut Vec<u32>) -> Block {
     }
     let triangles = lanes.iter().all(|&id| is_triangle(&prims[id as usize]));
     let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
-    let first = ids.len() as u32;
+    let (first, at) = (ids.len() as u32, other.len() as u32);
     ids.extend_from_slice(lanes);
-    Block { v, first, count: lanes.len() as u32, blockers, triangles }
+    if !triangles {
+        other.extend(lanes.iter().map(|&id| prims[id as usize].shape));
+    }
+    Block { v, first, count: lanes.len() as u32, blockers, triangles, other: at }
 }
 
 #[cfg(test)]
@@ -336,7 +340,7 @@ mod tests {
             for (i, r) in rays.iter().enumerate() {
                 let mut best = (f32::INFINITY, u32::MAX);
                 let mut blocked = false;
-                for (id, p) in accel.prims.iter().enumerate() {
+                for (id, p) in accel.prims().enumerate() {
                     let t = p.shape.intersect(r.origin, r.dir, 0.0, f32::INFINITY);
                     if t < f32::INFINITY && nearer(t, id as u32, best) {
                         best = (t, id as u32);

@@ -61,7 +61,7 @@ const _: () = assert!(FIRST_BITS + 2 * LANE_BITS == 31 && TRIS.is_power_of_two()
 /// packed, so blocks are mostly full); with a > e it is blocks first..first + e + 2, whole
 /// (a leaf of more than [`TRIS`] primitives, never shared).
 #[derive(Clone, Copy)]
-struct LeafRef {
+pub(crate) struct LeafRef {
     /// The first block.
     first: usize,
     /// Blocks in the leaf.
@@ -121,6 +121,9 @@ struct Block {
     blockers: u32,
     /// All primitives are triangles (else the scalar kernels test them).
     triangles: bool,
+    /// When not all are triangles: where the block's shapes start in [`WideBvh::other`]
+    /// (lane l is `other[other + l]`).
+    other: u32,
 }
 
 /// The collapsed tree (see the module docs).
@@ -130,6 +133,9 @@ pub struct WideBvh<S> {
     /// The primitive ids of the blocks' lanes (read only for a hit, so kept apart from
     /// the vertices a traversal streams through).
     ids: Vec<u32>,
+    /// The shapes of the blocks that hold a primitive other than a triangle, one per lane
+    /// (the only copy of a primitive's shape the tree keeps beside its blocks' vertices).
+    other: Vec<Shape>,
     /// Depth in wide nodes (root = 1).
     depth: usize,
 }
@@ -204,6 +210,16 @@ impl Sheared {
     }
 }
 
+/// The set bits of `mask`, lowest first.
+#[inline(always)]
+fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        let l = mask.trailing_zeros() as usize;
+        mask &= mask.wrapping_sub(1);
+        (l < 32).then_some(l)
+    })
+}
+
 impl Block {
     /// The lanes that hold a primitive.
     #[inline(always)]
@@ -247,11 +263,52 @@ impl<S: Vector> WideBvh<S> {
         self.nodes.len() * std::mem::size_of::<Node<S>>()
             + self.blocks.len() * std::mem::size_of::<Block>()
             + self.ids.len() * std::mem::size_of::<u32>()
+            + self.other.len() * std::mem::size_of::<Shape>()
     }
 
-    /// Depth of the tree in wide nodes (root = 1).
-    pub fn depth(&self) -> usize {
-        self.depth
+    /// The shape in lane `slot % TRIS` of block `slot / TRIS`: the tree holds every
+    /// primitive's shape, so the accelerator keeps no other copy.
+    #[inline]
+    pub(crate) fn shape(&self, slot: u32) -> Shape {
+        let (b, l) = (&self.blocks[slot as usize / TRIS], slot as usize % TRIS);
+        if b.triangles {
+            let at = |j: usize| Vec3::from(b.v[j].map(|axis| axis.as_array()[l]));
+            Shape::Triangle { v0: at(0), v1: at(1), v2: at(2) }
+        } else {
+            self.other[b.other as usize + l]
+        }
+    }
+
+    /// Every primitive's slot (`block · TRIS + lane`), by primitive id: what
+    /// [`WideBvh::shape`] takes.
+    pub(crate) fn slots(&self, prims: usize) -> Vec<u32> {
+        let mut slot = vec![u32::MAX; prims];
+        for (k, b) in self.blocks.iter().enumerate() {
+            for l in 0..b.count as usize {
+                slot[self.ids[b.first as usize + l] as usize] = (k * TRIS + l) as u32;
+            }
+        }
+        slot
+    }
+
+    /// Calls `f(id, shape, blocker)` for each primitive of leaf `leaf` in lane order
+    /// (`blocker`: it blocks shadow rays, not an emitter) until `f` returns false.
+    #[inline(always)]
+    pub(crate) fn leaf_prims(&self, leaf: LeafRef, mut f: impl FnMut(u32, Shape, bool) -> bool) {
+        for b in &self.blocks[leaf.first..leaf.first + leaf.blocks] {
+            for l in lanes_of(leaf.lanes & b.lanes()) {
+                let shape = if b.triangles {
+                    let at =
+                        |j: usize| Vec3::new(b.v[j][0].as_array()[l], b.v[j][1].as_array()[l], b.v[j][2].as_array()[l]);
+                    Shape::Triangle { v0: at(0), v1: at(1), v2: at(2) }
+                } else {
+                    self.other[b.other as usize + l]
+                };
+                if !f(self.ids[b.first as usize + l], shape, b.blockers >> l & 1 != 0) {
+                    return;
+                }
+            }
+        }
     }
 
     /// Wide nodes in the tree.

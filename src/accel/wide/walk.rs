@@ -4,8 +4,7 @@
 
 use glam::Vec3;
 
-use super::{Block, LeafRef, Sheared, Tris, WideBvh, LEAF_FLAG};
-use crate::accel::shapes::{Primitive, NO_LIGHT};
+use super::{lanes_of, Block, LeafRef, Sheared, Tris, WideBvh, LEAF_FLAG};
 use crate::accel::{cull_at, nearer, tie_limit, Ray, SlabRay, Traversal};
 use crate::simd::{Vector, LANES};
 
@@ -232,7 +231,6 @@ impl<S: Vector> WideBvh<S> {
     #[inline(always)]
     fn closest_block(
         &self,
-        prims: &[Primitive],
         b: &Block,
         lanes: u32,
         o: Vec3,
@@ -242,9 +240,10 @@ impl<S: Vector> WideBvh<S> {
         best: &mut (f32, u32),
     ) {
         if !b.triangles {
-            for id in self.lane_ids(b, lanes) {
+            for l in lanes_of(lanes) {
+                let id = self.ids[b.first as usize + l];
                 let limit = tie_limit(*best, r.tmax);
-                let t = prims[id as usize].shape.intersect(o, d, r.tmin, limit);
+                let t = self.other[b.other as usize + l].intersect(o, d, r.tmin, limit);
                 if t < limit && nearer(t, id, *best) {
                     r.tmax = t;
                     *best = (t, id);
@@ -277,68 +276,39 @@ impl<S: Vector> WideBvh<S> {
     /// segment of the ray `o`, `d` (sheared: `sheared`).
     #[allow(clippy::too_many_arguments)] // the block and its lanes, the ray in three forms
     #[inline(always)]
-    fn block_blocks(
-        &self,
-        prims: &[Primitive],
-        b: &Block,
-        lanes: u32,
-        o: Vec3,
-        d: Vec3,
-        sheared: &Sheared,
-        r: &SlabRay,
-    ) -> bool {
-        if !b.triangles {
-            return self
-                .lane_ids(b, lanes)
-                .map(|id| &prims[id as usize])
-                .any(|p| p.light == NO_LIGHT && p.shape.intersect(o, d, r.tmin, r.tmax) < r.tmax);
-        }
+    fn block_blocks(&self, b: &Block, lanes: u32, o: Vec3, d: Vec3, sheared: &Sheared, r: &SlabRay) -> bool {
         let blockers = b.blockers & lanes;
+        if !b.triangles {
+            return lanes_of(blockers)
+                .any(|l| self.other[b.other as usize + l].intersect(o, d, r.tmin, r.tmax) < r.tmax);
+        }
         let t = sheared.triangles(b, blockers, o, d);
         (t.gt(Tris::splat(r.tmin)) & t.lt(Tris::splat(r.tmax))).bits() & blockers != 0
     }
 
-    /// The primitive ids of lanes `lanes` of block `b`, in lane order.
-    #[inline(always)]
-    fn lane_ids(&self, b: &Block, mut lanes: u32) -> impl Iterator<Item = u32> + '_ {
-        let first = b.first as usize;
-        std::iter::from_fn(move || {
-            let l = lanes.trailing_zeros() as usize;
-            lanes &= lanes.wrapping_sub(1);
-            (l < 32).then(|| self.ids[first + l])
-        })
-    }
-
-    /// Closest hit along `ray` among `prims` (the primitives the leaves index):
-    /// `(t, primitive index)`, or `None`. The same hit as
+    /// Closest hit along `ray`: `(t, primitive index)`, or `None`. The same hit as
     /// [`Accel::closest`](crate::accel::Accel::closest), bit for bit.
     #[inline]
-    pub fn closest<const COUNT: bool>(
-        &self,
-        prims: &[Primitive],
-        slack: f32,
-        ray: Ray,
-        c: &mut Traversal,
-    ) -> Option<(f32, u32)> {
+    pub fn closest<const COUNT: bool>(&self, slack: f32, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
         let mut best = (f32::INFINITY, u32::MAX);
         let (o, d) = (ray.origin, ray.dir);
         let sheared = Sheared::new(o, d);
         self.walk::<COUNT, true>(slack, ray.slab(), c, |r, b, lanes| {
-            self.closest_block(prims, b, lanes, o, d, &sheared, r, &mut best);
+            self.closest_block(b, lanes, o, d, &sheared, r, &mut best);
             Leaf::Go
         });
         (best.1 != u32::MAX).then_some(best)
     }
 
-    /// True when a non-emitting primitive of `prims` blocks `ray`'s segment; stops at the
+    /// True when a non-emitting primitive blocks `ray`'s segment; stops at the
     /// first blocker. The same answer as [`Accel::occluded`](crate::accel::Accel::occluded).
     #[inline]
-    pub fn occluded<const COUNT: bool>(&self, prims: &[Primitive], slack: f32, ray: Ray, c: &mut Traversal) -> bool {
+    pub fn occluded<const COUNT: bool>(&self, slack: f32, ray: Ray, c: &mut Traversal) -> bool {
         let mut blocked = false;
         let (o, d) = (ray.origin, ray.dir);
         let sheared = Sheared::new(o, d);
         self.walk::<COUNT, false>(slack, ray.slab(), c, |r, b, lanes| {
-            if self.block_blocks(prims, b, lanes, o, d, &sheared, r) {
+            if self.block_blocks(b, lanes, o, d, &sheared, r) {
                 blocked = true;
                 return Leaf::Stop;
             }
@@ -414,7 +384,6 @@ impl<S: Vector> WideBvh<S> {
     /// hit)` for every ray `i`, in the order they finish.
     pub fn closest_many<const COUNT: bool>(
         &self,
-        prims: &[Primitive],
         slack: f32,
         n: usize,
         ray: impl Fn(usize) -> Ray,
@@ -428,7 +397,7 @@ impl<S: Vector> WideBvh<S> {
             ray,
             search,
             |(o, d, sheared, best), r, b, lanes| {
-                self.closest_block(prims, b, lanes, *o, *d, sheared, r, best);
+                self.closest_block(b, lanes, *o, *d, sheared, r, best);
                 Leaf::Go
             },
             |i, (_, _, _, best)| out(i, (best.1 != u32::MAX).then_some(best)),
@@ -440,7 +409,6 @@ impl<S: Vector> WideBvh<S> {
     /// blocked)` for every ray `i`, in the order they finish.
     pub fn occluded_many<const COUNT: bool>(
         &self,
-        prims: &[Primitive],
         slack: f32,
         n: usize,
         ray: impl Fn(usize) -> Ray,
@@ -454,7 +422,7 @@ impl<S: Vector> WideBvh<S> {
             ray,
             search,
             |(o, d, sheared, blocked), r, b, lanes| {
-                if self.block_blocks(prims, b, lanes, *o, *d, sheared, r) {
+                if self.block_blocks(b, lanes, *o, *d, sheared, r) {
                     *blocked = true;
                     return Leaf::Stop;
                 }

@@ -372,9 +372,9 @@ pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables
         p.material = i as u32;
     }
     let mut accel = Accel::build_with(prims, MAX_LEAF, quality);
-    for p in &mut accel.prims {
-        let i = p.material as usize;
-        p.material = materials[i];
+    for id in 0..accel.len() as u32 {
+        let i = accel.prim(id).material as usize;
+        accel.set_material(id, materials[i]);
         if smooth {
             tables.normals.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
         }
