@@ -295,16 +295,16 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Geometry with its BVH.
     pub accel: Accel,
-    /// Vertex normals of smooth-shaded triangles, indexed like `accel.prims` (all zero for
+    /// Vertex normals of smooth-shaded triangles, indexed by primitive id like `accel.prim` (all zero for
     /// a flat primitive); empty when no mesh is smooth.
     pub normals: Vec<[Vec3; 3]>,
     /// Textures, indexed by [`Color::Texture`].
     pub textures: Vec<Texture>,
-    /// Texture coordinates of the triangles' corners, indexed like `accel.prims` (zero for
+    /// Texture coordinates of the triangles' corners, indexed by primitive id like `accel.prim` (zero for
     /// a primitive without); empty when no textured material is on a mesh with UVs.
     pub uvs: Vec<[Vec2; 3]>,
     /// Rotations from world directions to a textured sphere's own axes, indexed like
-    /// `accel.prims` (identity elsewhere); empty when no textured sphere is rotated.
+    /// `accel.prim` (identity elsewhere); empty when no textured sphere is rotated.
     pub uv_frames: Vec<Mat3>,
     /// True when some material is a mirror or dielectric (so the scatter stage has work).
     pub has_specular: bool,
