@@ -68,6 +68,18 @@ pub(crate) fn slab(b: &obvhs::aabb::Aabb, ray: &SlabRay) -> f32 {
     }
 }
 
+/// Iterates over the set bits of a lane mask, lowest first.
+#[inline(always)]
+pub(crate) fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            l
+        })
+    })
+}
+
 /// The reciprocal of a ray direction's component for the slab tests: `1/x`, clamped to
 /// ±`f32::MAX` (a zero component gives ±MAX by its sign). Never NaN and never zero, so
 /// `(bound − origin) · inv` is never NaN (a bound on the origin's plane gives 0). obvhs's

@@ -66,15 +66,3 @@ pub struct PacketWork {
     /// Primitive tests per lane.
     pub prims: u64,
 }
-
-/// Iterates over the set bits of a lane mask, lowest first.
-#[inline(always)]
-fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let l = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            l
-        })
-    })
-}

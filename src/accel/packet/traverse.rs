@@ -4,9 +4,9 @@
 use glam::Vec3;
 
 use super::rays::Lanes;
-use super::{lanes_of, Columns, PacketWork};
+use super::{Columns, PacketWork};
 use crate::accel::wide::{Beam, BeamLeaf, LeafRef, Wide, WideBvh};
-use crate::accel::{cull_at, nearer, tie_limit, Accel, Ray, Traversal};
+use crate::accel::{cull_at, lanes_of, nearer, tie_limit, Accel, Ray, Traversal};
 use crate::simd::{Vector, LANES};
 
 /// A packet's closest-hit search: per lane the best hit so far, the distance boxes are

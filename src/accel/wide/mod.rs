@@ -31,6 +31,7 @@ pub use walk::INTERLEAVE;
 use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};
 use wide::f32x8;
 
+use super::lanes_of;
 use super::shapes::{intersect_triangle, shear_axes, Primitive, Shape};
 use crate::simd::{Vector, LANES};
 
@@ -210,16 +211,6 @@ impl Sheared {
     }
 }
 
-/// The set bits of `mask`, lowest first.
-#[inline(always)]
-fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        let l = mask.trailing_zeros() as usize;
-        mask &= mask.wrapping_sub(1);
-        (l < 32).then_some(l)
-    })
-}
-
 impl Block {
     /// The lanes that hold a primitive.
     #[inline(always)]
@@ -309,6 +300,11 @@ impl<S: Vector> WideBvh<S> {
                 }
             }
         }
+    }
+
+    /// Depth of the tree in wide nodes (root = 1).
+    pub fn depth(&self) -> usize {
+        self.depth
     }
 
     /// Wide nodes in the tree.

@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 
-use super::{lanes_of, Block, LeafRef, Sheared, Tris, WideBvh, LEAF_FLAG};
-use crate::accel::{cull_at, nearer, tie_limit, Ray, SlabRay, Traversal};
+use super::{Block, LeafRef, Sheared, Tris, WideBvh, LEAF_FLAG};
+use crate::accel::{cull_at, lanes_of, nearer, tie_limit, Ray, SlabRay, Traversal};
 use crate::simd::{Vector, LANES};
 
 thread_local! {
