@@ -261,9 +261,14 @@ impl<S: Vector> WideBvh<S> {
     /// primitive's shape, so the accelerator keeps no other copy.
     #[inline]
     pub(crate) fn shape(&self, slot: u32) -> Shape {
-        let (b, l) = (&self.blocks[slot as usize / TRIS], slot as usize % TRIS);
+        self.lane_shape(&self.blocks[slot as usize / TRIS], slot as usize % TRIS)
+    }
+
+    /// The shape in lane `l` of block `b`.
+    #[inline(always)]
+    fn lane_shape(&self, b: &Block, l: usize) -> Shape {
         if b.triangles {
-            let at = |j: usize| Vec3::from(b.v[j].map(|axis| axis.as_array()[l]));
+            let at = |j: usize| Vec3::new(b.v[j][0].as_array()[l], b.v[j][1].as_array()[l], b.v[j][2].as_array()[l]);
             Shape::Triangle { v0: at(0), v1: at(1), v2: at(2) }
         } else {
             self.other[b.other as usize + l]
@@ -288,14 +293,7 @@ impl<S: Vector> WideBvh<S> {
     pub(crate) fn leaf_prims(&self, leaf: LeafRef, mut f: impl FnMut(u32, Shape, bool) -> bool) {
         for b in &self.blocks[leaf.first..leaf.first + leaf.blocks] {
             for l in lanes_of(leaf.lanes & b.lanes()) {
-                let shape = if b.triangles {
-                    let at =
-                        |j: usize| Vec3::new(b.v[j][0].as_array()[l], b.v[j][1].as_array()[l], b.v[j][2].as_array()[l]);
-                    Shape::Triangle { v0: at(0), v1: at(1), v2: at(2) }
-                } else {
-                    self.other[b.other as usize + l]
-                };
-                if !f(self.ids[b.first as usize + l], shape, b.blockers >> l & 1 != 0) {
+                if !f(self.ids[b.first as usize + l], self.lane_shape(b, l), b.blockers >> l & 1 != 0) {
                     return;
                 }
             }
