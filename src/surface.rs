@@ -60,10 +60,11 @@ pub struct Surface {
 #[inline]
 pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
     let Some(&vn) = scene.normals.get(prim) else { return n };
-    let Shape::Triangle { v0, v1, v2 } = scene.accel.prim(prim as u32).shape else { return n };
+    // Flat primitives (no vertex normals) need not have their shape put together.
     if vn[0] == Vec3::ZERO {
         return n;
     }
+    let Shape::Triangle { v0, v1, v2 } = scene.accel.prim(prim as u32).shape else { return n };
     let (e1, e2) = (v1 - v0, v2 - v0);
     let c = e1.cross(e2);
     let w = c / c.length_squared();
@@ -83,11 +84,10 @@ pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
 /// `prim` when it is a diffuse non-emitter, else `None`.
 #[inline]
 pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> {
-    let prim = (prim < scene.accel.len() as u32).then(|| scene.accel.prim(prim))?;
-    if prim.light != NO_LIGHT {
+    if prim >= scene.accel.len() as u32 || scene.accel.light(prim) != NO_LIGHT {
         return None;
     }
-    match scene.materials[prim.material as usize] {
+    match scene.materials[scene.accel.material(prim) as usize] {
         Material::Diffuse { color, specular, shininess } => Some((color, specular, shininess)),
         _ => None,
     }

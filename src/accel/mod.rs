@@ -416,6 +416,19 @@ impl Accel {
         Primitive { shape, material: m.material, light: m.light }
     }
 
+    /// Primitive `id`'s material (an index into the scene's materials), without putting
+    /// its shape together.
+    #[inline]
+    pub fn material(&self, id: u32) -> u32 {
+        self.meta[id as usize].material
+    }
+
+    /// Primitive `id`'s light (an index into the scene's lights), or [`NO_LIGHT`].
+    #[inline]
+    pub fn light(&self, id: u32) -> u32 {
+        self.meta[id as usize].light
+    }
+
     /// Every primitive, by id ([`Accel::prim`]).
     pub fn prims(&self) -> impl ExactSizeIterator<Item = Primitive> + '_ {
         (0..self.len() as u32).map(|id| self.prim(id))

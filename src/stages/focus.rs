@@ -62,8 +62,9 @@ pub fn blur(scene: &Scene, rays: &RayQueue, hits: &HitQueue, first: usize, sharp
         for (k, &r) in r.iter().enumerate().take(rays.len() - i0) {
             let i = i0 + k;
             let specular = hits.prim[i] != MISS && {
-                let prim = scene.accel.prim(hits.prim[i]);
-                prim.light == NO_LIGHT && !matches!(scene.materials[prim.material as usize], Material::Diffuse { .. })
+                let prim = hits.prim[i];
+                scene.accel.light(prim) == NO_LIGHT
+                    && !matches!(scene.materials[scene.accel.material(prim) as usize], Material::Diffuse { .. })
             };
             let at = first + rays.slot[i] as usize;
             sharp[at] = r;

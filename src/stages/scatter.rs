@@ -124,8 +124,7 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &Index
     for ids in specular.index.chunks(LANES) {
         let (mut smooth, mut n) = ([0u32; LANES], 0);
         for &i in ids {
-            let prim = scene.accel.prim(hits.prim[i as usize]);
-            let material = &scene.materials[prim.material as usize];
+            let material = &scene.materials[scene.accel.material(hits.prim[i as usize]) as usize];
             if is_glossy(material) {
                 glossy(scene, rays, hits, i as usize, material, next);
             } else {
@@ -253,8 +252,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     // whether it is a mirror (None: not a specular material, nothing to spawn).
     let mut mat = [(1.0f32, 1.0f32, Vec3::ONE, None); LANES];
     for (k, &i) in ids.iter().enumerate() {
-        let prim = scene.accel.prim(hits.prim[i as usize]);
-        mat[k] = match scene.materials[prim.material as usize] {
+        mat[k] = match scene.materials[scene.accel.material(hits.prim[i as usize]) as usize] {
             Material::Mirror { color } => (1.0, 1.0, color, Some(true)),
             Material::Dielectric { ior, ratio: ReflectRatio::Fixed(c), tint, .. } => (ior, c, tint, Some(false)),
             Material::Dielectric { ior, ratio: ReflectRatio::Fresnel, tint, .. } => (ior, f32::NAN, tint, Some(false)),

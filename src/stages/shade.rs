@@ -76,9 +76,9 @@ pub fn shade(
             }
             continue;
         }
-        let prim = scene.accel.prim(hits.prim[i]);
-        if prim.light != NO_LIGHT {
-            if let Some(radiance) = emitted(&scene.lights[prim.light as usize], rays.dir(i)) {
+        let light = scene.accel.light(hits.prim[i]);
+        if light != NO_LIGHT {
+            if let Some(radiance) = emitted(&scene.lights[light as usize], rays.dir(i)) {
                 film.push(rays.slot[i], rays.weight(i) * radiance);
             }
         } else if rays.depth[i] < s.max_depth {

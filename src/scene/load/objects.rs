@@ -373,7 +373,7 @@ pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables
     }
     let mut accel = Accel::build_with(prims, MAX_LEAF, quality);
     for id in 0..accel.len() as u32 {
-        let i = accel.prim(id).material as usize;
+        let i = accel.material(id) as usize;
         accel.set_material(id, materials[i]);
         if smooth {
             tables.normals.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
