@@ -7,7 +7,7 @@
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
-use crate::sampling::{cmj_grid, dim, hash, hash_lanes, sobol_owen_lanes, to_unit};
+use crate::sampling::{cmj_grid, dim, hash, hash_lanes, sobol_owen, sobol_owen_lanes, to_unit};
 use crate::scene::{Light, Probe, Scene};
 use crate::simd::{Real, Word, V3};
 use crate::surface::{diffuse_brdf, Surface};
@@ -93,6 +93,64 @@ pub fn area_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
         let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
         f(cell, wi, q.dist, surf.w * brdf * radiance * (q.cos_x * q.cos_y * scale / q.dist2));
     }
+}
+
+/// A light sample of a rough surface's hit ([`gloss_light_sample`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GlossLightSample {
+    /// Unit direction from the hit to the point on the light.
+    pub wi: Vec3,
+    /// Distance to that point.
+    pub dist: f32,
+    /// The light's radiance.
+    pub radiance: Vec3,
+    /// Density of the sample per unit solid angle at the hit, the light's choice
+    /// included: what [`gloss_light_pdf`] gives a ray that reaches that point.
+    pub pdf: f32,
+}
+
+/// A point on one of the scene's `gloss_lights` seen from `x`, for multiple importance
+/// sampling at the rough-surface hit of the path (`key`, `sample`): the light chosen
+/// uniformly, the point uniform over its area, each from point `sample` of an
+/// Owen-scrambled Sobol sequence keyed by the path ([`dim::GLOSS_LIGHT_PICK`],
+/// [`dim::GLOSS_LIGHT`]), so stratified over the pixel's samples. `None` when the scene
+/// has no such light or the point sees the light's back.
+#[inline]
+pub fn gloss_light_sample(scene: &Scene, x: Vec3, key: u32, sample: u32) -> Option<GlossLightSample> {
+    let lights = &scene.gloss_lights;
+    let li = match lights.len() {
+        0 => return None,
+        1 => lights[0],
+        n => {
+            let u = sobol_owen(sample, hash(&[key, dim::GLOSS_LIGHT_PICK])).x;
+            lights[((u * n as f32) as usize).min(n - 1)]
+        }
+    };
+    let (corner, u, v, normal, area, radiance, triangle) = planar(&scene.lights[li as usize])?;
+    let quad = QuadLanes::<f32>::splat(corner, u, v, normal);
+    let seed = hash(&[key, li, dim::GLOSS_LIGHT]);
+    // The cosine at x is the BSDF's business: any normal will do for quad_sample's.
+    let q = quad_sample(&quad, V3::splat(x), V3::splat(normal), sample, seed, triangle);
+    if q.cos_y <= 0.0 || q.dist2 == 0.0 {
+        return None;
+    }
+    // Uniform over the light's area, the light chosen with probability 1 / n.
+    let pdf = q.dist2 / (q.cos_y * area * lights.len() as f32);
+    Some(GlossLightSample { wi: q.wi.vec(), dist: q.dist, radiance, pdf })
+}
+
+/// The density per unit solid angle with which [`gloss_light_sample`] draws the point of
+/// light `li` that a ray along unit `d` meets at distance `t`: 0 for a point light. Every
+/// emitting area light is among the scene's `gloss_lights` when any is, so this is also
+/// its density for a light the sampler has (a dark light emits nothing to weight).
+#[inline]
+pub fn gloss_light_pdf(scene: &Scene, li: u32, d: Vec3, t: f32) -> f32 {
+    let Some((_, _, _, normal, area, _, _)) = planar(&scene.lights[li as usize]) else { return 0.0 };
+    let cos = -normal.dot(d);
+    if cos <= 0.0 {
+        return 0.0;
+    }
+    t * t / (cos * area * scene.gloss_lights.len() as f32)
 }
 
 /// A planar light's origin, edges and normal on lanes (a parallelogram's corner and edges,

@@ -160,9 +160,13 @@ soa! {
         /// names the path, and it indexes the point's stratified sequences (the light
         /// samples of all the point's paths are stratified together).
         sample: u32,
+        /// Density (solid angle) with which a rough surface's BSDF sampled this ray's
+        /// direction, when the surface also sampled the lights (multiple importance
+        /// sampling: weights the emitter the ray hits); 0 for every other ray.
+        pdf: f32,
     }
     push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; slot: u32 => slot; w: Vec3 => wr, wg, wb;
-         depth: u32 => depth; key: u32 => key; sample: u32 => sample)
+         depth: u32 => depth; key: u32 => key; sample: u32 => sample; pdf: f32 => pdf)
     get(origin => ox, oy, oz; dir => dx, dy, dz; weight => wr, wg, wb)
 }
 
@@ -460,12 +464,13 @@ mod tests {
         fn ray_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), any::<u32>(), vec3(), any::<u32>(), any::<(u32, u32)>()), 1..40)) {
             let mut q = RayQueue::default();
             for &(o, d, slot, w, depth, (key, sample)) in &rays {
-                q.push(o, d, slot, w, depth, key, sample);
+                q.push(o, d, slot, w, depth, key, sample, slot as f32);
             }
             prop_assert_eq!(q.len(), rays.len());
             for (i, &(o, d, slot, w, depth, (key, sample))) in rays.iter().enumerate() {
                 prop_assert_eq!((q.origin(i), q.dir(i), q.weight(i)), (o, d, w));
                 prop_assert_eq!((q.slot[i], q.depth[i], q.key[i], q.sample[i]), (slot, depth, key, sample));
+                prop_assert_eq!(q.pdf[i], slot as f32);
             }
             let mut tail = RayQueue::default();
             tail.append_range(&q, 1..q.len());

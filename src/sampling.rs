@@ -33,9 +33,31 @@ pub mod dim {
     pub const GLOSS: u32 = 10;
     /// Rough glass: the choice between the sampled normal's reflection and refraction.
     pub const GLOSS_BRANCH: u32 = 11;
+    /// Rough surfaces under multiple importance sampling: the point sampled on a light.
+    pub const GLOSS_LIGHT: u32 = 12;
+    /// Rough surfaces under multiple importance sampling: the light chosen, when several.
+    pub const GLOSS_LIGHT_PICK: u32 = 13;
     /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
     /// renderer's dimensions, which grow from 1).
     pub const BENCH: u32 = 100;
+}
+
+/// The power heuristic (β = 2) of multiple importance sampling: the weight of a sample
+/// drawn with density `a` where another strategy has density `b` for it. 0 when `a` is 0
+/// (the strategy cannot draw it); the two weights of a direction always sum to 1, and to
+/// ½ each where both densities overflow.
+#[inline]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    if a <= 0.0 || a.is_nan() {
+        return 0.0;
+    }
+    let r = b / a;
+    let w = 1.0 / (1.0 + r * r);
+    if w.is_nan() {
+        0.5
+    } else {
+        w
+    }
 }
 
 /// A 32-bit integer hash with good avalanche (Wellons' "lowbias32"), on one word or on
@@ -392,6 +414,21 @@ pub fn concentric_disk_lanes(x: wide::f32x16, y: wide::f32x16, n: usize) -> (wid
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn power_heuristic_weights_sum_to_one() {
+        for (a, b) in
+            [(1.0f32, 1.0f32), (2.0, 0.5), (1e-30, 1e30), (3.0, 0.0), (f32::MAX, f32::MAX), (f32::INFINITY, 2.0)]
+        {
+            let (wa, wb) = (power_heuristic(a, b), power_heuristic(b, a));
+            assert!((wa + wb - 1.0).abs() < 1e-6 && (0.0..=1.0).contains(&wa), "{a} {b}: {wa} + {wb}");
+        }
+        assert_eq!(power_heuristic(2.0, 1.0), 0.8);
+        // A strategy that cannot draw the sample gets no weight.
+        assert_eq!(power_heuristic(0.0, 1.0), 0.0);
+        assert_eq!(power_heuristic(f32::NAN, 1.0), 0.0);
+        assert_eq!(power_heuristic(f32::INFINITY, f32::INFINITY), 0.5);
+    }
 
     #[test]
     fn concentric_disk_on_lanes_gives_the_scalar_bits() {

@@ -200,3 +200,132 @@ fn a_rotated_textured_sphere_has_mitsubas_uvs() {
         assert!(du < 1e-4 && (uv.y - want.y).abs() < 1e-4, "at {p}: {uv} against Mitsuba's {want}");
     }
 }
+
+/// Three area lights (two quads, one triangle, one of them dark) and a point light around
+/// a rough gold sphere that fills the view, on black: the image is the sphere's glossy
+/// reflection of the lights and nothing else.
+fn mis_scene(alpha: f32) -> String {
+    format!(
+        "[render]\nwidth = 12\nheight = 12\n[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nfov_y = 30\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [-2, 2, 1]\nedge_u = [1.5, 0, 0]\nedge_v = [0, 0, 1.5]\nradiance = [4, 3, 2]\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [1, -2, 0]\nedge_u = [0, 0, 1]\nedge_v = [1, 0, 0]\nradiance = [1, 2, 6]\n\
+         [[lights]]\ntype = \"quad\"\ncorner = [0, 0, 5]\nedge_u = [0, 1, 0]\nedge_v = [1, 0, 0]\nradiance = [0, 0, 0]\n\
+         [[lights]]\ntype = \"triangle\"\nv0 = [2, 0, 2]\nv1 = [2, 1, 2]\nv2 = [2, 0, 3]\nradiance = [6, 6, 6]\n\
+         [[lights]]\ntype = \"point\"\nposition = [0, 3, 3]\nintensity = [10, 10, 10]\n\
+         [materials.m]\ntype = \"conductor\"\nmaterial = \"Au\"\nalpha = {alpha}\ndistribution = \"ggx\"\n{SPHERE}"
+    )
+}
+
+/// Each rough hit's light sample has the density `gloss_light_pdf` gives a ray that
+/// reaches its point, and the samples integrate the lights: E[cos / pdf] over them is
+/// the sum of each lit light's ∫cos dω (its polygon irradiance at unit radiance).
+#[test]
+fn gloss_light_samples_have_the_density_they_claim() {
+    use wavetrace::light::{gloss_light_pdf, gloss_light_sample, polygon_irradiance};
+    use wavetrace::scene::Light;
+    let scene = scene(&mis_scene(0.3), &[]);
+    // The lit area lights, the dark quad and the point light left out.
+    assert_eq!(scene.gloss_lights, vec![0, 1, 3]);
+    let (x, n) = (Vec3::new(0.3, 0.2, 0.9).normalize(), Vec3::new(0.3, 0.2, 0.9).normalize());
+    let expected: f32 = scene
+        .gloss_lights
+        .iter()
+        .map(|&li| match scene.lights[li as usize] {
+            // One-sided: a light x sees from behind sends nothing.
+            Light::Quad { normal, corner, .. } | Light::Triangle { normal, v0: corner, .. }
+                if normal.dot(x - corner) <= 0.0 =>
+            {
+                0.0
+            }
+            Light::Quad { corner, u, v, .. } => {
+                polygon_irradiance(x, n, &[corner, corner + u, corner + u + v, corner + v])
+            }
+            Light::Triangle { v0, e1, e2, .. } => polygon_irradiance(x, n, &[v0, v0 + e1, v0 + e2]),
+            Light::Point { .. } => unreachable!(),
+        })
+        .sum();
+    let count = 1 << 16;
+    let mut sum = 0.0f64;
+    for s in 0..count {
+        let Some(l) = gloss_light_sample(&scene, x, 77, s) else { continue };
+        // Which light the sample lies on: the one whose density for the ray matches.
+        let li = scene.gloss_lights.iter().copied().find(|&li| {
+            let p = gloss_light_pdf(&scene, li, l.wi, l.dist);
+            p > 0.0 && (p - l.pdf).abs() <= 1e-3 * l.pdf && on_light(&scene.lights[li as usize], x + l.wi * l.dist)
+        });
+        assert!(li.is_some(), "sample {s}: no light has density {} for it", l.pdf);
+        sum += (n.dot(l.wi).max(0.0) / l.pdf) as f64;
+    }
+    let estimate = (sum / count as f64) as f32;
+    assert!((estimate / expected - 1.0).abs() < 0.01, "E[cos/pdf] {estimate}, lights' ∫cos dω {expected}");
+}
+
+/// True when `p` lies on the plane of area light `light`, inside it.
+fn on_light(light: &wavetrace::scene::Light, p: Vec3) -> bool {
+    use wavetrace::scene::Light;
+    let (o, u, v, tri) = match *light {
+        Light::Quad { corner, u, v, .. } => (corner, u, v, false),
+        Light::Triangle { v0, e1, e2, .. } => (v0, e1, e2, true),
+        Light::Point { .. } => return false,
+    };
+    let q = p - o;
+    let n = u.cross(v);
+    let (a, b) = (q.cross(v).dot(n) / n.length_squared(), u.cross(q).dot(n) / n.length_squared());
+    let eps = 1e-4;
+    q.dot(n).abs() <= 1e-4 * n.length() * q.length().max(1.0)
+        && a >= -eps
+        && b >= -eps
+        && if tri { a + b <= 1.0 + eps } else { a <= 1.0 + eps && b <= 1.0 + eps }
+}
+
+/// Multiple importance sampling at rough hits converges to the image of the BSDF's rays
+/// alone (several lights, a triangle among them, a dark one, a point light that glossy
+/// hits never see either way), with less noise where the lobe is wide and no more where
+/// it is narrow (the BSDF's rays then carry nearly all the weight).
+#[test]
+fn mis_at_rough_hits_converges_to_the_bsdf_alone() {
+    for (alpha, most) in [(0.05, 1.1), (0.3, 0.7)] {
+        let text = mis_scene(alpha);
+        let run = |mis: bool, spp: u32, seed: u32| {
+            let sets = [
+                format!("render.gloss.mis={mis}").leak() as &str,
+                format!("render.aa.samples={spp}").leak(),
+                format!("render.seed={seed}").leak(),
+            ];
+            render_text(&text, &sets, 2).image
+        };
+        let mean = |im: &wavetrace::film::Image| {
+            im.pixels.iter().map(|p| p.x + p.y + p.z).sum::<f32>() / im.pixels.len() as f32
+        };
+        let (bsdf, mis) = (run(false, 4096, 1), run(true, 1024, 1));
+        let (a, b) = (mean(&bsdf), mean(&mis));
+        assert!((a / b - 1.0).abs() < 0.01, "alpha {alpha}: mean {a} (BSDF alone) vs {b} (MIS)");
+        // Noise: two seeds' images differ less with MIS at a quarter of the samples.
+        let noise = |mis: bool, spp: u32| rmse(&run(mis, spp, 2), &run(mis, spp, 3));
+        let (nb, nm) = (noise(false, 64), noise(true, 64));
+        assert!(nm < most * nb, "alpha {alpha}: noise {nm} with MIS, {nb} without");
+    }
+}
+
+/// On the Mitsuba test scenes at equal samples, MIS lowers the error against the
+/// reference (and its mean stays the reference's).
+#[test]
+fn mis_lowers_the_error_on_the_glossy_scenes() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gloss");
+    for name in ["gold", "frosted"] {
+        let run = |mis: bool| {
+            let sets =
+                [format!("render.gloss.mis={mis}"), "render.aa.samples=64".into(), "render.shadows.samples=1".into()];
+            let source = wavetrace::scene::SceneSource::from_file(&dir.join(format!("{name}.xml"))).unwrap();
+            let scene = wavetrace::scene::load(&source, &sets).unwrap();
+            render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).unwrap().image
+        };
+        let reference = compare::load_linear(&dir.join(format!("refs/{name}.exr"))).unwrap();
+        let (bsdf, mis) = (run(false), run(true));
+        let (eb, em) = (rmse(&bsdf, &reference), rmse(&mis, &reference));
+        assert!(em < 0.6 * eb, "{name}: RMSE {em} with MIS, {eb} without");
+        let mean = |im: &wavetrace::film::Image| im.pixels.iter().map(|p| p.x + p.y + p.z).sum::<f32>();
+        let (m, r) = (mean(&mis), mean(&reference));
+        assert!((m / r - 1.0).abs() < 0.005, "{name}: mean {m} with MIS, reference {r}");
+    }
+}

@@ -508,7 +508,7 @@ fn hybrid_tracer_with_and_without_interleaving_equals_the_wide_kernel() {
     let mut rays_q = RayQueue::default();
     let mut shadow = ShadowQueue::default();
     for (i, (&o, &d)) in o.iter().zip(&d).enumerate() {
-        rays_q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0);
+        rays_q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0);
         shadow.push(o, d, 0.05 + (i % 13) as f32 * 0.02, i as u32, Vec3::ONE);
     }
     let answers = |accel: &Accel, kernel: Kernel| {

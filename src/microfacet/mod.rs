@@ -282,7 +282,10 @@ pub fn tangents(n: Vec3) -> (Vec3, Vec3) {
 
 /// Unpolarised Fresnel reflectance of a conductor with complex index of refraction
 /// η + i k per channel (Mitsuba's `fresnel_conductor`, after Moeller's *Optics*),
-/// `cos_i` in [0, 1]: light arrives from outside the conductor.
+/// `cos_i` in [0, 1]: light arrives from outside the conductor. A channel where η = k = 0
+/// reflects everything: that is Mitsuba's "none", a perfect reflector, and what Mitsuba's
+/// gamut clamp leaves of some named metals' channels (AlSb's red), where the formula is
+/// 0/0 at normal incidence.
 pub fn fresnel_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     let one = |eta: f32, k: f32| {
         let cos2 = cos_i * cos_i;
@@ -299,7 +302,8 @@ pub fn fresnel_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
         let rp = rs * (term3 - term4) / (term3 + term4);
         0.5 * (rs + rp)
     };
-    Vec3::new(one(eta.x, k.x), one(eta.y, k.y), one(eta.z, k.z))
+    let f = Vec3::new(one(eta.x, k.x), one(eta.y, k.y), one(eta.z, k.z));
+    Vec3::select(eta.cmpeq(Vec3::ZERO) & k.cmpeq(Vec3::ZERO), Vec3::ONE, f)
 }
 
 /// Mitsuba's dielectric `fresnel(cos_i, eta)`: the reflectance F, the signed cosine of

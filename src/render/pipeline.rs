@@ -111,7 +111,7 @@ impl<'a> Pipeline<'a> {
     }
 
     /// One wave (paper §2): intersect, shade, the shadows (uniform rays; or corners, then
-    /// penumbra), reflection/refraction, film. Each stage call is followed by the meter's
+    /// penumbra), reflection/refraction (and the light samples of rough surfaces), film. Each stage call is followed by the meter's
     /// record of it.
     fn wave(&mut self, scene: &Scene, coherence: Coherence) {
         let (q, tr, m, acc) = (&mut self.q, &mut self.tracer, &mut self.meter, &mut self.acc);
@@ -153,8 +153,14 @@ impl<'a> Pipeline<'a> {
         // A scene without used mirrors or dielectrics never enters the scatter stage
         // (and its next level stays empty).
         if scene.has_specular {
-            scatter::scatter(scene, &q.rays, &q.hits, &q.specular, &mut q.next);
+            scatter::scatter(scene, &q.rays, &q.hits, &q.specular, &mut q.next, &mut q.shadow);
             t = m.scatter(q, t);
+
+            // Rough surfaces' light samples (multiple importance sampling).
+            if !q.shadow.is_empty() {
+                let lit = shadow::occlusion(tr, &q.shadow, &mut q.film);
+                t = m.shadow(q, heat, lit, tr, t);
+            }
         }
 
         let dropped = film::accumulate(&q.film, &mut acc.sums);

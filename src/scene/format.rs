@@ -50,6 +50,8 @@ pub struct RenderDesc {
     pub shadows: ShadowsDesc,
     /// Depth of field.
     pub dof: DofDesc,
+    /// Glossy surfaces.
+    pub gloss: GlossDesc,
 }
 
 impl Default for RenderDesc {
@@ -64,6 +66,7 @@ impl Default for RenderDesc {
             aa: AaDesc::default(),
             shadows: ShadowsDesc::default(),
             dof: DofDesc::default(),
+            gloss: GlossDesc::default(),
         }
     }
 }
@@ -188,6 +191,22 @@ pub struct DofDesc {
 impl Default for DofDesc {
     fn default() -> Self {
         DofDesc { samples: 1 }
+    }
+}
+
+/// `[render.gloss]`.
+#[derive(Deserialize, Serialize, Debug, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct GlossDesc {
+    /// Multiple importance sampling at rough conductors and rough glass: each glossy hit
+    /// also samples one point on an area light, and the light sample and the BSDF's ray
+    /// are weighted by the power heuristic (default true; false: the BSDF's ray alone).
+    pub mis: bool,
+}
+
+impl Default for GlossDesc {
+    fn default() -> Self {
+        GlossDesc { mis: true }
     }
 }
 

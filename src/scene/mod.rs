@@ -110,6 +110,9 @@ pub struct Settings {
     /// Early stopping of penumbra points; `Some` only with adaptive shadows and a
     /// tolerance above 0.
     pub penumbra_stop: Option<PenumbraStop>,
+    /// Rough conductors and rough glass sample the area lights too, weighted against
+    /// their BSDF's ray by multiple importance sampling (`render.gloss.mis`).
+    pub gloss_mis: bool,
 }
 
 /// Early stopping of a penumbra point's shadow rays (`render.shadows.tolerance`).
@@ -263,6 +266,26 @@ pub enum Light {
     },
 }
 
+impl Light {
+    /// An area light that emits (a point light, or a dark one, is not).
+    pub fn lit_area(&self) -> bool {
+        match *self {
+            Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance != Vec3::ZERO,
+            Light::Point { .. } => false,
+        }
+    }
+}
+
+impl Material {
+    /// The microfacet roughness of a rough conductor or rough glass.
+    pub fn roughness(&self) -> Option<&Microfacet> {
+        match self {
+            Material::Conductor { roughness, .. } | Material::Dielectric { roughness, .. } => roughness.as_ref(),
+            Material::Diffuse { .. } | Material::Mirror { .. } => None,
+        }
+    }
+}
+
 /// Facts about the loaded scene, reported in the stats.
 #[derive(Clone, Debug, Default)]
 pub struct SceneInfo {
@@ -308,6 +331,10 @@ pub struct Scene {
     pub uv_frames: Vec<Mat3>,
     /// True when some material is a mirror or dielectric (so the scatter stage has work).
     pub has_specular: bool,
+    /// The emitting area lights, which rough conductors and rough glass sample under
+    /// `settings.gloss_mis`; empty when that is off or no rough material is used, so a
+    /// scene without one pays nothing for it.
+    pub gloss_lights: Vec<u32>,
     /// Load facts for the stats.
     pub info: SceneInfo,
 }

@@ -102,9 +102,9 @@ fn push(
     let d = cam.pinhole_dir(film, s.width, s.height);
     if cam.aperture > 0.0 {
         let (o, d) = thin_lens(scene, d, lens());
-        rays.push(o, d, slot, w, 0, key, sample);
+        rays.push(o, d, slot, w, 0, key, sample, 0.0);
     } else {
-        rays.push(cam.position, d, slot, w, 0, key, sample);
+        rays.push(cam.position, d, slot, w, 0, key, sample, 0.0);
     }
 }
 
@@ -158,7 +158,7 @@ fn lens_rays(
         let (disk_x, disk_y) = concentric_disk_lanes(x, y, n);
         let (o, dir) = thin_lens_lanes(scene, d, disk_x, disk_y);
         let sample = words(l + u32x16::splat(base));
-        rays.push_lanes(o.lanes(), dir.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], sample, n);
+        rays.push_lanes(o.lanes(), dir.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], sample, [0.0; LANES], n);
     }
 }
 
@@ -234,10 +234,10 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
             };
             let (disk_x, disk_y) = concentric_disk_lanes(x, y, count);
             let (o, d) = thin_lens_lanes(scene, d, disk_x, disk_y);
-            rays.push_lanes(o.lanes(), d.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], jw, count);
+            rays.push_lanes(o.lanes(), d.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], jw, [0.0; LANES], count);
         } else {
             let o = cam.position.to_array().map(|x| [x; LANES]);
-            rays.push_lanes(o, [dx, dy, dz], [slot; LANES], w, [0; LANES], [key; LANES], jw, count);
+            rays.push_lanes(o, [dx, dy, dz], [slot; LANES], w, [0; LANES], [key; LANES], jw, [0.0; LANES], count);
         }
     }
 }

@@ -12,9 +12,13 @@ use glam::Vec3;
 use wide::{f32x16, u32x16};
 
 use crate::accel::offset::{offset_lanes, offset_ray_origin};
-use crate::microfacet::{fresnel_conductor, rough_dielectric_split, tangents};
-use crate::queue::{HitQueue, IndexQueue, RayQueue};
-use crate::sampling::{dim, hash, hash_lanes, sobol_owen};
+use crate::light::{gloss_light_sample, SHADOW_TMAX_SCALE};
+use crate::microfacet::{
+    fresnel_conductor, rough_conductor_eval, rough_conductor_pdf, rough_dielectric_eval, rough_dielectric_pdf,
+    rough_dielectric_split, tangents,
+};
+use crate::queue::{HitQueue, IndexQueue, RayQueue, ShadowQueue};
+use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
 use crate::scene::{Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
 use crate::surface::{color_at, hit_lanes, shading_lanes, shading_normal, HitLanes};
@@ -107,13 +111,22 @@ fn fresnel_lanes<R: Real>(cos_i: R, eta: R) -> (R, R) {
     (R::splat(0.5) * (rs * rs + rp * rp), cos2_t)
 }
 
-/// Spawns the reflection and refraction rays of every listed hit into `next` (cleared
+/// Spawns the reflection and refraction rays of every listed hit into `next`, and the
+/// light samples of rough hits under multiple importance sampling into `shadow` (both cleared
 /// first). Smooth mirrors and glass go 16 hits at a time on lanes, in list order: a
 /// hit's reflection ray, then its refraction ray. Conductors and rough glass
 /// ([`is_glossy`]) are sampled one hit at a time, one ray each ([`glossy`]); in a group
 /// of 16 listed hits, their rays come first.
-pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &IndexQueue, next: &mut RayQueue) {
+pub fn scatter(
+    scene: &Scene,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    specular: &IndexQueue,
+    next: &mut RayQueue,
+    shadow: &mut ShadowQueue,
+) {
     next.clear();
+    shadow.clear();
     // A scene without glossy materials never looks at the material twice.
     if !scene.materials.iter().any(is_glossy) {
         for ids in specular.index.chunks(LANES) {
@@ -126,7 +139,7 @@ pub fn scatter(scene: &Scene, rays: &RayQueue, hits: &HitQueue, specular: &Index
         for &i in ids {
             let material = &scene.materials[scene.accel.material(hits.prim[i as usize]) as usize];
             if is_glossy(material) {
-                glossy(scene, rays, hits, i as usize, material, next);
+                glossy(scene, rays, hits, i as usize, material, next, shadow);
             } else {
                 smooth[n] = i;
                 n += 1;
@@ -144,14 +157,11 @@ pub fn is_glossy(m: &Material) -> bool {
     matches!(m, Material::Conductor { .. } | Material::Dielectric { roughness: Some(_), .. })
 }
 
-/// A conductor's Fresnel reflectance; in a channel where eta = k = 0 it is 1: that is
-/// Mitsuba's "none", a perfect reflector, and what Mitsuba's gamut clamp leaves of some
-/// named metals' channels (AlSb's red), where the formula is 0/0 at normal incidence.
+/// A conductor's Fresnel reflectance ([`fresnel_conductor`]) for a cosine that may
+/// round past 1.
 #[inline]
 fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
-    let f = fresnel_conductor(cos_i.clamp(0.0, 1.0), eta, k);
-    let perfect = eta.cmpeq(Vec3::ZERO) & k.cmpeq(Vec3::ZERO);
-    Vec3::select(perfect, Vec3::ONE, f)
+    fresnel_conductor(cos_i.clamp(0.0, 1.0), eta, k)
 }
 
 /// The ray of one hit `i` on a conductor or rough glass: a conductor reflects (about the
@@ -161,7 +171,20 @@ fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// ([`rough_dielectric_split`]). The microfacet sample and the branch are point
 /// (`sample`) of the path's Owen-scrambled Sobol sequences keyed by its `key` and
 /// [`dim::GLOSS`], [`dim::GLOSS_BRANCH`]: stratified over the pixel's samples.
-fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &Material, next: &mut RayQueue) {
+///
+/// Under multiple importance sampling (the scene's `gloss_lights` not empty) a rough
+/// hit also samples a point on a light ([`gloss_light_sample`]) and sends its shadow ray
+/// to `shadow`, weighted by the power heuristic against the BSDF's density for it; the
+/// BSDF's ray carries its own density, which weights the emitter it may hit (shade).
+fn glossy(
+    scene: &Scene,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    i: usize,
+    material: &Material,
+    next: &mut RayQueue,
+    shadow: &mut ShadowQueue,
+) {
     let prim_id = hits.prim[i] as usize;
     let prim = scene.accel.prim(prim_id as u32);
     let d = rays.dir(i);
@@ -172,15 +195,27 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
     let u = sobol_owen(sample, hash(&[key, dim::GLOSS]));
     // The origin of a ray leaving along `wo`: off the surface on wo's side.
     let origin = |wo: Vec3| offset_ray_origin(x, err, if wo.dot(ng) > 0.0 { ng } else { -ng });
+    let mis = !scene.gloss_lights.is_empty();
+    // The light sample of a rough hit in `frame`, whose BSDF gives f·cos and density
+    // for a local direction.
+    let mut light = |frame: &Frame, bsdf: &dyn Fn(Vec3) -> (Vec3, f32)| {
+        let Some(l) = mis.then(|| gloss_light_sample(scene, x, key, sample)).flatten() else { return };
+        let (f, pdf) = bsdf(frame.to_local(l.wi));
+        let c = w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
+        if c != Vec3::ZERO {
+            shadow.push(origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, slot, c);
+        }
+    };
     match *material {
         Material::Conductor { eta, k, color, roughness } => {
             // Conductors are two-sided, like the mirror: the side the ray arrived on.
             let n = if d.dot(ng) < 0.0 { ng } else { -ng };
             let ns = shading_normal(scene, prim_id, x, n);
-            let tint = w * color_at(scene, color, prim_id, x);
+            let color = color_at(scene, color, prim_id, x);
+            let tint = w * color;
             let Some(mf) = roughness else {
                 let f = conductor_fresnel(-d.dot(ns), eta, k);
-                next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, tint * f, depth, key1, sample);
+                next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, tint * f, depth, key1, sample, 0.0);
                 return;
             };
             let frame = Frame::new(ns);
@@ -188,19 +223,27 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
             if wi.z <= 0.0 {
                 return;
             }
+            light(&frame, &|wl| (color * rough_conductor_eval(&mf, eta, k, wi, wl), rough_conductor_pdf(&mf, wi, wl)));
             let m = mf.sample(wi, u);
             let wo = reflect(-wi, m);
             if wo.z <= 0.0 {
                 return;
             }
             let weight = conductor_fresnel(wi.dot(m), eta, k) * mf.smith_g1(wo, m);
+            let pdf = if mis { rough_conductor_pdf(&mf, wi, wo) } else { 0.0 };
             let wo = frame.to_world(wo);
-            next.push(origin(wo), wo, slot, tint * weight, depth, key1, sample);
+            next.push(origin(wo), wo, slot, tint * weight, depth, key1, sample, pdf);
         }
         Material::Dielectric { ior, tint, roughness: Some(mf), .. } => {
             // Rough glass is oriented by its outward normal; the split handles either side.
             let frame = Frame::new(shading_normal(scene, prim_id, x, ng));
-            let split = rough_dielectric_split(&mf, ior, frame.to_local(-d), u);
+            let wi = frame.to_local(-d);
+            light(&frame, &|wl| {
+                // Transmission is tinted, as the refracted ray is.
+                let t = if wi.z * wl.z > 0.0 { Vec3::ONE } else { tint };
+                (t * rough_dielectric_eval(&mf, ior, wi, wl), rough_dielectric_pdf(&mf, ior, wi, wl))
+            });
+            let split = rough_dielectric_split(&mf, ior, wi, u);
             // One ray per bounce: the reflection with probability F, else the refraction
             // (Mitsuba's choice), each weighted by its branch weight over its probability.
             let pick = sobol_owen(sample, hash(&[key, dim::GLOSS_BRANCH])).x;
@@ -210,8 +253,9 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
                 (split.refract, 1.0 - split.f, tint, hash(&[key, 2]))
             };
             if let Some((wo, weight)) = branch {
+                let pdf = if mis { rough_dielectric_pdf(&mf, ior, wi, wo) } else { 0.0 };
                 let wo = frame.to_world(wo);
-                next.push(origin(wo), wo, slot, w * tint * (weight / p), depth, key, sample);
+                next.push(origin(wo), wo, slot, w * tint * (weight / p), depth, key, sample, pdf);
             }
         }
         Material::Diffuse { .. } | Material::Mirror { .. } | Material::Dielectric { roughness: None, .. } => {
@@ -295,7 +339,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
         let (_, fixed, color, mirror) = mat[k];
         let Some(mirror) = mirror else { continue };
         if mirror {
-            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample);
+            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample, 0.0);
             continue;
         }
         let refracted = refracts & (1 << k) != 0;
@@ -305,10 +349,10 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
             (true, true) => fresnel_r[k],
         };
         if c > 0.0 {
-            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample);
+            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0);
         }
         if refracted && c < 1.0 {
-            next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample);
+            next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample, 0.0);
         }
     }
 }

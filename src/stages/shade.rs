@@ -12,9 +12,11 @@ use wide::{f32x16, u32x16};
 
 use crate::accel::NO_LIGHT;
 use crate::light::{
-    emitted, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes, SHADOW_TMAX_SCALE,
+    emitted, gloss_light_pdf, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes,
+    SHADOW_TMAX_SCALE,
 };
 use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
+use crate::sampling::power_heuristic;
 use crate::scene::{Light, Scene, ShadowMode};
 use crate::simd::{LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, diffuse_material, diffuse_surfaces, queued_surface};
@@ -79,7 +81,14 @@ pub fn shade(
         let light = scene.accel.light(hits.prim[i]);
         if light != NO_LIGHT {
             if let Some(radiance) = emitted(&scene.lights[light as usize], rays.dir(i)) {
-                film.push(rays.slot[i], rays.weight(i) * radiance);
+                // A rough surface's ray shares this light with its light sample (MIS).
+                let pdf = rays.pdf[i];
+                let mis = if pdf > 0.0 {
+                    power_heuristic(pdf, gloss_light_pdf(scene, light, rays.dir(i), hits.t[i]))
+                } else {
+                    1.0
+                };
+                film.push(rays.slot[i], rays.weight(i) * radiance * mis);
             }
         } else if rays.depth[i] < s.max_depth {
             specular.push(i as u32);
@@ -88,7 +97,7 @@ pub fn shade(
     diffuse_surfaces(scene, rays, hits, &group[..len], surfaces);
     let mut counts = ShadeCounts::default();
     if let ShadowMode::Adaptive(probe) = s.shadow_mode {
-        let fallback = scene.lights.iter().filter(|l| lit_area(l) && !probes_light(l, probe, s.shadow_samples));
+        let fallback = scene.lights.iter().filter(|l| l.lit_area() && !probes_light(l, probe, s.shadow_samples));
         counts.uniform_fallback = fallback.count() as u64 * surfaces.len() as u64;
     }
     if lanes {
@@ -114,14 +123,6 @@ pub fn shade(
         }
     }
     counts
-}
-
-/// An area light that emits (a point light or a dark light never enters the test).
-fn lit_area(light: &Light) -> bool {
-    match *light {
-        Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance != Vec3::ZERO,
-        Light::Point { .. } => false,
-    }
 }
 
 /// Uniform shadow rays from every point of `surfaces` to every lit quad light, 16

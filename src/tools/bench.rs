@@ -185,7 +185,7 @@ pub(crate) fn closest_set(items: &[(Vec3, Vec3)], coherence: Coherence) -> RaySe
     let chunk = |c: &[(Vec3, Vec3)]| {
         let mut q = RayQueue::default();
         for (k, &(o, d)) in c.iter().enumerate() {
-            q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0);
+            q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0, 0.0);
         }
         q
     };

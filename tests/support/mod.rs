@@ -106,7 +106,7 @@ pub fn probe_camera(from: Vec3, p: Vec3) -> String {
 /// A queue of one ray from `o` along `d` (normalised), slot 0, weight 1, depth 0.
 pub fn one_ray(o: Vec3, d: Vec3) -> RayQueue {
     let mut q = RayQueue::default();
-    q.push(o, d.normalize(), 0, Vec3::ONE, 0, 7, 0);
+    q.push(o, d.normalize(), 0, Vec3::ONE, 0, 7, 0, 0.0);
     q
 }
 
@@ -120,7 +120,7 @@ pub fn step_all(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue, ShadowQu
     let (mut points, mut surfaces) = (ShadowPointQueue::default(), SurfaceQueue::default());
     shade::shade(scene, rays, &hits, &mut shadow, &mut points, &mut surfaces, &mut spec, &mut film);
     let mut next = RayQueue::default();
-    scatter::scatter(scene, rays, &hits, &spec, &mut next);
+    scatter::scatter(scene, rays, &hits, &spec, &mut next, &mut ShadowQueue::default());
     (next, hits, shadow, film)
 }
 

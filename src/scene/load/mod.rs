@@ -459,6 +459,7 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         },
         dof_radius,
         penumbra_stop,
+        gloss_mis: r.gloss.mis,
     })
 }
 
@@ -578,6 +579,11 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = built.prims.len();
     let lights = built.lights.clone();
+    let rough = built.prims.iter().any(|p| p.light == NO_LIGHT && materials[p.material as usize].roughness().is_some());
+    let gloss_lights = match settings.gloss_mis && rough {
+        true => (0..lights.len() as u32).filter(|&li| lights[li as usize].lit_area()).collect(),
+        false => Vec::new(),
+    };
     if f.render.bvh == BvhDesc::Auto {
         settings.bvh = BvhQuality::for_budget(ray_budget(&settings, lights.len()), built.prims.len());
     }
@@ -595,6 +601,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         uvs,
         uv_frames: frames,
         has_specular,
+        gloss_lights,
         info,
     })
 }
