@@ -831,6 +831,8 @@ pub struct SceneValues {
     pub shadows: (Count, Option<u8>),
     /// Lens samples.
     pub dof_samples: Count,
+    /// Multiple importance sampling at rough hits (`render.gloss.mis`, TOML only).
+    pub gloss_mis: bool,
     /// Position, look-at, up, fov_y, aperture and focus distance.
     pub camera: (Triple, Triple, Triple, Real, Option<(Real, Real)>),
     /// Background colour.
@@ -948,6 +950,7 @@ impl SceneValues {
             s += &format!("mode = \"adaptive\"\nprobe = \"{probe}\"\n");
         }
         s += &format!("[render.dof]\nsamples = {}\n", self.dof_samples.get());
+        s += &format!("[render.gloss]\nmis = {}\n", self.gloss_mis);
         let (pos, at, up, fov, lens) = &self.camera;
         s += &format!(
             "[camera]\nposition = {}\nlook_at = {}\nup = {}\nfov_y = {}\n",
