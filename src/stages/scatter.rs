@@ -176,6 +176,7 @@ fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// hit also samples a point on a light ([`gloss_light_sample`]) and sends its shadow ray
 /// to `shadow`, weighted by the power heuristic against the BSDF's density for it; the
 /// BSDF's ray carries its own density, which weights the emitter it may hit (shade).
+#[allow(clippy::too_many_arguments)] // the hit, and the two queues a rough hit writes
 fn glossy(
     scene: &Scene,
     rays: &RayQueue,
