@@ -18,7 +18,13 @@ fn json_has_every_set_and_kernel() {
     let out = bench(&args);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
-    assert!(v["bvh_build_seconds"].as_f64().is_some_and(|s| s >= 0.0));
+    let total = v["bvh_build_seconds"].as_f64().expect("build seconds");
+    assert!(total >= 0.0);
+    // The build's phases: each timed, together the total (the rest is what they leave).
+    let phases = ["ploc", "reinsertion", "leaf_collapse", "reorder", "wide_plan", "wide_fill", "wide_blocks", "rest"];
+    let secs: Vec<f64> = phases.iter().map(|p| v["bvh_build_phases"][p].as_f64().expect(p)).collect();
+    assert!(secs.iter().all(|&s| s >= 0.0), "{secs:?}");
+    assert!((secs.iter().sum::<f64>() - total).abs() <= 1e-6 + 1e-9 * total, "{secs:?} vs {total}");
     assert_eq!(v["threads"], 2);
     let sets = v["sets"].as_array().expect("sets");
     let mut seen = Vec::new();

@@ -202,12 +202,57 @@ pub struct Accel {
     pub(crate) slack: f32,
     /// Seconds the BVH build took.
     pub build_seconds: f64,
+    /// Where those seconds went.
+    pub build_phases: BuildPhases,
     /// Whether incoherent queues walk interleaved ([`Accel::closest_many`]) rather than
     /// one ray at a time: when the wide tree is larger than the last-level cache
     /// ([`last_level_cache`]). Interleaving overlaps memory loads at the cost of more
     /// work per step, so it pays only where the walks wait on memory (measured:
     /// docs/performance.md). Either way the answers are the same.
     pub interleave: bool,
+}
+
+/// Seconds each phase of a BVH build took (`wavetrace bench` prints them): obvhs's PLOC
+/// and reinsertion, obvhs's leaf collapse of the binary tree (with the copy of the tree
+/// the wide collapse reads), boxes widened and primitives put in leaf order, the wide
+/// tree's SAH plan, its fill and its leaf blocks, and the rest of the total (primitive
+/// shapes gathered, slots, metadata).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct BuildPhases {
+    /// obvhs's PLOC build of the binary tree.
+    pub ploc: f64,
+    /// obvhs's reinsertion optimisation.
+    pub reinsertion: f64,
+    /// Copying the binary tree, then obvhs's leaf collapse of it.
+    pub leaf_collapse: f64,
+    /// Boxes widened by one float, primitives reordered into leaf order.
+    pub reorder: f64,
+    /// The wide collapse's SAH plan.
+    pub wide_plan: f64,
+    /// Filling the wide nodes (leaves packed into blocks).
+    pub wide_fill: f64,
+    /// Building the leaf blocks.
+    pub wide_blocks: f64,
+    /// Everything else in the build's total.
+    pub rest: f64,
+}
+
+/// Consecutive phase timings: each [`Lap::next`] returns the seconds since the last.
+pub(crate) struct Lap(Instant);
+
+impl Lap {
+    /// Starts timing.
+    pub(crate) fn start() -> Lap {
+        Lap(Instant::now())
+    }
+
+    /// Seconds since the start or the last call.
+    pub(crate) fn next(&mut self) -> f64 {
+        let now = Instant::now();
+        let s = (now - self.0).as_secs_f64();
+        self.0 = now;
+        s
+    }
 }
 
 /// What the accelerator keeps of a primitive beside its shape (12 bytes).
@@ -333,6 +378,7 @@ impl Accel {
                 depth: 0,
                 slack: 0.0,
                 build_seconds: 0.0,
+                build_phases: BuildPhases::default(),
                 interleave: false,
             };
         }
@@ -344,7 +390,9 @@ impl Accel {
         // The slow preset's pre-splitting, which `build_bvh2` does not do, would duplicate
         // primitive references.
         let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), pre_split: false, ..preset };
-        let (mut bvh, mut fine) = bvh2::build(&prims, &params);
+        let mut phases = BuildPhases::default();
+        let (mut bvh, mut fine) = bvh2::build(&prims, &params, &mut phases);
+        let mut lap = Lap::start();
         widen_boxes(&mut bvh);
         widen_boxes(&mut fine);
         // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
@@ -368,7 +416,8 @@ impl Accel {
         for i in &mut fine.primitive_indices {
             *i = id_of[*i as usize];
         }
-        let wide = WideBvh::build(&fine, &prims, params.max_prims_per_leaf);
+        phases.reorder = lap.next();
+        let wide = WideBvh::build(&fine, &prims, params.max_prims_per_leaf, &mut phases);
         let interleave = wide.as_ref().is_some_and(|w| w.bytes() > last_level_cache());
         let bounds = (root.min.into(), root.max.into());
         let bvh = (keep_binary || wide.is_none()).then_some(bvh);
@@ -380,7 +429,15 @@ impl Accel {
         let flat = if wide.is_some() { Vec::new() } else { prims.iter().map(|p| p.shape).collect() };
         let meta = prims.iter().zip(at).map(|(p, at)| Meta { material: p.material, light: p.light, at }).collect();
         let build_seconds = start.elapsed().as_secs_f64();
-        Accel { meta, flat, bvh, bounds, wide, depth, slack, build_seconds, interleave }
+        let named = phases.ploc
+            + phases.reinsertion
+            + phases.leaf_collapse
+            + phases.reorder
+            + phases.wide_plan
+            + phases.wide_fill
+            + phases.wide_blocks;
+        let build_phases = BuildPhases { rest: (build_seconds - named).max(0.0), ..phases };
+        Accel { meta, flat, bvh, bounds, wide, depth, slack, build_seconds, build_phases, interleave }
     }
 
     /// Bytes of the acceleration structure: the binary nodes, the wide tree (with every

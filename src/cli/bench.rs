@@ -78,7 +78,8 @@ pub struct BenchArgs {
     /// all of them).
     #[arg(long, value_delimiter = ',')]
     ray_sets: Vec<String>,
-    /// Print JSON: {"bvh_build_seconds", "primitives", "bytes_per_primitive", "threads", "renderer_kernel", "clock",
+    /// Print JSON: {"bvh_build_seconds", "bvh_build_phases": {"ploc", "reinsertion", "leaf_collapse",
+    /// "reorder", "wide_plan", "wide_fill", "wide_blocks", "rest"}, "primitives", "bytes_per_primitive", "threads", "renderer_kernel", "clock",
     /// "sets": [{"set", "kernel", "rays", "mrays_per_s"}]}.
     #[arg(long)]
     json: bool,

@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use crate::accel::packet::PacketConfig;
 use crate::accel::tracer::{Coherence, Kernel as TracerKernel, Tracer, Width};
-use crate::accel::Accel;
+use crate::accel::{Accel, BuildPhases};
 use crate::error::{Error, Result};
 use crate::film::tiles;
 use crate::light::uniform_shadow_rays;
@@ -130,6 +130,8 @@ pub struct BenchReport {
     /// Seconds the BVH build took when the scene was loaded (binary tree and its wide
     /// collapse).
     pub bvh_build_seconds: f64,
+    /// Where the build's seconds went, phase by phase.
+    pub bvh_build_phases: BuildPhases,
     /// Primitives in the tree.
     pub primitives: usize,
     /// Bytes per primitive of the binary nodes, the wide nodes and the primitives.
@@ -404,6 +406,7 @@ pub fn run(accel: &Accel, sets: &[(&'static str, RaySet)], opts: &BenchOptions) 
     let n = accel.len().max(1) as f64;
     Ok(BenchReport {
         bvh_build_seconds: accel.build_seconds,
+        bvh_build_phases: accel.build_phases,
         primitives: accel.len(),
         bytes_per_primitive: accel.bytes().map(|b| b as f64 / n),
         threads: opts.threads,
@@ -433,6 +436,11 @@ impl BenchReport {
             self.threads,
             if self.threads == 1 { "" } else { "s" },
             self.clock,
+        );
+        let p = &self.bvh_build_phases;
+        t += &format!(
+            "build phases (s): PLOC {:.4}, reinsertion {:.4}, leaf collapse {:.4}, reorder {:.4}, wide plan {:.4}, fill {:.4}, blocks {:.4}, rest {:.4}\n",
+            p.ploc, p.reinsertion, p.leaf_collapse, p.reorder, p.wide_plan, p.wide_fill, p.wide_blocks, p.rest
         );
         t += &format!("{:<14} {:>9}  Mrays/s:", "set", "rays");
         // One row per set, one column per kernel measured.

@@ -8,7 +8,7 @@ use obvhs::ray::RayHit;
 use obvhs::BvhBuildParams;
 
 use super::shapes::{Primitive, NO_LIGHT};
-use super::{cull_at, nearer, slab, tie_limit, Accel, Ray, SlabRay, Traversal};
+use super::{cull_at, nearer, slab, tie_limit, Accel, BuildPhases, Lap, Ray, SlabRay, Traversal};
 
 /// Deepest tree the fixed-size traversal stack handles; deeper trees (never seen from
 /// obvhs's builders on real meshes) fall back to obvhs's own traversal.
@@ -94,7 +94,8 @@ pub(crate) fn subtree<const COUNT: bool>(
 /// shallower than the default traversal stack before [`Accel::build_with`] can size the
 /// stack to the tree. Also returns the tree as it stood before the leaf collapse (one
 /// primitive per leaf), from which the wide BVH chooses its own nodes and leaves.
-pub(crate) fn build(prims: &[Primitive], params: &BvhBuildParams) -> (Bvh2, Bvh2) {
+pub(crate) fn build(prims: &[Primitive], params: &BvhBuildParams, phases: &mut BuildPhases) -> (Bvh2, Bvh2) {
+    let mut lap = Lap::start();
     let indices = (0..prims.len() as u32).collect();
     let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(prims.len()).build(
         params.ploc_search_distance,
@@ -103,14 +104,17 @@ pub(crate) fn build(prims: &[Primitive], params: &BvhBuildParams) -> (Bvh2, Bvh2
         params.sort_precision,
         params.search_depth_threshold,
     );
+    phases.ploc = lap.next();
     let mut reinsertion = obvhs::bvh2::reinsertion::ReinsertionOptimizer::default();
     reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None);
+    phases.reinsertion = lap.next();
     let fine = bvh.clone();
     obvhs::bvh2::leaf_collapser::collapse(
         &mut bvh,
         params.max_prims_per_leaf.clamp(1, 255),
         params.collapse_traversal_cost,
     );
+    phases.leaf_collapse = lap.next();
     // obvhs's second reinsertion, after the collapse, is left out: it would serve only
     // this tree, which only packets walk, and it cost a fifth of the build on sphere 8
     // (2.23 -> 1.78 s) for camera packets within noise (docs/performance.md).

@@ -5,6 +5,7 @@ use obvhs::bvh2::Bvh2;
 
 use super::{is_triangle, Block, LeafRef, Node, Tris, WideBvh, FIRST_BITS, MAX_BLOCKS, MAX_W, TRIS};
 use crate::accel::shapes::{Primitive, Shape, NO_LIGHT};
+use crate::accel::{BuildPhases, Lap};
 use crate::simd::{Vector, LANES};
 
 /// The SAH cost of testing one wide node's boxes, the unit of [`BLOCK_COST`].
@@ -46,10 +47,12 @@ impl<S: Vector> WideBvh<S> {
     /// cost among the collapses of `fine` (see [`Decision`]), leaves of at most `max_leaf`
     /// primitives. `None` when the tree cannot be encoded (more than 2²⁷ leaf blocks, a
     /// leaf over 64 primitives): the binary traversal then serves.
-    pub fn build(fine: &Bvh2, prims: &[Primitive], max_leaf: u32) -> Option<WideBvh<S>> {
+    pub fn build(fine: &Bvh2, prims: &[Primitive], max_leaf: u32, phases: &mut BuildPhases) -> Option<WideBvh<S>> {
         assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
         fine.nodes.first()?;
+        let mut lap = Lap::start();
         let plan = Self::plan(fine, prims, max_leaf);
+        phases.wide_plan = lap.next();
         let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), ids: Vec::new(), other: Vec::new(), depth: 0 };
         let root = &fine.nodes[0];
         let top = if root.is_leaf() || plan[0][0].kind == LEAF_SLOT {
@@ -62,7 +65,9 @@ impl<S: Vector> WideBvh<S> {
         tree.nodes.push(Node { bounds: [[S::splat(0.0); 3]; 2], child: [u32::MAX; MAX_W], valid: 0 });
         let mut packer = Packer { fine, prims, blocks: Vec::new(), open: Vec::new() };
         tree.fill(&plan, &mut packer, 0, &top, 1)?;
+        phases.wide_fill = lap.next();
         tree.blocks = packer.blocks.iter().map(|ids| block(prims, ids, &mut tree.ids, &mut tree.other)).collect();
+        phases.wide_blocks = lap.next();
         Some(tree)
     }
 
