@@ -196,7 +196,8 @@ pub struct Accel {
     /// The same tree collapsed to [`Wide`] children per node, for single rays (`None`
     /// when empty or not encodable: the binary traversal then serves).
     pub(crate) wide: Option<WideBvh<Wide>>,
-    /// Depth of the tree (root = 1), which bounds the traversal stack.
+    /// Depth of the binary tree where one is kept (root = 1), which bounds its traversal
+    /// stack; 0 without one.
     pub(crate) depth: usize,
     /// Absolute culling slack (see [`CULL`]).
     pub(crate) slack: f32,
@@ -213,17 +214,18 @@ pub struct Accel {
 }
 
 /// Seconds each phase of a BVH build took (`wavetrace bench` prints them): obvhs's PLOC
-/// and reinsertion, obvhs's leaf collapse of the binary tree (with the copy of the tree
-/// the wide collapse reads), boxes widened and primitives put in leaf order, the wide
-/// tree's SAH plan, its fill and its leaf blocks, and the rest of the total (primitive
-/// shapes gathered, slots, metadata).
+/// and reinsertion, the binary tree's leaf collapse (without a binary tree, the primitive
+/// order it would give), boxes widened and primitives put in leaf order, the wide tree's
+/// SAH plan, its fill and its leaf blocks, and the rest of the total (primitive shapes
+/// gathered, slots, metadata).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct BuildPhases {
     /// obvhs's PLOC build of the binary tree.
     pub ploc: f64,
     /// obvhs's reinsertion optimisation.
     pub reinsertion: f64,
-    /// Copying the binary tree, then obvhs's leaf collapse of it.
+    /// Copying the binary tree and obvhs's leaf collapse of it where one is kept, else the
+    /// primitive order the collapse would give ([`bvh2::collapsed_order`]).
     pub leaf_collapse: f64,
     /// Boxes widened by one float, primitives reordered into leaf order.
     pub reorder: f64,
@@ -391,26 +393,38 @@ impl Accel {
         // primitive references.
         let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), pre_split: false, ..preset };
         let mut phases = BuildPhases::default();
-        let (mut bvh, mut fine) = bvh2::build(&prims, &params, &mut phases);
+        let mut fine = bvh2::build(&prims, &params, &mut phases);
         let mut lap = Lap::start();
-        widen_boxes(&mut bvh);
+        // The binary tree only where it is kept. Its leaf collapse orders the primitives,
+        // hence their ids and the tie rule: without the tree, the same order is computed.
+        let mut bvh = keep_binary.then(|| bvh2::collapse(&fine, &params));
+        let order = match &bvh {
+            Some(b) => b.primitive_indices.clone(),
+            None => bvh2::collapsed_order(&fine, &params),
+        };
+        phases.leaf_collapse = lap.next();
         widen_boxes(&mut fine);
-        // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
-        // mesh (found by fuzzing) builds deeper trees, which take obvhs's traversal (see
-        // `STACK`), so give it a stack that holds them, as obvhs's own insertion does.
-        bvh.max_depth = (bvh.depth(0) + 1).max(bvh.max_depth);
-        #[cfg(debug_assertions)]
-        bvh.validate(&prims, false, params.pre_split);
+        let mut depth = 0;
+        if let Some(b) = &mut bvh {
+            widen_boxes(b);
+            // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
+            // mesh (found by fuzzing) builds deeper trees, which take obvhs's traversal (see
+            // `STACK`), so give it a stack that holds them, as obvhs's own insertion does.
+            depth = b.depth(0);
+            b.max_depth = (depth + 1).max(b.max_depth);
+            #[cfg(debug_assertions)]
+            b.validate(&prims, false, params.pre_split);
+        }
         // Reorder once so traversal needs no primitive_indices indirection.
-        let prims: Vec<Primitive> = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
-        let depth = bvh.depth(0);
-        let root = bvh.nodes[0].aabb();
+        let input = prims;
+        let prims: Vec<Primitive> = order.iter().map(|&i| input[i as usize]).collect();
+        let root = fine.nodes[0].aabb();
         let scale = Vec3::from(root.min).abs().max(Vec3::from(root.max).abs()).max_element();
         let slack = if scale.is_finite() { scale / 65536.0 } else { 0.0 };
         // The one-primitive-leaf tree indexes the input order; point it at the reordered
         // primitives, whose ids the wide kernel returns.
         let mut id_of = vec![0u32; prims.len()];
-        for (new, &old) in bvh.primitive_indices.iter().enumerate() {
+        for (new, &old) in order.iter().enumerate() {
             id_of[old as usize] = new as u32;
         }
         for i in &mut fine.primitive_indices {
@@ -418,9 +432,13 @@ impl Accel {
         }
         phases.reorder = lap.next();
         let wide = WideBvh::build(&fine, &prims, params.max_prims_per_leaf, &mut phases);
+        if wide.is_none() && bvh.is_none() {
+            // Not encodable as a wide tree (over 2^25 leaf blocks): the binary tree serves,
+            // so build again with it.
+            return Accel::build_trees(input, max_leaf, quality, true);
+        }
         let interleave = wide.as_ref().is_some_and(|w| w.bytes() > last_level_cache());
         let bounds = (root.min.into(), root.max.into());
-        let bvh = (keep_binary || wide.is_none()).then_some(bvh);
         // The wide tree holds every shape; without one, the shapes are kept here.
         let at = match &wide {
             Some(w) => w.slots(prims.len()),

@@ -89,12 +89,12 @@ pub(crate) fn subtree<const COUNT: bool>(
     }
 }
 
-/// obvhs's `build_bvh2` (PLOC, reinsertion, leaf collapse) without its second
-/// reinsertion (below) and without its closing debug self-check, which asserts the tree is
-/// shallower than the default traversal stack before [`Accel::build_with`] can size the
-/// stack to the tree. Also returns the tree as it stood before the leaf collapse (one
-/// primitive per leaf), from which the wide BVH chooses its own nodes and leaves.
-pub(crate) fn build(prims: &[Primitive], params: &BvhBuildParams, phases: &mut BuildPhases) -> (Bvh2, Bvh2) {
+/// obvhs's `build_bvh2` up to its leaf collapse: PLOC and reinsertion, giving the tree
+/// with one primitive per leaf from which the wide BVH chooses its own nodes and leaves
+/// ([`collapse`] makes the binary tree of it where one is kept). Without obvhs's closing
+/// debug self-check, which asserts the tree is shallower than the default traversal stack
+/// before [`Accel::build_with`] can size the stack to the tree.
+pub(crate) fn build(prims: &[Primitive], params: &BvhBuildParams, phases: &mut BuildPhases) -> Bvh2 {
     let mut lap = Lap::start();
     let indices = (0..prims.len() as u32).collect();
     let mut bvh = obvhs::ploc::PlocBuilder::with_capacity(prims.len()).build(
@@ -108,17 +108,82 @@ pub(crate) fn build(prims: &[Primitive], params: &BvhBuildParams, phases: &mut B
     let mut reinsertion = obvhs::bvh2::reinsertion::ReinsertionOptimizer::default();
     reinsertion.run(&mut bvh, params.reinsertion_batch_ratio, None);
     phases.reinsertion = lap.next();
-    let fine = bvh.clone();
-    obvhs::bvh2::leaf_collapser::collapse(
-        &mut bvh,
-        params.max_prims_per_leaf.clamp(1, 255),
-        params.collapse_traversal_cost,
-    );
-    phases.leaf_collapse = lap.next();
-    // obvhs's second reinsertion, after the collapse, is left out: it would serve only
-    // this tree, which only packets walk, and it cost a fifth of the build on sphere 8
-    // (2.23 -> 1.78 s) for camera packets within noise (docs/performance.md).
-    (bvh, fine)
+    bvh
+}
+
+/// The binary tree: obvhs's SAH leaf collapse of a copy of `fine`. obvhs's second
+/// reinsertion, after the collapse, is left out: it would serve only this tree, which
+/// only the tests' reference walks, and it cost a fifth of the build on sphere 8 (2.23 ->
+/// 1.78 s) (docs/performance.md).
+pub(crate) fn collapse(fine: &Bvh2, params: &BvhBuildParams) -> Bvh2 {
+    let mut bvh = fine.clone();
+    obvhs::bvh2::leaf_collapser::collapse(&mut bvh, max_prims(params), params.collapse_traversal_cost);
+    bvh
+}
+
+/// The largest leaf obvhs's collapse may make.
+fn max_prims(params: &BvhBuildParams) -> u32 {
+    params.max_prims_per_leaf.clamp(1, 255)
+}
+
+/// The order [`collapse`] leaves `fine`'s primitives in (its `primitive_indices`),
+/// without collapsing or copying the tree: obvhs 0.4's SAH decisions bottom-up, the same
+/// float expressions, then its layout: the final leaves in node order, a collapsed leaf's
+/// primitives in the order of its subtree's leaves, and the order unchanged where obvhs
+/// changes nothing or the whole tree becomes one leaf. Primitive ids, which the tie rule
+/// ranks, are this order, so a renderer that keeps no binary tree keeps the ids (and the
+/// images' bits) without the collapse (tested against obvhs's).
+pub(crate) fn collapsed_order(fine: &Bvh2, params: &BvhBuildParams) -> Vec<u32> {
+    let (nodes, max_prims, cost) = (&fine.nodes, max_prims(params), params.collapse_traversal_cost);
+    let n = nodes.len();
+    let few = !fine.primitive_indices.is_empty() && fine.primitive_indices.len() as u32 <= max_prims;
+    if max_prims <= 1 || n as u32 <= max_prims * 2 + 1 || few || nodes[0].is_leaf() {
+        return fine.primitive_indices.clone();
+    }
+    // Per node, bottom-up: its primitives when it ends as a leaf, else 0.
+    let mut count = vec![0u32; n];
+    let mut stack = vec![(0usize, false)];
+    while let Some((k, ready)) = stack.pop() {
+        let node = &nodes[k];
+        if node.is_leaf() {
+            count[k] = node.prim_count;
+            continue;
+        }
+        let l = node.first_index as usize;
+        if !ready {
+            stack.extend([(k, true), (l + 1, false), (l, false)]);
+            continue;
+        }
+        let (left, right) = (&nodes[l], &nodes[l + 1]);
+        let total = count[l] + count[l + 1];
+        if count[l] > 0 && count[l + 1] > 0 && total <= max_prims {
+            let collapse_cost = node.aabb().half_area() * (total as f32 - cost);
+            let base_cost = left.aabb().half_area() * count[l] as f32 + right.aabb().half_area() * count[l + 1] as f32;
+            let same_prim = left.first_index == right.first_index && total == 2;
+            if collapse_cost <= base_cost || same_prim {
+                (count[k], count[l], count[l + 1]) = (total, 0, 0);
+            }
+        }
+    }
+    if count[0] > 0 {
+        // The root became the one leaf: obvhs keeps the primitives where they were.
+        return fine.primitive_indices.clone();
+    }
+    let mut order = Vec::with_capacity(fine.primitive_indices.len());
+    let mut below = Vec::new();
+    for k in (0..n).filter(|&k| count[k] > 0) {
+        below.push(k);
+        while let Some(j) = below.pop() {
+            let node = &nodes[j];
+            let first = node.first_index as usize;
+            if node.is_leaf() {
+                order.extend_from_slice(&fine.primitive_indices[first..first + node.prim_count as usize]);
+            } else {
+                below.extend([first + 1, first]);
+            }
+        }
+    }
+    order
 }
 
 /// Stack-based walk of the obvhs `Bvh2` nodes from the root (children adjacent, nearer
@@ -240,7 +305,7 @@ pub(crate) fn occluded<const COUNT: bool>(accel: &Accel, ray: Ray, c: &mut Trave
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::{Ray, Shape};
+    use crate::accel::{BuildPhases, Ray, Shape};
     use glam::Vec3;
 
     fn sphere(x: f32, light: u32) -> Primitive {
@@ -272,6 +337,45 @@ mod tests {
             accel.closest::<true>(Ray::new(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, 0.0, f32::INFINITY), &mut c).unwrap();
         assert!((hit.1 as usize) < accel.len());
         assert!((hit.0 - 4.5).abs() < 1e-5);
+    }
+
+    /// `collapsed_order` is the order obvhs's collapse leaves, on trees of 1 to 3000
+    /// primitives (clustered and spread, so some subtrees collapse and some do not) and
+    /// every leaf limit the renderer allows, at each build quality.
+    #[test]
+    fn collapsed_order_is_obvhs_collapse_order() {
+        let mut seed = 7u32;
+        let mut rnd = move || {
+            seed = crate::sampling::hash(&[seed]);
+            crate::sampling::to_unit(seed)
+        };
+        // Configurations where the collapse moved primitives (else the test proves little).
+        let mut reordered = 0;
+        for count in [1, 2, 3, 17, 300, 3000] {
+            let prims: Vec<Primitive> = (0..count)
+                .map(|i| {
+                    // Clusters of ten along x, spread in y.
+                    let c = Vec3::new((i / 10) as f32 * 3.0 + rnd(), rnd() * 40.0, rnd());
+                    let mut e = |s: f32| Vec3::new(rnd(), rnd(), rnd()) * s;
+                    let shape = Shape::Triangle { v0: c, v1: c + e(0.5), v2: c + e(0.5) };
+                    Primitive { shape, material: 0, light: NO_LIGHT }
+                })
+                .collect();
+            for preset in [BvhBuildParams::fast_build(), BvhBuildParams::medium_build(), BvhBuildParams::slow_build()] {
+                for leaf in [1, 2, 4, 8, 16, 64] {
+                    let params = BvhBuildParams { max_prims_per_leaf: leaf, pre_split: false, ..preset };
+                    let fine = build(&prims, &params, &mut BuildPhases::default());
+                    let collapsed = collapse(&fine, &params);
+                    assert_eq!(
+                        collapsed_order(&fine, &params),
+                        collapsed.primitive_indices,
+                        "{count} prims, leaf {leaf}"
+                    );
+                    reordered += (collapsed.primitive_indices != fine.primitive_indices) as u32;
+                }
+            }
+        }
+        assert!(reordered >= 20, "the collapse reordered primitives in only {reordered} configurations");
     }
 
     #[test]
