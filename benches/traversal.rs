@@ -9,7 +9,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::Path;
 use wavetrace::accel::packet::PacketConfig;
 use wavetrace::scene::{load, SceneSource};
-use wavetrace::tools::bench::{ray_sets, trace, Kernel, RENDER_MIN_LANES};
+use wavetrace::tools::bench::{ray_sets, trace, Kernel, RENDER_MAX_LEAVES};
 
 fn kernels(c: &mut Criterion) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
@@ -27,7 +27,7 @@ fn kernels(c: &mut Criterion) {
                 ("packet8", Kernel::Packet(8, PacketConfig::RENDER)),
                 ("packet16", Kernel::Packet(16, PacketConfig::RENDER)),
                 ("wide", Kernel::Wide),
-                ("hybrid", Kernel::Hybrid(16, PacketConfig::RENDER, RENDER_MIN_LANES)),
+                ("hybrid", Kernel::Hybrid(16, PacketConfig::RENDER, RENDER_MAX_LEAVES)),
             ];
             for (label, kernel) in kernels {
                 g.bench_function(format!("{set_name}/{label}"), |b| {

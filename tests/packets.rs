@@ -526,3 +526,34 @@ fn hybrid_tracer_with_and_without_interleaving_equals_the_wide_kernel() {
         assert!(answers(&accel, Kernel::Interleaved) == expect, "interleaved kernel");
     }
 }
+
+/// The hybrid's choice per queue: a coherent bounce queue (a pinhole grid, whose beams
+/// reach far fewer leaves than they have rays) stays in packets, though its packets keep
+/// under 25% of their lanes active at those leaves (the rule before, which sent it one ray
+/// at a time); an incoherent one leaves packets after the probe. Closest hits and shadow
+/// rays alike.
+#[test]
+fn hybrid_keeps_coherent_queues_in_packets_and_leaves_incoherent_ones() {
+    use wavetrace::accel::tracer::{Coherence, Kernel, Tracer, PROBE};
+    use wavetrace::queue::{HitQueue, RayQueue, ShadowQueue};
+    let accel = mesh_accel(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/stanford-bunny.obj"));
+    let n = 4096;
+    let packet_rays = |coherent: bool| {
+        let (o, d) = rays(&accel, n, coherent, 5);
+        let (mut q, mut shadow) = (RayQueue::default(), ShadowQueue::default());
+        for (i, (&o, &d)) in o.iter().zip(&d).enumerate() {
+            q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0);
+            shadow.push(o, d, f32::INFINITY, i as u32, Vec3::ONE);
+        }
+        let mut tracer = Tracer::new(&accel, Kernel::HYBRID, true);
+        tracer.closest(&q, Coherence::Bounce, &mut HitQueue::default());
+        let closest = tracer.take_work().packet_rays as usize;
+        tracer.occluded(&shadow);
+        (closest, tracer.take_work().packet_rays as usize)
+    };
+    let (closest, shadow) = packet_rays(true);
+    assert!(closest > n * 9 / 10 && shadow > n * 9 / 10, "coherent: {closest} and {shadow} of {n} in packets");
+    let (closest, shadow) = packet_rays(false);
+    let probe = PROBE * LANES;
+    assert!(closest <= probe && shadow <= probe, "incoherent: {closest} and {shadow} in packets, probe {probe}");
+}

@@ -41,19 +41,20 @@ pub enum Kernel {
     /// binary BVH).
     Packet(Width, PacketConfig),
     /// Chosen per queue by measured coherence: camera rays in packets; bounce and shadow
-    /// queues start in packets, and when their first [`PROBE`] packets keep fewer than
-    /// `min_lanes` percent of their lanes active at the leaves they reach, the rest of
-    /// the queue goes over the wide BVH: interleaved ([`Kernel::Interleaved`]) when the
-    /// tree outgrows the last-level cache ([`Accel::interleave`]), else one ray at a
-    /// time. Lone rays (and packets that mix octants) take the wide BVH one at a time.
+    /// queues start with [`PROBE`] packets spread over the queue, and when their beams
+    /// reach more than `max_leaves` leaves per 100 rays, the rest of the queue goes over
+    /// the wide BVH: interleaved ([`Kernel::Interleaved`]) when the tree outgrows the
+    /// last-level cache ([`Accel::interleave`]) or the walks are node-bound
+    /// ([`node_bound`]), else one ray at a time. Lone rays (and packets that mix
+    /// octants) take the wide BVH one at a time.
     Hybrid {
         /// Lanes per packet.
         width: Width,
         /// How packets are formed and traced.
         cfg: PacketConfig,
-        /// Lane utilisation (percent) below which a queue leaves packets (0: never;
-        /// above 100: after the probe always).
-        min_lanes: u32,
+        /// Leaves reached per 100 rays above which a queue leaves packets (0: after the
+        /// probe always; `u32::MAX`: never).
+        max_leaves: u32,
     },
 }
 
@@ -69,13 +70,13 @@ impl Kernel {
     }
 
     /// The renderer's hybrid settings (measured: docs/performance.md).
-    pub const HYBRID: Kernel = Kernel::Hybrid { width: Width::X16, cfg: PacketConfig::RENDER, min_lanes: 25 };
+    pub const HYBRID: Kernel = Kernel::Hybrid { width: Width::X16, cfg: PacketConfig::RENDER, max_leaves: 100 };
 
-    /// The lane utilisation (percent) below which a queue of rays from `coherence` leaves
+    /// The leaves per 100 rays above which a queue of rays from `coherence` leaves
     /// packets; `None`: it never does.
     fn leave_packets(self, coherence: Coherence) -> Option<u32> {
         match self {
-            Kernel::Hybrid { min_lanes, .. } if coherence != Coherence::Camera => Some(min_lanes),
+            Kernel::Hybrid { max_leaves, .. } if coherence != Coherence::Camera => Some(max_leaves),
             _ => None,
         }
     }
@@ -86,8 +87,8 @@ impl Kernel {
     }
 }
 
-/// Packets a hybrid kernel traces of a bounce or shadow queue before it judges their lane
-/// utilisation.
+/// Packets a hybrid kernel traces of a bounce or shadow queue, spread over it, before it
+/// judges the queue's coherence.
 pub const PROBE: usize = 8;
 
 /// Where a queue's rays come from, which decides how they are ordered into packets.
@@ -227,12 +228,15 @@ impl<'a> Tracer<'a> {
         let mut pw = PacketWork::default();
         let (mut o, mut d, mut out) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [(0.0f32, 0u32); LANES]);
         let leave = self.kernel.leave_packets(coherence);
-        let order = std::mem::take(&mut self.order);
+        let mut order = std::mem::take(&mut self.order);
+        if leave.is_some() {
+            spread_probe(&mut order, S::LANES);
+        }
         let mut alone = false;
         for (p, group) in order.chunks(S::LANES).enumerate() {
             let leaving = sparse(p, leave, &pw, S::LANES);
-            if leaving && self.accel.interleave {
-                // Incoherent, and the tree outgrows the cache: the rest walks interleaved.
+            if leaving && (self.accel.interleave || node_bound(&pw, S::LANES)) {
+                // Incoherent, and walks that wait on node loads: the rest walks interleaved.
                 let rest = &order[p * S::LANES..];
                 self.closest_interleaved(rays, rest.len(), |k| rest[k].1 as usize, hits);
                 break;
@@ -315,7 +319,10 @@ impl<'a> Tracer<'a> {
         let (mut o, mut d, mut t) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES], [0.0f32; LANES]);
         let mut blocked = [false; LANES];
         let leave = self.kernel.leave_packets(Coherence::Bounce);
-        let order = std::mem::take(&mut self.order);
+        let mut order = std::mem::take(&mut self.order);
+        if leave.is_some() {
+            spread_probe(&mut order, S::LANES);
+        }
         let mut alone = false;
         for (p, group) in order.chunks(S::LANES).enumerate() {
             let leaving = sparse(p, leave, &pw, S::LANES);
@@ -368,13 +375,48 @@ impl<'a> Tracer<'a> {
     }
 }
 
-/// Whether a queue leaves packets before its packet `p`: once [`PROBE`] packets are done,
-/// when the lanes they kept active (`pw`) average below `leave` percent of `lanes`.
+/// Whether a queue leaves packets before its packet `p`: once [`PROBE`] packets of
+/// `lanes` rays are done, when their beams (`pw`) reached more than `leave` leaves per 100
+/// rays. A ray alone visits about one leaf, and a beam's leaf costs about what a ray's
+/// does (one SIMD test), so past one leaf a ray packets cost more than single rays:
+/// the Cornell box's shadow rays reach 0.14 (packets 1.6× as fast as single rays), a
+/// mesh's bounce rays 2.3–2.7 (single rays 1.7–2.0×; docs/performance.md). Lane
+/// utilisation, the rule before, misjudged beams that reach leaves no ray enters: cheap
+/// for a beam, and no leaf for a ray alone.
 #[inline]
 fn sparse(p: usize, leave: Option<u32>, pw: &PacketWork, lanes: usize) -> bool {
     match leave {
-        Some(min) if p == PROBE => pw.lanes * 100 < min as u64 * lanes as u64 * pw.steps,
+        Some(max) if p == PROBE => pw.steps * 100 > max as u64 * (PROBE * lanes) as u64,
         _ => false,
+    }
+}
+
+/// Whether the probe's rays (`pw`, [`PROBE`] packets of `lanes` rays) entered fewer than
+/// one leaf in four rays: their walks are node visits, whose loads interleaving overlaps,
+/// and not primitive tests, to which it only adds work (closest hits through a mesh,
+/// interleaved ÷ one at a time: random rays 1.13–1.22, bounce rays 0.86–1.01:
+/// docs/performance.md).
+#[inline]
+fn node_bound(pw: &PacketWork, lanes: usize) -> bool {
+    pw.lanes * 4 < (PROBE * lanes) as u64
+}
+
+/// Moves [`PROBE`] full packets spread evenly over `order` (cut into packets of `lanes`)
+/// to its front, so the probe judges the whole queue: a queue in screen order starts in
+/// one corner of the image (on the Cornell box, rays from the ceiling beside the light).
+/// Packets keep their rays: only the order they are traced in changes, and no answer.
+fn spread_probe(order: &mut [(u64, u32)], lanes: usize) {
+    let full = order.len() / lanes;
+    if full <= PROBE {
+        return;
+    }
+    // k grows with j and k ≥ j, so each swap brings forward a packet no swap has moved.
+    for j in 1..PROBE {
+        let k = j * full / PROBE;
+        if k != j {
+            let (front, back) = order.split_at_mut(k * lanes);
+            front[j * lanes..(j + 1) * lanes].swap_with_slice(&mut back[..lanes]);
+        }
     }
 }
 
@@ -427,5 +469,38 @@ fn single_occluded<const COUNT: bool>(
         accel.occluded_wide::<COUNT>(Ray::new(o, d, 0.0, tmax), work)
     } else {
         accel.occluded::<COUNT>(Ray::new(o, d, 0.0, tmax), work)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The probe's packets come from across the queue, first to last; every packet keeps
+    /// its rays, and the order stays a permutation of the queue.
+    #[test]
+    fn spread_probe_moves_whole_packets_from_across_the_queue() {
+        for (n, lanes) in [(16 * 9, 16), (16 * 9 + 5, 16), (4096, 16), (1000, 8), (4 * 8, 4), (100, 16)] {
+            let mut order: Vec<(u64, u32)> = (0..n as u32).map(|i| (0, i)).collect();
+            spread_probe(&mut order, lanes);
+            let packets: Vec<&[(u64, u32)]> = order.chunks(lanes).collect();
+            for p in &packets {
+                let first = p[0].1;
+                assert!((first as usize).is_multiple_of(lanes), "{n}/{lanes}: a packet split");
+                assert!(p.iter().enumerate().all(|(l, x)| x.1 == first + l as u32), "{n}/{lanes}: a packet reordered");
+            }
+            let mut ids: Vec<u32> = order.iter().map(|x| x.1).collect();
+            ids.sort_unstable();
+            assert!(ids.iter().enumerate().all(|(i, &x)| x == i as u32), "{n}/{lanes}: not a permutation");
+            let full = n / lanes;
+            let probe: Vec<usize> = packets[..PROBE.min(full)].iter().map(|p| p[0].1 as usize / lanes).collect();
+            if full > PROBE {
+                assert_eq!(probe[0], 0);
+                assert!(probe.windows(2).all(|w| w[0] < w[1]), "{n}/{lanes}: {probe:?}");
+                assert!(probe[PROBE - 1] >= full * (PROBE - 1) / PROBE, "{n}/{lanes}: {probe:?} ends early");
+            } else {
+                assert!(probe.iter().enumerate().all(|(i, &p)| p == i), "{n}/{lanes}: a short queue moved");
+            }
+        }
     }
 }

@@ -63,10 +63,10 @@ pub struct BenchArgs {
     /// Packet kernel: trace packets that mix direction octants one ray at a time (on|off).
     #[arg(long, value_enum, hide_possible_values = true, default_value_t = Switch::of(PacketConfig::RENDER.split_mixed))]
     split_mixed: Switch,
-    /// Hybrid kernel: a bounce or shadow queue whose first packets keep fewer than this
-    /// percentage of their lanes active goes on one ray at a time over the wide BVH.
-    #[arg(long, default_value_t = bench::RENDER_MIN_LANES)]
-    min_lanes: u32,
+    /// Hybrid kernel: a bounce or shadow queue whose probe packets' beams reach more than
+    /// this many leaves per 100 rays goes on over the wide BVH, without packets.
+    #[arg(long, default_value_t = bench::RENDER_MAX_LEAVES)]
+    max_leaves: u32,
     /// Time by the process's CPU time, not the wall clock (for a shared, loaded machine).
     #[arg(long)]
     cpu_time: bool,
@@ -196,7 +196,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         max_rays: args.max_rays,
         lanes: args.lanes.count(),
         packet,
-        min_lanes: args.min_lanes,
+        max_leaves: args.max_leaves,
         cpu_time: args.cpu_time,
         kernels: args.kernels.iter().map(|k| k.name()).collect(),
     };

@@ -48,8 +48,8 @@ pub struct BenchOptions {
     pub lanes: usize,
     /// How packets are formed and traced.
     pub packet: PacketConfig,
-    /// Hybrid kernel: lane utilisation (percent) below which a queue leaves packets.
-    pub min_lanes: u32,
+    /// Hybrid kernel: leaves reached per 100 rays above which a queue leaves packets.
+    pub max_leaves: u32,
     /// Time by the process's CPU time instead of the wall clock (on a shared machine the
     /// wall clock also counts the time other processes held the cores).
     pub cpu_time: bool,
@@ -71,16 +71,16 @@ impl Default for BenchOptions {
             max_rays: 1 << 20,
             lanes: LANES,
             packet: PacketConfig::RENDER,
-            min_lanes: RENDER_MIN_LANES,
+            max_leaves: RENDER_MAX_LEAVES,
             cpu_time: false,
             kernels: Vec::new(),
         }
     }
 }
 
-/// The renderer's hybrid threshold ([`TracerKernel::HYBRID`]'s `min_lanes`).
-pub const RENDER_MIN_LANES: u32 = match TracerKernel::HYBRID {
-    TracerKernel::Hybrid { min_lanes, .. } => min_lanes,
+/// The renderer's hybrid threshold ([`TracerKernel::HYBRID`]'s `max_leaves`).
+pub const RENDER_MAX_LEAVES: u32 = match TracerKernel::HYBRID {
+    TracerKernel::Hybrid { max_leaves, .. } => max_leaves,
     _ => 0,
 };
 
@@ -287,7 +287,7 @@ pub enum Kernel {
     /// Rays interleaved over the wide BVH.
     Interleaved,
     /// The renderer's hybrid with packets of this many lanes, leaving packets for a
-    /// bounce or shadow queue below this lane utilisation (percent).
+    /// bounce or shadow queue whose beams reach more leaves per 100 rays than this.
     Hybrid(usize, PacketConfig, u32),
 }
 
@@ -307,7 +307,7 @@ impl Kernel {
             Kernel::Wide => TracerKernel::Wide,
             Kernel::Interleaved => TracerKernel::Interleaved,
             Kernel::Packet(n, c) => TracerKernel::Packet(width(n), c),
-            Kernel::Hybrid(n, cfg, min_lanes) => TracerKernel::Hybrid { width: width(n), cfg, min_lanes },
+            Kernel::Hybrid(n, cfg, max_leaves) => TracerKernel::Hybrid { width: width(n), cfg, max_leaves },
         }
     }
 }
@@ -361,7 +361,7 @@ fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 4] {
         (KERNELS[0], Kernel::Packet(opts.lanes, opts.packet)),
         (KERNELS[1], Kernel::Wide),
         (KERNELS[2], Kernel::Interleaved),
-        (KERNELS[3], Kernel::Hybrid(opts.lanes, opts.packet, opts.min_lanes)),
+        (KERNELS[3], Kernel::Hybrid(opts.lanes, opts.packet, opts.max_leaves)),
     ]
 }
 
