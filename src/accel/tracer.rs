@@ -393,9 +393,9 @@ fn sparse(p: usize, leave: Option<u32>, pw: &PacketWork, lanes: usize) -> bool {
 
 /// Whether the probe's rays (`pw`, [`PROBE`] packets of `lanes` rays) entered fewer than
 /// one leaf in four rays: their walks are node visits, whose loads interleaving overlaps,
-/// and not primitive tests, to which it only adds work (closest hits through a mesh,
-/// interleaved ÷ one at a time: random rays 1.13–1.22, bounce rays 0.86–1.01:
-/// docs/performance.md).
+/// and not primitive tests, to which it only adds work (closest hits through a mesh in
+/// the cache, interleaved ÷ one at a time: random rays 1.11–1.15, kitchen's 0.90; bounce
+/// rays 0.87–0.97: docs/performance.md).
 #[inline]
 fn node_bound(pw: &PacketWork, lanes: usize) -> bool {
     pw.lanes * 4 < (PROBE * lanes) as u64
