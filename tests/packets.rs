@@ -528,10 +528,8 @@ fn hybrid_tracer_with_and_without_interleaving_equals_the_wide_kernel() {
 }
 
 /// The hybrid's choice per queue: a coherent bounce queue (a pinhole grid, whose beams
-/// reach far fewer leaves than they have rays) stays in packets, though its packets keep
-/// under 25% of their lanes active at those leaves (the rule before, which sent it one ray
-/// at a time); an incoherent one leaves packets after the probe. Closest hits and shadow
-/// rays alike.
+/// reach far fewer leaves than they have rays) stays in packets; an incoherent one leaves
+/// packets after the probe. Closest hits and shadow rays alike.
 #[test]
 fn hybrid_keeps_coherent_queues_in_packets_and_leaves_incoherent_ones() {
     use wavetrace::accel::tracer::{Coherence, Kernel, Tracer, PROBE};
