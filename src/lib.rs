@@ -15,6 +15,7 @@ pub mod error;
 pub mod film;
 pub mod light;
 pub mod microfacet;
+pub mod motion;
 pub mod queue;
 pub mod render;
 pub mod sampling;

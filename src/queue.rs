@@ -164,9 +164,12 @@ soa! {
         /// direction, when the surface also sampled the lights (multiple importance
         /// sampling: weights the emitter the ray hits); 0 for every other ray.
         pdf: f32,
+        /// The path's time in the shutter (motion blur); 0, and never read, when nothing
+        /// moves.
+        time: f32,
     }
     push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; slot: u32 => slot; w: Vec3 => wr, wg, wb;
-         depth: u32 => depth; key: u32 => key; sample: u32 => sample; pdf: f32 => pdf)
+         depth: u32 => depth; key: u32 => key; sample: u32 => sample; pdf: f32 => pdf; time: f32 => time)
     get(origin => ox, oy, oz; dir => dx, dy, dz; weight => wr, wg, wb)
 }
 
@@ -210,8 +213,11 @@ soa! {
         lg: f32,
         /// Contribution blue.
         lb: f32,
+        /// The time of the path the ray belongs to (motion blur).
+        time: f32,
     }
-    push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; tmax: f32 => tmax; slot: u32 => slot; l: Vec3 => lr, lg, lb)
+    push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; tmax: f32 => tmax; slot: u32 => slot; l: Vec3 => lr, lg, lb;
+         time: f32 => time)
     get(origin => ox, oy, oz; dir => dx, dy, dz; radiance => lr, lg, lb)
 }
 
@@ -396,10 +402,12 @@ soa! {
         sample: u32,
         /// Index of the ray that hit the point, in the shaded ray queue.
         ray: u32,
+        /// The path's time (motion blur).
+        time: f32,
     }
     push(o: Vec3 => ox, oy, oz; n: Vec3 => nx, ny, nz; wo: Vec3 => wox, woy, woz; color: Vec3 => cr, cg, cb;
          specular: Vec3 => sr, sg, sb; shininess: f32 => shininess; w: Vec3 => wr, wg, wb; slot: u32 => slot;
-         key: u32 => key; sample: u32 => sample; ray: u32 => ray)
+         key: u32 => key; sample: u32 => sample; ray: u32 => ray; time: f32 => time)
     get(origin => ox, oy, oz; normal => nx, ny, nz; wo => wox, woy, woz; color => cr, cg, cb;
         specular => sr, sg, sb; weight => wr, wg, wb)
 }
@@ -464,13 +472,13 @@ mod tests {
         fn ray_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), any::<u32>(), vec3(), any::<u32>(), any::<(u32, u32)>()), 1..40)) {
             let mut q = RayQueue::default();
             for &(o, d, slot, w, depth, (key, sample)) in &rays {
-                q.push(o, d, slot, w, depth, key, sample, slot as f32);
+                q.push(o, d, slot, w, depth, key, sample, slot as f32, key as f32);
             }
             prop_assert_eq!(q.len(), rays.len());
             for (i, &(o, d, slot, w, depth, (key, sample))) in rays.iter().enumerate() {
                 prop_assert_eq!((q.origin(i), q.dir(i), q.weight(i)), (o, d, w));
                 prop_assert_eq!((q.slot[i], q.depth[i], q.key[i], q.sample[i]), (slot, depth, key, sample));
-                prop_assert_eq!(q.pdf[i], slot as f32);
+                prop_assert_eq!((q.pdf[i], q.time[i]), (slot as f32, key as f32));
             }
             let mut tail = RayQueue::default();
             tail.append_range(&q, 1..q.len());
@@ -485,7 +493,7 @@ mod tests {
                 let i = i as usize;
                 prop_assert_eq!((rev.dir(j), rev.weight(j), rev.slot[j]), (q.dir(i), q.weight(i), q.slot[i]));
             }
-            prop_assert!(q.bytes() >= 13 * 4 * q.len());
+            prop_assert!(q.bytes() >= 15 * 4 * q.len());
             q.clear();
             prop_assert!(q.is_empty());
             prop_assert!(q.ox.is_empty() && q.dz.is_empty() && q.wb.is_empty() && q.key.is_empty() && q.sample.is_empty());
@@ -496,13 +504,13 @@ mod tests {
         fn shadow_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), 0f32..1e6, any::<u32>(), vec3()), 1..40)) {
             let mut q = ShadowQueue::default();
             for &(o, d, t, slot, l) in &rays {
-                q.push(o, d, t, slot, l);
+                q.push(o, d, t, slot, l, t);
             }
             for (i, &(o, d, t, slot, l)) in rays.iter().enumerate() {
                 prop_assert_eq!((q.origin(i), q.dir(i), q.radiance(i)), (o, d, l));
-                prop_assert_eq!((q.tmax[i], q.slot[i]), (t, slot));
+                prop_assert_eq!((q.tmax[i], q.slot[i], q.time[i]), (t, slot, t));
             }
-            prop_assert_eq!(q.bytes(), q.ox.capacity() * 4 * 11);
+            prop_assert_eq!(q.bytes(), q.ox.capacity() * 4 * 12);
         }
     }
 }

@@ -37,6 +37,8 @@ pub mod dim {
     pub const GLOSS_LIGHT: u32 = 12;
     /// Rough surfaces under multiple importance sampling: the light chosen, when several.
     pub const GLOSS_LIGHT_PICK: u32 = 13;
+    /// Motion blur: a camera path's time in the shutter.
+    pub const TIME: u32 = 14;
     /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
     /// renderer's dimensions, which grow from 1).
     pub const BENCH: u32 = 100;

@@ -51,26 +51,34 @@ pub struct Surface {
     pub key: u32,
     /// Camera sample index of the incoming ray's path.
     pub sample: u32,
+    /// The path's time (motion blur).
+    pub time: f32,
 }
 
-/// The shading normal at point `x` of primitive `prim`, on the side of the unit geometric
-/// normal `n` (the side the ray arrived on): the triangle's vertex normals interpolated by
-/// `x`'s barycentric coordinates and normalised (Mitsuba's smooth shading) for a smooth
-/// mesh, else `n` itself. Ray origins keep the geometric normal.
+/// The shading normal at point `x` of primitive `prim` at `time`, on the side of the unit
+/// geometric normal `n` (the side the ray arrived on): the triangle's vertex normals
+/// interpolated by `x`'s barycentric coordinates and normalised (Mitsuba's smooth
+/// shading) for a smooth mesh, else `n` itself. Ray origins keep the geometric normal.
+/// A moving mesh's vertex normals are in its own space and turn with it.
 #[inline]
-pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
+pub fn shading_normal(scene: &Scene, prim: usize, time: f32, x: Vec3, n: Vec3) -> Vec3 {
     let Some(&vn) = scene.normals.get(prim) else { return n };
     // Flat primitives (no vertex normals) need not have their shape put together.
     if vn[0] == Vec3::ZERO {
         return n;
     }
-    let Shape::Triangle { v0, v1, v2 } = scene.accel.prim(prim as u32).shape else { return n };
+    let Shape::Triangle { v0, v1, v2 } = scene.accel.shape_at(prim as u32, time) else { return n };
     let (e1, e2) = (v1 - v0, v2 - v0);
     let c = e1.cross(e2);
     let w = c / c.length_squared();
     let q = x - v0;
     let (b1, b2) = (w.dot(q.cross(e2)), w.dot(e1.cross(q)));
-    let ns = ((1.0 - b1 - b2) * vn[0] + b1 * vn[1] + b2 * vn[2]).normalize_or_zero();
+    let ns = (1.0 - b1 - b2) * vn[0] + b1 * vn[1] + b2 * vn[2];
+    let ns = match &scene.accel.moving {
+        Some(m) if scene.accel.is_moving(prim as u32) => m.normal_at(prim as u32, time, ns),
+        _ => ns,
+    }
+    .normalize_or_zero();
     if ns == Vec3::ZERO {
         n
     } else if ns.dot(n) < 0.0 {
@@ -84,7 +92,7 @@ pub fn shading_normal(scene: &Scene, prim: usize, x: Vec3, n: Vec3) -> Vec3 {
 /// `prim` when it is a diffuse non-emitter, else `None`.
 #[inline]
 pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> {
-    if prim >= scene.accel.len() as u32 || scene.accel.light(prim) != NO_LIGHT {
+    if prim >= scene.accel.ids() as u32 || scene.accel.light(prim) != NO_LIGHT {
         return None;
     }
     match scene.materials[scene.accel.material(prim) as usize] {
@@ -93,12 +101,19 @@ pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> 
     }
 }
 
-/// The texture coordinates of point `x` on primitive `prim`, as Mitsuba 3 defines them:
-/// a sphere's (φ/2π, θ/π) about its own axes, a parallelogram's (a, b) for corner + a·u + b·v (mapped
-/// through its corners' UVs when it has them), a triangle's corner UVs interpolated (its
-/// barycentric (b1, b2) when its mesh has none).
-pub fn uv_at(scene: &Scene, prim: usize, x: Vec3) -> Vec2 {
-    match scene.accel.prim(prim as u32).shape {
+/// The texture coordinates of point `x` on primitive `prim` at `time`, as Mitsuba 3
+/// defines them: a sphere's (φ/2π, θ/π) about its own axes, a parallelogram's (a, b) for
+/// corner + a·u + b·v (mapped through its corners' UVs when it has them), a triangle's
+/// corner UVs interpolated (its barycentric (b1, b2) when its mesh has none). A moving
+/// primitive's are those of the point taken back into its object's space.
+pub fn uv_at(scene: &Scene, prim: usize, time: f32, x: Vec3) -> Vec2 {
+    let (shape, x) = match &scene.accel.moving {
+        Some(m) if scene.accel.is_moving(prim as u32) => {
+            (m.object_shape(prim as u32), m.to_object(prim as u32, time, x))
+        }
+        _ => (scene.accel.prim(prim as u32).shape, x),
+    };
+    match shape {
         Shape::Sphere { center, .. } => match scene.uv_frames.get(prim) {
             Some(frame) => uv::sphere(Vec3::ZERO, *frame * (x - center)),
             None => uv::sphere(center, x),
@@ -117,30 +132,44 @@ pub fn uv_at(scene: &Scene, prim: usize, x: Vec3) -> Vec2 {
     }
 }
 
-/// A material colour at point `x` of primitive `prim`: the constant, or the texture
-/// looked up at the point's UV ([`uv_at`]).
+/// A material colour at point `x` of primitive `prim` at `time`: the constant, or the
+/// texture looked up at the point's UV ([`uv_at`]).
 #[inline]
-pub fn color_at(scene: &Scene, color: Color, prim: usize, x: Vec3) -> Vec3 {
+pub fn color_at(scene: &Scene, color: Color, prim: usize, time: f32, x: Vec3) -> Vec3 {
     match color {
         Color::Rgb(c) => c,
-        Color::Texture(t) => scene.textures[t as usize].eval(uv_at(scene, prim, x)),
+        Color::Texture(t) => scene.textures[t as usize].eval(uv_at(scene, prim, time, x)),
     }
+}
+
+/// Where ray `i` hit: the point recomputed on the primitive's shape (at the ray's time),
+/// a bound on its rounding error, and the unit geometric normal (outward, not yet
+/// turned to the ray). A moving primitive's bound also covers the point's trip into the
+/// object's space and back ([`Moving::extra_error`](crate::accel::moving::Moving::extra_error)).
+#[inline]
+pub fn hit_point(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> (Vec3, Vec3, Vec3) {
+    let (id, time) = (hits.prim[i], rays.time[i]);
+    let shape = scene.accel.shape_at(id, time);
+    let (x, mut err) = shape.surface_point(rays.origin(i), rays.dir(i), hits.t[i]);
+    if let Some(m) = scene.accel.moving.as_ref().filter(|_| scene.accel.is_moving(id)) {
+        err += m.extra_error(id, time, x);
+    }
+    (x, err, shape.normal(x).normalize())
 }
 
 /// The diffuse surface that ray `i` hit, or `None` if it hit something else.
 #[inline]
 pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
     let (color, specular, shininess) = diffuse_material(scene, hits.prim[i])?;
-    let prim = scene.accel.prim(hits.prim[i]);
     let d = rays.dir(i);
-    let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
-    let color = color_at(scene, color, hits.prim[i] as usize, x);
-    let ng = prim.shape.normal(x).normalize();
+    let time = rays.time[i];
+    let (x, err, ng) = hit_point(scene, rays, hits, i);
+    let color = color_at(scene, color, hits.prim[i] as usize, time, x);
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = if ng.dot(d) < 0.0 { ng } else { -ng };
     Some(Surface {
         o: offset_ray_origin(x, err, n),
-        n: shading_normal(scene, hits.prim[i] as usize, x, n),
+        n: shading_normal(scene, hits.prim[i] as usize, time, x, n),
         wo: -d,
         color,
         specular,
@@ -149,6 +178,7 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
         slot: rays.slot[i],
         key: rays.key[i],
         sample: rays.sample[i],
+        time,
     })
 }
 
@@ -175,20 +205,21 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
     let d = V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) };
     // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
     // and edges, a triangle's vertices.
-    let points = |prim: u32| match scene.accel.prim(prim).shape {
+    let points = |prim: u32, time: f32| match scene.accel.shape_at(prim, time) {
         Shape::Sphere { center, radius } => (center, Vec3::splat(radius), Vec3::ZERO, 0),
         Shape::Quad { corner, u, v } => (corner, u, v, 1),
         Shape::Triangle { v0, v1, v2 } => (v0, v1, v2, 2),
     };
     let first = hits.prim[id(0)];
-    let (a, b, c, kind, kinds) = if (1..LANES).all(|k| hits.prim[id(k)] == first) {
+    let moving = scene.accel.moving.is_some() && (0..LANES).any(|k| scene.accel.is_moving(hits.prim[id(k)]));
+    let (a, b, c, kind, kinds) = if !moving && (1..LANES).all(|k| hits.prim[id(k)] == first) {
         // One primitive under all lanes (a large quad or triangle): its points once.
-        let (a, b, c, what) = points(first);
+        let (a, b, c, what) = points(first, 0.0);
         (V3::splat(a), V3::splat(b), V3::splat(c), [what; LANES], 1 << what)
     } else {
         let (mut abc, mut kind, mut kinds) = ([[0.0f32; LANES]; 9], [0u32; LANES], 0u32);
         for k in 0..LANES {
-            let (a, b, c, what) = points(hits.prim[id(k)]);
+            let (a, b, c, what) = points(hits.prim[id(k)], rays.time[id(k)]);
             for (j, x) in [a, b, c].iter().flat_map(|v| v.to_array()).enumerate() {
                 abc[j][k] = x;
             }
@@ -212,7 +243,16 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
         y: is_sphere.select(s.y, is_quad.select(q.y, t.y)),
         z: is_sphere.select(s.z, is_quad.select(q.z, t.z)),
     };
-    let (p, err) = (pick(sphere.0, quad.0, triangle.0), pick(sphere.1, quad.1, triangle.1));
+    let (p, mut err) = (pick(sphere.0, quad.0, triangle.0), pick(sphere.1, quad.1, triangle.1));
+    if let Some(m) = scene.accel.moving.as_ref().filter(|_| moving) {
+        let (px, py, pz) = (p.x.to_array(), p.y.to_array(), p.z.to_array());
+        let mut extra = [[0.0f32; LANES]; 3];
+        for k in (0..LANES).filter(|&k| scene.accel.is_moving(hits.prim[id(k)])) {
+            let e = m.extra_error(hits.prim[id(k)], rays.time[id(k)], Vec3::new(px[k], py[k], pz[k]));
+            (extra[0][k], extra[1][k], extra[2][k]) = (e.x, e.y, e.z);
+        }
+        err = err + V3 { x: f32x16::from(extra[0]), y: f32x16::from(extra[1]), z: f32x16::from(extra[2]) };
+    }
     // `kinds` has bit 1 << kind: 4 = triangles only, 2 = parallelograms only.
     let ng = match kinds {
         4 => (b - a).cross(c - a),
@@ -236,7 +276,7 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = V3::if_negative(ng.dot(d), ng, -ng);
     let o = offset_lanes(p, err, n).lanes();
-    let shading = shading_lanes(scene, hits, ids, p, n).lanes();
+    let shading = shading_lanes(scene, rays, hits, ids, p, n).lanes();
     let w = V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) }.lanes();
     // Albedo, Phong reflectance and exponent: seven columns filled in one pass.
     let (mut color, mut specular, mut shininess) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [0.0f32; LANES]);
@@ -248,7 +288,7 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
             Color::Rgb(c) => c,
             textured => {
                 let [x, y, z] = points.get_or_insert_with(|| [p.x.to_array(), p.y.to_array(), p.z.to_array()]);
-                color_at(scene, textured, hits.prim[i] as usize, Vec3::new(x[k], y[k], z[k]))
+                color_at(scene, textured, hits.prim[i] as usize, rays.time[i], Vec3::new(x[k], y[k], z[k]))
             }
         };
         (color[0][k], color[1][k], color[2][k]) = (c.x, c.y, c.z);
@@ -258,13 +298,35 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     let words = |col: &[u32]| lanes.idx.map(|i| col[i]);
     let ray_ids = lanes.idx.map(|i| i as u32);
     let (slot, key, sample) = (words(&rays.slot), words(&rays.key), words(&rays.sample));
+    let time = lanes.idx.map(|i| rays.time[i]);
     // Whole columns at once: one capacity check per column, not per value.
-    out.push_lanes(o, shading, (-d).lanes(), color, specular, shininess, w, slot, key, sample, ray_ids, ids.len());
+    out.push_lanes(
+        o,
+        shading,
+        (-d).lanes(),
+        color,
+        specular,
+        shininess,
+        w,
+        slot,
+        key,
+        sample,
+        ray_ids,
+        time,
+        ids.len(),
+    );
 }
 
 /// [`shading_normal`] of every lane: `n` itself unless the scene has smooth meshes.
 #[inline]
-pub fn shading_lanes(scene: &Scene, hits: &HitQueue, ids: &[u32], p: V3<f32x16>, n: V3<f32x16>) -> V3<f32x16> {
+pub fn shading_lanes(
+    scene: &Scene,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    ids: &[u32],
+    p: V3<f32x16>,
+    n: V3<f32x16>,
+) -> V3<f32x16> {
     if scene.normals.is_empty() {
         return n;
     }
@@ -272,8 +334,14 @@ pub fn shading_lanes(scene: &Scene, hits: &HitQueue, ids: &[u32], p: V3<f32x16>,
     let (nx, ny, nz) = (n.x.to_array(), n.y.to_array(), n.z.to_array());
     let last = ids[ids.len() - 1];
     let ns: [Vec3; LANES] = std::array::from_fn(|k| {
-        let prim = hits.prim[ids.get(k).copied().unwrap_or(last) as usize] as usize;
-        shading_normal(scene, prim, Vec3::new(px[k], py[k], pz[k]), Vec3::new(nx[k], ny[k], nz[k]))
+        let i = ids.get(k).copied().unwrap_or(last) as usize;
+        shading_normal(
+            scene,
+            hits.prim[i] as usize,
+            rays.time[i],
+            Vec3::new(px[k], py[k], pz[k]),
+            Vec3::new(nx[k], ny[k], nz[k]),
+        )
     });
     V3 { x: f32x16::from(ns.map(|v| v.x)), y: f32x16::from(ns.map(|v| v.y)), z: f32x16::from(ns.map(|v| v.z)) }
 }
@@ -292,5 +360,6 @@ pub fn queued_surface(q: &SurfaceQueue, p: usize) -> Surface {
         slot: q.slot[p],
         key: q.key[p],
         sample: q.sample[p],
+        time: q.time[p],
     }
 }

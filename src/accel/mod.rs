@@ -14,6 +14,7 @@
 //! context the stages call (`tracer`).
 
 pub mod bvh2;
+pub mod moving;
 pub mod offset;
 pub mod order;
 pub mod packet;
@@ -211,6 +212,9 @@ pub struct Accel {
     /// work per step, so it pays only where the walks wait on memory (measured:
     /// docs/performance.md). Either way the answers are the same.
     pub interleave: bool,
+    /// The moving objects, whose primitives take the ids after the tree's (`None`
+    /// without motion blur: a static scene pays nothing for it).
+    pub moving: Option<Box<moving::Moving>>,
 }
 
 /// Seconds each phase of a BVH build took (`wavetrace bench` prints them): obvhs's PLOC
@@ -382,6 +386,7 @@ impl Accel {
                 build_seconds: 0.0,
                 build_phases: BuildPhases::default(),
                 interleave: false,
+                moving: None,
             };
         }
         let preset = match quality {
@@ -455,7 +460,42 @@ impl Accel {
             + phases.wide_fill
             + phases.wide_blocks;
         let build_phases = BuildPhases { rest: (build_seconds - named).max(0.0), ..phases };
-        Accel { meta, flat, bvh, bounds, wide, depth, slack, build_seconds, build_phases, interleave }
+        Accel { meta, flat, bvh, bounds, wide, depth, slack, build_seconds, build_phases, interleave, moving: None }
+    }
+
+    /// Adds moving objects: each one's motion and its primitives in object space (built
+    /// like a static scene), bounded over `shutter`. Their primitives take the ids after
+    /// the tree's, object after object, in each one's tree order.
+    pub fn attach_moving(&mut self, objects: Vec<(crate::motion::Motion, Accel)>, shutter: [f32; 2]) {
+        let mut instances = Vec::with_capacity(objects.len());
+        for (motion, accel) in objects {
+            let first = self.meta.len() as u32;
+            let (lo, hi) = accel.bounds();
+            let bounds = motion.bound(lo, hi, shutter);
+            self.meta.extend(accel.meta.iter().map(|m| Meta { at: u32::MAX, ..*m }));
+            instances.push(moving::Instance { motion, accel, bounds, first });
+        }
+        self.moving = Some(Box::new(moving::Moving { instances }));
+    }
+
+    /// Every primitive id: the tree's and the moving objects'.
+    pub fn ids(&self) -> usize {
+        self.meta.len()
+    }
+
+    /// Primitive `id`'s shape in the world at `time`: the tree's shapes do not move.
+    #[inline]
+    pub fn shape_at(&self, id: u32, time: f32) -> Shape {
+        match &self.moving {
+            Some(m) if id as usize >= self.len() => m.shape_at(id, time),
+            _ => self.prim(id).shape,
+        }
+    }
+
+    /// True when primitive `id` belongs to a moving object.
+    #[inline]
+    pub fn is_moving(&self, id: u32) -> bool {
+        self.moving.is_some() && id as usize >= self.len() && (id as usize) < self.meta.len()
     }
 
     /// Bytes of the acceleration structure: the binary nodes, the wide tree (with every
@@ -469,18 +509,22 @@ impl Accel {
         ]
     }
 
-    /// Primitives in the tree.
+    /// Primitives in the tree (the moving objects' come after them: [`Accel::ids`]).
     pub fn len(&self) -> usize {
-        self.meta.len()
+        match &self.moving {
+            Some(m) => self.meta.len() - m.len(),
+            None => self.meta.len(),
+        }
     }
 
     /// True when the tree holds no primitive.
     pub fn is_empty(&self) -> bool {
-        self.meta.is_empty()
+        self.len() == 0
     }
 
-    /// Primitive `id` (a traversal's primitive index: BVH order, not the scene's), put
-    /// together from where the tree keeps its parts.
+    /// Primitive `id` of the tree (a traversal's primitive index: BVH order, not the
+    /// scene's), put together from where the tree keeps its parts. A moving primitive's
+    /// shape depends on the time: [`Accel::shape_at`].
     #[inline]
     pub fn prim(&self, id: u32) -> Primitive {
         let m = self.meta[id as usize];

@@ -150,6 +150,38 @@ impl<'a> Tracer<'a> {
             Some((Width::X8, cfg)) => self.closest_packets::<f32x8>(rays, coherence, cfg, hits),
             Some((Width::X16, cfg)) => self.closest_packets::<f32x16>(rays, coherence, cfg, hits),
         }
+        if self.accel.moving.is_some() {
+            self.closest_moving(rays, hits);
+        }
+    }
+
+    /// Lowers every ray's hit to a moving object's where one is nearer at the ray's time
+    /// (the static tree's kernels above know nothing of time).
+    fn closest_moving(&mut self, rays: &RayQueue, hits: &mut HitQueue) {
+        let Some(m) = &self.accel.moving else { return };
+        for i in 0..rays.len() {
+            let mut best = (hits.t[i], hits.prim[i]);
+            let ray = Ray::infinite(rays.origin(i), rays.dir(i));
+            if self.count {
+                m.closest::<true>(ray, rays.time[i], &mut best, &mut self.work);
+            } else {
+                m.closest::<false>(ray, rays.time[i], &mut best, &mut self.work);
+            }
+            (hits.t[i], hits.prim[i]) = best;
+        }
+    }
+
+    /// Blocks the shadow rays still unblocked that a moving object blocks at their time.
+    fn occluded_moving(&mut self, shadow: &ShadowQueue) {
+        let Some(m) = &self.accel.moving else { return };
+        for (i, blocked) in self.blocked.iter_mut().enumerate().filter(|(_, b)| !**b) {
+            let ray = Ray::new(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i]);
+            *blocked = if self.count {
+                m.occluded::<true>(ray, shadow.time[i], &mut self.work)
+            } else {
+                m.occluded::<false>(ray, shadow.time[i], &mut self.work)
+            };
+        }
     }
 
     /// Tests every shadow ray of `shadow` for a blocker before its `tmax`; returns one
@@ -170,6 +202,9 @@ impl<'a> Tracer<'a> {
             Some((Width::X4, cfg)) => self.occluded_packets::<f32x4>(shadow, cfg),
             Some((Width::X8, cfg)) => self.occluded_packets::<f32x8>(shadow, cfg),
             Some((Width::X16, cfg)) => self.occluded_packets::<f32x16>(shadow, cfg),
+        }
+        if self.accel.moving.is_some() {
+            self.occluded_moving(shadow);
         }
         &self.blocked
     }

@@ -12,7 +12,7 @@ use crate::accel::tracer::{Coherence, Tracer};
 use crate::film::Accumulator;
 use crate::queue::{RayQueue, WaveQueues};
 use crate::scene::{Scene, ShadowMode};
-use crate::stages::{film, focus, intersect, penumbra, scatter, shade, shadow, shadow_corner};
+use crate::stages::{camera, film, focus, intersect, penumbra, scatter, shade, shadow, shadow_corner};
 use crate::stats::Stage;
 
 /// A worker's wavefront: its queues, tracer, meter and the pass being accumulated.
@@ -69,6 +69,7 @@ impl<'a> Pipeline<'a> {
             let k1 = (k0 + self.wave).min(total);
             let t = Instant::now();
             generate(k0..k1, &mut self.q.rays);
+            camera::shutter_times(scene, &mut self.q.rays);
             self.meter.camera(kind, self.q.rays.len(), t);
             self.drain(scene);
             k0 = k1;

@@ -238,6 +238,16 @@ pub struct CameraDesc {
     /// `transform`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub focus_distance: Option<f32>,
+    /// Motion blur: the times in [0, 1] the shutter opens and closes; a camera ray's
+    /// time is uniform over them, stratified over the pixel (default [0, 0]: no motion
+    /// blur, everything where it is at time 0).
+    #[serde(default)]
+    pub shutter: [f32; 2],
+    /// The camera-to-world transform at time 1 (the same syntax as `transform`, with
+    /// the same camera frame); the camera at time 0 is `transform`, or
+    /// position/look_at/up (default: none, the camera stays still).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transform_end: Option<Vec<TransformOp>>,
 }
 
 fn default_up() -> [f32; 3] {
@@ -431,6 +441,9 @@ pub enum LightDesc {
         /// Applied to the corner and the edges (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         transform: Option<Vec<TransformOp>>,
+        /// Refused: lights stay still (a key here is an error that says so).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform_end: Option<Vec<TransformOp>>,
     },
     /// One-sided triangle emitter; emits towards `(v1 - v0) × (v2 - v0)` (counter-clockwise
     /// front).
@@ -446,6 +459,9 @@ pub enum LightDesc {
         /// Applied to the vertices (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         transform: Option<Vec<TransformOp>>,
+        /// Refused: lights stay still (a key here is an error that says so).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform_end: Option<Vec<TransformOp>>,
     },
     /// Isotropic point light.
     Point {
@@ -453,6 +469,9 @@ pub enum LightDesc {
         position: [f32; 3],
         /// Radiant intensity, W/sr.
         intensity: [f32; 3],
+        /// Refused: lights stay still (a key here is an error that says so).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform_end: Option<Vec<TransformOp>>,
     },
 }
 
@@ -472,6 +491,12 @@ pub enum ObjectDesc {
         /// which scales the radius (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         transform: Option<Vec<TransformOp>>,
+        /// The transform at time 1 of the shutter, the same syntax as `transform` (which
+        /// is the transform at time 0, identity when absent); in between, translation,
+        /// rotation and scale are interpolated separately (default: none, the object
+        /// stays still).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform_end: Option<Vec<TransformOp>>,
     },
     /// A two-sided parallelogram.
     Quad {
@@ -486,6 +511,12 @@ pub enum ObjectDesc {
         /// Applied to the corner and the edges (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         transform: Option<Vec<TransformOp>>,
+        /// The transform at time 1 of the shutter, the same syntax as `transform` (which
+        /// is the transform at time 0, identity when absent); in between, translation,
+        /// rotation and scale are interpolated separately (default: none, the object
+        /// stays still).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform_end: Option<Vec<TransformOp>>,
         /// Texture coordinates at the corner, at corner + edge_u and at corner + edge_v
         /// (default `[[0, 0], [1, 0], [0, 1]]`: the point's (a, b)).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -510,6 +541,12 @@ pub enum ObjectDesc {
         /// Applied after scale, rotate_y and translate (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         transform: Option<Vec<TransformOp>>,
+        /// The transform at time 1 of the shutter, the same syntax as `transform` (which
+        /// is the transform at time 0, identity when absent); in between, translation,
+        /// rotation and scale are interpolated separately (default: none, the object
+        /// stays still).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        transform_end: Option<Vec<TransformOp>>,
         /// Interpolated vertex normals for shading: the file's, or computed from the faces
         /// as Mitsuba 3 does (angle-weighted) when it has none (default false: flat).
         #[serde(default)]

@@ -11,11 +11,12 @@ pub mod ply;
 pub mod text;
 pub mod transform;
 
-use glam::{Mat3, Vec2, Vec3};
+use glam::{DAffine3, Mat3, Vec2, Vec3};
 
 use crate::accel::Accel;
 use crate::accel::BvhQuality;
 use crate::microfacet::Microfacet;
+use crate::motion::Motion;
 use crate::simd::{Real, V3};
 use crate::texture::Texture;
 
@@ -113,6 +114,8 @@ pub struct Settings {
     /// Rough conductors and rough glass sample the area lights too, weighted against
     /// their BSDF's ray by multiple importance sampling (`render.gloss.mis`).
     pub gloss_mis: bool,
+    /// Motion blur: the times the shutter opens and closes (`camera.shutter`).
+    pub shutter: [f32; 2],
 }
 
 /// Early stopping of a penumbra point's shadow rays (`render.shadows.tolerance`).
@@ -144,6 +147,29 @@ pub struct Camera {
     pub aperture: f32,
     /// Distance from the lens to the plane in focus, along `forward`.
     pub focus_distance: f32,
+    /// How the camera moves over the shutter (`None`: it stays still, and its rays are
+    /// generated as they are).
+    pub motion: Option<CameraMotion>,
+}
+
+/// A moving camera: rays are generated for the camera at time 0 and carried to where it
+/// is at their time.
+#[derive(Clone, Debug)]
+pub struct CameraMotion {
+    /// The camera-to-world transform over time.
+    pub motion: Motion,
+    /// The inverse of the camera-to-world transform at time 0.
+    pub from_start: DAffine3,
+}
+
+impl CameraMotion {
+    /// A ray (origin, unit direction) of the camera at time 0, as the camera at `time`
+    /// casts it.
+    #[inline]
+    pub fn ray(&self, time: f32, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
+        let r = self.motion.at(time) * self.from_start;
+        (r.transform_point3(o.as_dvec3()).as_vec3(), r.transform_vector3(d.as_dvec3()).normalize().as_vec3())
+    }
 }
 
 impl Camera {
@@ -302,6 +328,16 @@ pub struct SceneInfo {
     pub outside_paths: Vec<String>,
     /// What an imported (Mitsuba XML) scene reads differently from Mitsuba, or ignores.
     pub notes: Vec<String>,
+}
+
+impl Scene {
+    /// True when rays need a time: the shutter is open and something moves. Otherwise
+    /// no time is drawn and every ray sees the scene as it is at the shutter's opening.
+    #[inline]
+    pub fn motion_blur(&self) -> bool {
+        let [open, close] = self.settings.shutter;
+        open < close && (self.accel.moving.is_some() || self.camera.motion.is_some())
+    }
 }
 
 /// A validated scene ready to render.

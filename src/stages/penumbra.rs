@@ -110,7 +110,7 @@ fn generate(
                 let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
                 cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
             }
-            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l);
+            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l, surf.time);
         });
         let end = q.rays.len() as u32;
         q.points.push(start, end, 0, 0);

@@ -21,7 +21,7 @@ use crate::queue::{HitQueue, IndexQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
 use crate::scene::{Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
-use crate::surface::{color_at, hit_lanes, shading_lanes, shading_normal, HitLanes};
+use crate::surface::{color_at, hit_lanes, hit_point, shading_lanes, shading_normal, HitLanes};
 
 /// Mirror direction of `d` about the unit normal `n`.
 #[inline]
@@ -187,10 +187,9 @@ fn glossy(
     shadow: &mut ShadowQueue,
 ) {
     let prim_id = hits.prim[i] as usize;
-    let prim = scene.accel.prim(prim_id as u32);
     let d = rays.dir(i);
-    let (x, err) = prim.shape.surface_point(rays.origin(i), d, hits.t[i]);
-    let ng = prim.shape.normal(x).normalize();
+    let (x, err, ng) = hit_point(scene, rays, hits, i);
+    let time = rays.time[i];
     let (w, slot, depth, key, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
     let key1 = hash(&[key, 1]);
     let u = sobol_owen(sample, hash(&[key, dim::GLOSS]));
@@ -204,19 +203,19 @@ fn glossy(
         let (f, pdf) = bsdf(frame.to_local(l.wi));
         let c = w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
         if c != Vec3::ZERO {
-            shadow.push(origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, slot, c);
+            shadow.push(origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, slot, c, time);
         }
     };
     match *material {
         Material::Conductor { eta, k, color, roughness } => {
             // Conductors are two-sided, like the mirror: the side the ray arrived on.
             let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-            let ns = shading_normal(scene, prim_id, x, n);
-            let color = color_at(scene, color, prim_id, x);
+            let ns = shading_normal(scene, prim_id, time, x, n);
+            let color = color_at(scene, color, prim_id, time, x);
             let tint = w * color;
             let Some(mf) = roughness else {
                 let f = conductor_fresnel(-d.dot(ns), eta, k);
-                next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, tint * f, depth, key1, sample, 0.0);
+                next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, tint * f, depth, key1, sample, 0.0, time);
                 return;
             };
             let frame = Frame::new(ns);
@@ -233,11 +232,11 @@ fn glossy(
             let weight = conductor_fresnel(wi.dot(m), eta, k) * mf.smith_g1(wo, m);
             let pdf = if mis { rough_conductor_pdf(&mf, wi, wo) } else { 0.0 };
             let wo = frame.to_world(wo);
-            next.push(origin(wo), wo, slot, tint * weight, depth, key1, sample, pdf);
+            next.push(origin(wo), wo, slot, tint * weight, depth, key1, sample, pdf, time);
         }
         Material::Dielectric { ior, tint, roughness: Some(mf), .. } => {
             // Rough glass is oriented by its outward normal; the split handles either side.
-            let frame = Frame::new(shading_normal(scene, prim_id, x, ng));
+            let frame = Frame::new(shading_normal(scene, prim_id, time, x, ng));
             let wi = frame.to_local(-d);
             light(&frame, &|wl| {
                 // Transmission is tinted, as the refracted ray is.
@@ -256,7 +255,7 @@ fn glossy(
             if let Some((wo, weight)) = branch {
                 let pdf = if mis { rough_dielectric_pdf(&mf, ior, wi, wo) } else { 0.0 };
                 let wo = frame.to_world(wo);
-                next.push(origin(wo), wo, slot, w * tint * (weight / p), depth, key, sample, pdf);
+                next.push(origin(wo), wo, slot, w * tint * (weight / p), depth, key, sample, pdf, time);
             }
         }
         Material::Diffuse { .. } | Material::Mirror { .. } | Material::Dielectric { roughness: None, .. } => {
@@ -313,7 +312,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     let n = V3::if_negative(side, ng, -ng);
     let eta = f32x16::if_negative(side, f32x16::ONE / ior, ior);
     // Directions use the shading normal (smooth meshes), origins the geometric one.
-    let ns = shading_lanes(scene, hits, ids, p, n);
+    let ns = shading_lanes(scene, rays, hits, ids, p, n);
     let (t, cos2_t) = refract_lanes(d, ns, eta);
     let cos_i = -d.dot(ns);
     let (r, fresnel_cos2_t) = fresnel_lanes(
@@ -336,11 +335,12 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     let at = |v: &[[f32; LANES]; 3], k: usize| Vec3::new(v[0][k], v[1][k], v[2][k]);
     for (k, &i) in ids.iter().enumerate() {
         let i = i as usize;
-        let (w, slot, depth, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.sample[i]);
+        let (w, slot, depth, sample, time) =
+            (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.sample[i], rays.time[i]);
         let (_, fixed, color, mirror) = mat[k];
         let Some(mirror) = mirror else { continue };
         if mirror {
-            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample, 0.0);
+            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample, 0.0, time);
             continue;
         }
         let refracted = refracts & (1 << k) != 0;
@@ -350,10 +350,10 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
             (true, true) => fresnel_r[k],
         };
         if c > 0.0 {
-            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0);
+            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0, time);
         }
         if refracted && c < 1.0 {
-            next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample, 0.0);
+            next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample, 0.0, time);
         }
     }
 }

@@ -116,9 +116,9 @@ pub fn shade(
                     points.push(p as u32, li as u32, surf.slot, sum);
                     counts.uniform_equivalent += n;
                 }
-                None => {
-                    uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l))
-                }
+                None => uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| {
+                    shadow.push(surf.o, wi, tmax, surf.slot, l, surf.time)
+                }),
             }
         }
     }
@@ -246,10 +246,11 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
         }
     }
     let (o, wi, slot) = (o.lanes(), [wx, wy, wz], si.map(|p| q.slot[p as usize]));
+    let time = si.map(|p| q.time[p as usize]);
     // Every lane kept (the usual group): whole vectors, no per-value push.
     if m == LANES {
-        shadow.push_lanes(o, wi, tmax, slot, [lr, lg, lb], LANES);
+        shadow.push_lanes(o, wi, tmax, slot, [lr, lg, lb], time, LANES);
     } else {
-        shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], &keep[..m]);
+        shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], time, &keep[..m]);
     }
 }

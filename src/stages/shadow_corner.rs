@@ -43,7 +43,7 @@ pub fn shadow_corners(
         for target in &targets[..n] {
             let to = *target - o;
             let dist = to.length();
-            probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO);
+            probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO, surfaces.time[s]);
         }
     }
     let blocked = tracer.occluded(probes);

@@ -3,6 +3,7 @@
 //! description become primitives in `objects`.
 
 mod materials;
+mod motion;
 mod objects;
 
 use glam::Vec3;
@@ -460,6 +461,7 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         dof_radius,
         penumbra_stop,
         gloss_mis: r.gloss.mis,
+        shutter: motion::shutter(cam, ctx)?,
     })
 }
 
@@ -557,13 +559,15 @@ fn camera(c: &CameraDesc, width: u32, height: u32, ctx: &Ctx) -> Result<Camera> 
         aspect: width as f32 / height as f32,
         aperture: c.aperture,
         focus_distance,
+        motion: None,
     })
 }
 
 fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     let mut settings = settings(&f.render, &f.camera, ctx)?;
     let mut info = SceneInfo::default();
-    let camera = camera(&f.camera, settings.width, settings.height, ctx)?;
+    let mut camera = camera(&f.camera, settings.width, settings.height, ctx)?;
+    motion::camera(&f.camera, &mut camera, settings.shutter, ctx)?;
     let background = color(ctx, "background.color", f.background.color)?;
     let mut names: BTreeMap<&str, u32> = BTreeMap::new();
     let (mut materials, mut textures) = (Vec::new(), materials::Textures::default());
@@ -587,7 +591,8 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     if f.render.bvh == BvhDesc::Auto {
         settings.bvh = BvhQuality::for_budget(ray_budget(&settings, lights.len()), built.prims.len());
     }
-    let (accel, objects::CornerTables { normals, uvs, frames }) = objects::build_accel(built, settings.bvh);
+    let (accel, objects::CornerTables { normals, uvs, frames }) =
+        objects::build_accel(built, settings.bvh, settings.shutter);
     info.bvh_seconds = accel.build_seconds;
     Ok(Scene {
         settings,

@@ -6,9 +6,10 @@ use glam::{Mat3, Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::{color, coord, edges, in_range, vec3, Ctx, MAX_COORD};
+use super::{color, coord, edges, in_range, motion, vec3, Ctx, MAX_COORD};
 use crate::accel::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::accel::{BvhQuality, MAX_LEAF};
+use crate::motion::Motion;
 use crate::scene::format::*;
 use crate::scene::mesh::{self, MeshData};
 use crate::scene::transform::Transform;
@@ -32,6 +33,8 @@ pub(super) struct Built {
     uvs: Vec<Option<[Vec2; 3]>>,
     /// Per primitive: the world-to-local rotation of a rotated sphere under a texture.
     frames: Vec<Option<Mat3>>,
+    /// Moving objects: each one's motion and its primitives in its own space.
+    pub(super) moving: Vec<(Motion, Built)>,
 }
 
 impl Built {
@@ -57,47 +60,70 @@ pub(super) fn objects(
     for (i, l) in f.lights.iter().enumerate() {
         light(ctx, &format!("lights.{i}"), l, &mut b)?;
     }
+    let shutter = f.camera.shutter;
     for (i, o) in f.objects.iter().enumerate() {
         let path = format!("objects.{i}");
-        let lookup = |name: &str| {
-            names.get(name).copied().ok_or_else(|| {
-                let known: Vec<&str> = names.keys().copied().collect();
-                let msg = if name.is_empty() {
-                    format!("missing: name one of the materials ({})", known.join(", "))
-                } else {
-                    format!("unknown material \"{name}\" (defined: {})", known.join(", "))
-                };
-                ctx.fail(&format!("{path}.material"), msg)
-            })
-        };
-        match o {
-            ObjectDesc::Sphere { center, radius, material, transform } => {
-                let (shape, frame) = sphere(ctx, &path, *center, *radius, transform)?;
-                let material = lookup(material)?;
-                b.push(Primitive { shape, material, light: NO_LIGHT }, None, None);
-                // Texture coordinates turn with the sphere, as Mitsuba's do.
-                *b.frames.last_mut().unwrap_or_else(|| unreachable!()) =
-                    frame.filter(|f| *f != Mat3::IDENTITY && has_texture(&materials[material as usize]));
-            }
-            ObjectDesc::Quad { corner, edge_u, edge_v, material, transform, uv } => {
-                let (corner, u, v) = quad_geometry(ctx, &path, *corner, *edge_u, *edge_v, transform)?;
-                let material = lookup(material)?;
-                // A quad's own UVs matter only under a texture.
-                let uv = uv.filter(|_| has_texture(&materials[material as usize])).map(|c| c.map(Vec2::from_array));
-                if let Some(c) = uv.iter().flatten().find(|c| !c.is_finite() || c.abs().max_element() > MAX_COORD) {
-                    return Err(ctx.fail(&format!("{path}.uv"), format!("{c} is beyond ±{MAX_COORD:e}")));
-                }
-                b.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT }, None, uv);
-            }
-            ObjectDesc::Mesh { emission, material, .. } => {
-                let emission = emission.map(|e| color(ctx, &format!("{path}.emission"), e)).transpose()?;
-                let material = if emission.is_some() { 0 } else { lookup(material)? };
-                let textured = emission.is_none() && has_texture(&materials[material as usize]);
-                mesh_object(ctx, &path, o, (material, emission, textured), &mut b, info)?;
+        match motion::object(ctx, &path, o, shutter)? {
+            motion::Placed::AsIs => object(ctx, &path, o, names, materials, &mut b, info)?,
+            motion::Placed::Still(o) => object(ctx, &path, &o, names, materials, &mut b, info)?,
+            motion::Placed::Moving(m, o) => {
+                let mut own = Built::default();
+                object(ctx, &path, &o, names, materials, &mut own, info)?;
+                b.moving.push((m, own));
             }
         }
     }
     Ok(b)
+}
+
+/// One `[[objects]]` entry (its `transform` already the one it is placed with) into `b`.
+fn object(
+    ctx: &Ctx,
+    path: &str,
+    o: &ObjectDesc,
+    names: &BTreeMap<&str, u32>,
+    materials: &[Material],
+    b: &mut Built,
+    info: &mut SceneInfo,
+) -> Result<()> {
+    let lookup = |name: &str| {
+        names.get(name).copied().ok_or_else(|| {
+            let known: Vec<&str> = names.keys().copied().collect();
+            let msg = if name.is_empty() {
+                format!("missing: name one of the materials ({})", known.join(", "))
+            } else {
+                format!("unknown material \"{name}\" (defined: {})", known.join(", "))
+            };
+            ctx.fail(&format!("{path}.material"), msg)
+        })
+    };
+    match o {
+        ObjectDesc::Sphere { center, radius, material, transform, .. } => {
+            let (shape, frame) = sphere(ctx, path, *center, *radius, transform)?;
+            let material = lookup(material)?;
+            b.push(Primitive { shape, material, light: NO_LIGHT }, None, None);
+            // Texture coordinates turn with the sphere, as Mitsuba's do.
+            *b.frames.last_mut().unwrap_or_else(|| unreachable!()) =
+                frame.filter(|f| *f != Mat3::IDENTITY && has_texture(&materials[material as usize]));
+        }
+        ObjectDesc::Quad { corner, edge_u, edge_v, material, transform, uv, .. } => {
+            let (corner, u, v) = quad_geometry(ctx, path, *corner, *edge_u, *edge_v, transform)?;
+            let material = lookup(material)?;
+            // A quad's own UVs matter only under a texture.
+            let uv = uv.filter(|_| has_texture(&materials[material as usize])).map(|c| c.map(Vec2::from_array));
+            if let Some(c) = uv.iter().flatten().find(|c| !c.is_finite() || c.abs().max_element() > MAX_COORD) {
+                return Err(ctx.fail(&format!("{path}.uv"), format!("{c} is beyond ±{MAX_COORD:e}")));
+            }
+            b.push(Primitive { shape: Shape::Quad { corner, u, v }, material, light: NO_LIGHT }, None, uv);
+        }
+        ObjectDesc::Mesh { emission, material, .. } => {
+            let emission = emission.map(|e| color(ctx, &format!("{path}.emission"), e)).transpose()?;
+            let material = if emission.is_some() { 0 } else { lookup(material)? };
+            let textured = emission.is_none() && has_texture(&materials[material as usize]);
+            mesh_object(ctx, path, o, (material, emission, textured), b, info)?;
+        }
+    }
+    Ok(())
 }
 
 /// True when a material looks up a texture (so its meshes keep their UVs).
@@ -111,8 +137,14 @@ fn has_texture(m: &Material) -> bool {
 /// One `[[lights]]` entry: its light, and for an area light its primitive.
 fn light(ctx: &Ctx, path: &str, l: &LightDesc, b: &mut Built) -> Result<()> {
     let li = b.lights.len() as u32;
+    if let LightDesc::Quad { transform_end: Some(_), .. }
+    | LightDesc::Triangle { transform_end: Some(_), .. }
+    | LightDesc::Point { transform_end: Some(_), .. } = l
+    {
+        return Err(ctx.fail(&format!("{path}.transform_end"), motion::LIGHTS_STILL));
+    }
     match l {
-        LightDesc::Quad { corner, edge_u, edge_v, radiance, transform } => {
+        LightDesc::Quad { corner, edge_u, edge_v, radiance, transform, .. } => {
             let (corner, u, v) = quad_geometry(ctx, path, *corner, *edge_u, *edge_v, transform)?;
             let n = u.cross(v);
             b.push(Primitive { shape: Shape::Quad { corner, u, v }, material: 0, light: li }, None, None);
@@ -125,7 +157,7 @@ fn light(ctx: &Ctx, path: &str, l: &LightDesc, b: &mut Built) -> Result<()> {
                 radiance: color(ctx, &format!("{path}.radiance"), *radiance)?,
             });
         }
-        LightDesc::Triangle { v0, v1, v2, radiance, transform } => {
+        LightDesc::Triangle { v0, v1, v2, radiance, transform, .. } => {
             let t = transform_opt(ctx, path, transform)?;
             let mut vs = [Vec3::ZERO; 3];
             for (k, p) in [v0, v1, v2].into_iter().enumerate() {
@@ -139,7 +171,7 @@ fn light(ctx: &Ctx, path: &str, l: &LightDesc, b: &mut Built) -> Result<()> {
             b.push(Primitive { shape, material: 0, light: li }, None, None);
             b.lights.push(light);
         }
-        LightDesc::Point { position, intensity } => b.lights.push(Light::Point {
+        LightDesc::Point { position, intensity, .. } => b.lights.push(Light::Point {
             position: coord(ctx, &format!("{path}.position"), vec3(*position))?,
             intensity: color(ctx, &format!("{path}.intensity"), *intensity)?,
         }),
@@ -354,38 +386,67 @@ pub(super) struct CornerTables {
     pub(super) frames: Vec<Mat3>,
 }
 
-/// Builds the BVH and puts the per-corner tables in its primitive order.
-/// [`Accel::build`] reorders the primitives and keeps no map back, and the acceleration
-/// module does not know about shading data: each primitive's position rides through the
-/// build in its `material` field and is replaced by the real one afterwards. Without
-/// smooth or textured meshes the tables are empty and the build is the plain one.
-pub(super) fn build_accel(b: Built, quality: BvhQuality) -> (Accel, CornerTables) {
-    let Built { mut prims, normals, uvs, frames, .. } = b;
-    let (smooth, textured) = (normals.iter().any(Option::is_some), uvs.iter().any(Option::is_some));
-    let rotated = frames.iter().any(Option::is_some);
+/// Builds the BVH (and each moving object's, attached to it with the shutter its
+/// bounds cover) and puts the per-corner tables in primitive-id order. [`Accel::build`]
+/// reorders the primitives and keeps no map back, and the acceleration module does not
+/// know about shading data: each primitive's position rides through the build in its
+/// `material` field and is replaced by the real one afterwards. Without smooth or
+/// textured meshes the tables are empty and the build is the plain one.
+pub(super) fn build_accel(b: Built, quality: BvhQuality, shutter: [f32; 2]) -> (Accel, CornerTables) {
+    let Built { prims, normals, uvs, frames, moving, .. } = b;
+    let parts = || {
+        std::iter::once((&normals, &uvs, &frames)).chain(moving.iter().map(|(_, m)| (&m.normals, &m.uvs, &m.frames)))
+    };
+    let smooth = parts().any(|(n, _, _)| n.iter().any(Option::is_some));
+    let textured = parts().any(|(_, u, _)| u.iter().any(Option::is_some));
+    let rotated = parts().any(|(_, _, f)| f.iter().any(Option::is_some));
     let mut tables = CornerTables { normals: Vec::new(), uvs: Vec::new(), frames: Vec::new() };
-    if !smooth && !textured && !rotated {
-        return (Accel::build_with(prims, MAX_LEAF, quality), tables);
+    let track = smooth || textured || rotated;
+    let mut add =
+        |order: &[usize], normals: &[Option<[Vec3; 3]>], uvs: &[Option<[Vec2; 3]>], frames: &[Option<Mat3>]| {
+            for &i in order {
+                if smooth {
+                    tables.normals.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
+                }
+                if textured {
+                    tables.uvs.push(uvs[i].unwrap_or(uv::DEFAULT_UVS));
+                }
+                if rotated {
+                    tables.frames.push(frames[i].unwrap_or(Mat3::IDENTITY));
+                }
+            }
+        };
+    let (mut accel, order) = build_tracked(prims, quality, track);
+    add(&order, &normals, &uvs, &frames);
+    if !moving.is_empty() {
+        let mut objects = Vec::with_capacity(moving.len());
+        for (motion, own) in moving {
+            let (object, order) = build_tracked(own.prims, quality, track);
+            add(&order, &own.normals, &own.uvs, &own.frames);
+            objects.push((motion, object));
+        }
+        accel.attach_moving(objects, shutter);
+    }
+    (accel, tables)
+}
+
+/// The BVH over `prims` and, when `track`, the input index of each primitive id.
+fn build_tracked(mut prims: Vec<Primitive>, quality: BvhQuality, track: bool) -> (Accel, Vec<usize>) {
+    if !track {
+        return (Accel::build_with(prims, MAX_LEAF, quality), Vec::new());
     }
     let materials: Vec<u32> = prims.iter().map(|p| p.material).collect();
     for (i, p) in prims.iter_mut().enumerate() {
         p.material = i as u32;
     }
     let mut accel = Accel::build_with(prims, MAX_LEAF, quality);
+    let mut order = Vec::with_capacity(accel.len());
     for id in 0..accel.len() as u32 {
         let i = accel.material(id) as usize;
         accel.set_material(id, materials[i]);
-        if smooth {
-            tables.normals.push(normals[i].unwrap_or([Vec3::ZERO; 3]));
-        }
-        if textured {
-            tables.uvs.push(uvs[i].unwrap_or(uv::DEFAULT_UVS));
-        }
-        if rotated {
-            tables.frames.push(frames[i].unwrap_or(Mat3::IDENTITY));
-        }
+        order.push(i);
     }
-    (accel, tables)
+    (accel, order)
 }
 
 /// Reads a mesh file, OBJ or PLY by its extension (`.ply`, case-insensitive; anything

@@ -147,6 +147,8 @@ impl<'a> Converter<'a> {
                         fov_y: 40.0,
                         aperture: 0.0,
                         focus_distance: None,
+                        shutter: [0.0, 0.0],
+                        transform_end: None,
                     },
                     background: BackgroundDesc::default(),
                     materials: BTreeMap::new(),

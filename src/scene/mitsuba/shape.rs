@@ -86,6 +86,7 @@ impl<'a> Converter<'a> {
             rotate_y: 0.0,
             translate: [0.0; 3],
             transform: Some(ops),
+            transform_end: None,
             smooth,
             emission,
             flip_normals: p.boolean("flip_normals")?.unwrap_or(false),
@@ -116,12 +117,27 @@ impl<'a> Converter<'a> {
             let transform = Some(ops.clone());
             if let Some(radiance) = emission {
                 let li = self.out.file.lights.len();
-                self.out.file.lights.push(LightDesc::Quad { corner, edge_u, edge_v, radiance, transform });
+                self.out.file.lights.push(LightDesc::Quad {
+                    corner,
+                    edge_u,
+                    edge_v,
+                    radiance,
+                    transform,
+                    transform_end: None,
+                });
                 self.place(format!("lights.{li}"), el);
             } else {
                 let i = self.out.file.objects.len();
                 let material = material.clone();
-                self.out.file.objects.push(ObjectDesc::Quad { corner, edge_u, edge_v, material, transform, uv });
+                self.out.file.objects.push(ObjectDesc::Quad {
+                    corner,
+                    edge_u,
+                    edge_v,
+                    material,
+                    transform,
+                    transform_end: None,
+                    uv,
+                });
                 self.place(format!("objects.{i}"), el);
             }
         }
@@ -152,7 +168,7 @@ impl<'a> Converter<'a> {
         let center = p.point("center")?.unwrap_or([0.0; 3]);
         let radius = p.num("radius")?.unwrap_or(1.0) as f32;
         let transform = (!ops.is_empty()).then_some(ops);
-        self.out.file.objects.push(ObjectDesc::Sphere { center, radius, material, transform });
+        self.out.file.objects.push(ObjectDesc::Sphere { center, radius, material, transform, transform_end: None });
         self.place(format!("objects.{idx}"), el);
         Ok(())
     }
@@ -284,7 +300,7 @@ impl<'a> Converter<'a> {
                 let local = p.point("position")?.unwrap_or([0.0; 3]);
                 let position = t.point(glam::Vec3::from_array(local)).to_array();
                 let li = self.out.file.lights.len();
-                self.out.file.lights.push(LightDesc::Point { position, intensity });
+                self.out.file.lights.push(LightDesc::Point { position, intensity, transform_end: None });
                 self.place(format!("lights.{li}"), el);
             }
             "constant" => {
