@@ -178,7 +178,8 @@ impl Motion {
         times.retain(|u| (lo..=hi).contains(u));
         times.sort_by(f64::total_cmp);
         let sign = det(lo).signum();
-        let bad = |u: f64| !(det(u) * sign > tiny);
+        // NaN counts as bad.
+        let bad = |u: f64| (det(u) * sign).partial_cmp(&tiny) != Some(std::cmp::Ordering::Greater);
         if bad(lo) {
             return Err(singular(lo));
         }

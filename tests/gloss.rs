@@ -194,7 +194,7 @@ fn a_rotated_textured_sphere_has_mitsubas_uvs() {
         (Vec3::new(1.5, 2.0, 3.0), glam::Vec2::new(0.0, 0.5)),
         (Vec3::new(1.3, 2.2, 3.346_410_3), glam::Vec2::new(0.136_407_26, 0.630_989_8)),
     ] {
-        let uv = wavetrace::surface::uv_at(&scene, prim, p);
+        let uv = wavetrace::surface::uv_at(&scene, prim, 0.0, p);
         // u wraps at 0 / 1.
         let du = (uv.x - want.x).abs().min(1.0 - (uv.x - want.x).abs());
         assert!(du < 1e-4 && (uv.y - want.y).abs() < 1e-4, "at {p}: {uv} against Mitsuba's {want}");

@@ -25,7 +25,7 @@ pub(super) enum Placed {
     Still(ObjectDesc),
     /// Moving by this motion; the description's primitives are in object space (no
     /// `transform`).
-    Moving(Motion, ObjectDesc),
+    Moving(Box<Motion>, ObjectDesc),
 }
 
 /// `camera.shutter`, checked: open ≤ close, both in [0, 1].
@@ -111,7 +111,7 @@ pub(super) fn object(ctx: &Ctx, path: &str, o: &ObjectDesc, shutter: [f32; 2]) -
         };
         return Ok(Placed::Still(with_transform(o, ops)));
     }
-    Ok(Placed::Moving(m, with_transform(o, None)))
+    Ok(Placed::Moving(Box::new(m), with_transform(o, None)))
 }
 
 /// The camera's motion, when it has `transform_end` and the shutter is open; with a

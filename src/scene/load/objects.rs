@@ -69,7 +69,7 @@ pub(super) fn objects(
             motion::Placed::Moving(m, o) => {
                 let mut own = Built::default();
                 object(ctx, &path, &o, names, materials, &mut own, info)?;
-                b.moving.push((m, own));
+                b.moving.push((*m, own));
             }
         }
     }
