@@ -4,7 +4,7 @@
 use glam::{Affine2, Vec2, Vec3};
 use std::path::Path;
 
-use super::objects::transform;
+use super::transform;
 use super::{color, Ctx};
 use crate::microfacet::{named_conductor, Distribution, Microfacet, CONDUCTORS};
 use crate::scene::format::*;

@@ -14,11 +14,11 @@ use std::path::{Path, PathBuf};
 use super::format::*;
 use super::mitsuba::xml::Loc;
 pub use super::text::{line_col, read_text};
+use super::transform::Transform;
 use super::{AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode};
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
-use objects::transform;
 
 /// Largest coordinate, edge or radius magnitude: the squared length of a cross product of
 /// two edges, (4e9)⁴ = 2.6e38, must stay below f32::MAX (3.4e38), or normals and
@@ -291,6 +291,11 @@ fn check_finite(v: &toml::Value, path: &str, ctx: &Ctx) -> Result<()> {
         }
         _ => Ok(()),
     }
+}
+
+/// A `transform` list composed; errors name the step.
+pub(super) fn transform(ctx: &Ctx, path: &str, ops: &[TransformOp]) -> Result<Transform> {
+    Transform::from_ops(ops).map_err(|(i, e)| ctx.fail(&format!("{path}.{i}"), e))
 }
 
 pub(super) fn vec3(a: [f32; 3]) -> Vec3 {

@@ -4,8 +4,7 @@
 //! equal: then it is placed, still, where it is at the shutter's time, and the scene
 //! renders as a static one (at time 0, bit for bit the scene without `transform_end`).
 
-use super::objects::transform;
-use super::Ctx;
+use super::{transform, Ctx};
 use crate::motion::Motion;
 use crate::scene::format::{CameraDesc, ObjectDesc, TransformOp};
 use crate::scene::transform::{look_at, Transform};

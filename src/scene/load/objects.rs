@@ -6,7 +6,7 @@ use glam::{Mat3, Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::{color, coord, edges, in_range, motion, vec3, Ctx, MAX_COORD};
+use super::{color, coord, edges, in_range, motion, transform, vec3, Ctx, MAX_COORD};
 use crate::accel::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::accel::{BvhQuality, MAX_LEAF};
 use crate::motion::Motion;
@@ -77,6 +77,7 @@ pub(super) fn objects(
 }
 
 /// One `[[objects]]` entry (its `transform` already the one it is placed with) into `b`.
+#[allow(clippy::too_many_arguments)] // the entry, the names and materials it refers to, and what it adds to
 fn object(
     ctx: &Ctx,
     path: &str,
@@ -303,11 +304,6 @@ fn mesh_object(
         );
     }
     Ok(())
-}
-
-/// A `transform` list composed; errors name the step.
-pub(super) fn transform(ctx: &Ctx, path: &str, ops: &[TransformOp]) -> Result<Transform> {
-    Transform::from_ops(ops).map_err(|(i, e)| ctx.fail(&format!("{path}.{i}"), e))
 }
 
 /// The optional `transform` of an object or light.
