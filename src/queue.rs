@@ -19,9 +19,11 @@ use crate::simd::{push_lanes, LANES};
 /// Declares a structure-of-arrays queue: the struct with one public `Vec` per field,
 /// and its methods. `push(...)` lists the pushed values: `name: T => field` stores one
 /// field, `name: Vec3 => x, y, z` stores a vector in three `f32` fields; `get(...)`
-/// lists the `Vec3` fields read back as one value by `name(i)`. Like the item lists of
-/// pbrt-v4's `soa` definitions, the field list is the only place a queue's layout is
-/// written.
+/// lists the `Vec3` fields read back as one value by `name(i)`; `sparse(...)` lists
+/// columns that a scene may not use: each is empty or as long as the others, pushed by
+/// the stages that write it only when the scene uses it (read with [`sparse`]), so a
+/// scene without it writes nothing there. Like the item lists of pbrt-v4's `soa`
+/// definitions, the field list is the only place a queue's layout is written.
 macro_rules! soa {
     (
         $(#[$meta:meta])*
@@ -30,11 +32,13 @@ macro_rules! soa {
         }
         push( $( $arg:ident : $aty:ty => $($col:ident),+ );+ $(;)? )
         $( get( $( $get:ident => $gx:ident, $gy:ident, $gz:ident );+ $(;)? ) )?
+        $( sparse( $( $(#[$smeta:meta])* $sfield:ident : $sty:ty ),+ $(,)? ) )?
     ) => {
         $(#[$meta])*
         #[derive(Default, Debug, Clone, PartialEq)]
         pub struct $name {
             $( $(#[$fmeta])* pub $field: Vec<$ty>, )+
+            $($( $(#[$smeta])* pub $sfield: Vec<$sty>, )+)?
         }
 
         impl $name {
@@ -60,11 +64,13 @@ macro_rules! soa {
             /// Removes every entry, keeping the capacity.
             pub fn clear(&mut self) {
                 $( self.$field.clear(); )+
+                $($( self.$sfield.clear(); )+)?
             }
 
             /// Bytes held by the queue's buffers (capacity, not length).
             pub fn bytes(&self) -> usize {
                 0 $( + self.$field.capacity() * std::mem::size_of::<$ty>() )+
+                  $($( + self.$sfield.capacity() * std::mem::size_of::<$sty>() )+)?
             }
 
             /// Appends the first `count` lanes of 16 entries given as lanes: per pushed value
@@ -84,14 +90,21 @@ macro_rules! soa {
                 $( soa!(@put_picked self, $arg, picks, $($col),+); )+
             }
 
-            /// Appends entries `range` of `src`.
+            /// Appends entries `range` of `src` (sparse columns where `src` has them).
             pub fn append_range(&mut self, src: &$name, range: std::ops::Range<usize>) {
                 $( self.$field.extend_from_slice(&src.$field[range.clone()]); )+
+                $($( if !src.$sfield.is_empty() {
+                    self.$sfield.extend_from_slice(&src.$sfield[range.clone()]);
+                } )+)?
             }
 
-            /// Appends entries `ids` of `src`, in that order.
+            /// Appends entries `ids` of `src`, in that order (sparse columns where `src`
+            /// has them).
             pub fn gather(&mut self, src: &$name, ids: &[u32]) {
                 $( self.$field.extend(ids.iter().map(|&i| src.$field[i as usize])); )+
+                $($( if !src.$sfield.is_empty() {
+                    self.$sfield.extend(ids.iter().map(|&i| src.$sfield[i as usize]));
+                } )+)?
             }
 
             $($(
@@ -164,13 +177,15 @@ soa! {
         /// direction, when the surface also sampled the lights (multiple importance
         /// sampling: weights the emitter the ray hits); 0 for every other ray.
         pdf: f32,
-        /// The path's time in the shutter (motion blur); 0, and never read, when nothing
-        /// moves.
-        time: f32,
     }
     push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; slot: u32 => slot; w: Vec3 => wr, wg, wb;
-         depth: u32 => depth; key: u32 => key; sample: u32 => sample; pdf: f32 => pdf; time: f32 => time)
+         depth: u32 => depth; key: u32 => key; sample: u32 => sample; pdf: f32 => pdf)
     get(origin => ox, oy, oz; dir => dx, dy, dz; weight => wr, wg, wb)
+    sparse(
+        /// The path's time in the shutter: only under motion blur
+        /// ([`Scene::motion_blur`](crate::scene::Scene::motion_blur)).
+        time: f32,
+    )
 }
 
 soa! {
@@ -213,12 +228,13 @@ soa! {
         lg: f32,
         /// Contribution blue.
         lb: f32,
-        /// The time of the path the ray belongs to (motion blur).
-        time: f32,
     }
-    push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; tmax: f32 => tmax; slot: u32 => slot; l: Vec3 => lr, lg, lb;
-         time: f32 => time)
+    push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; tmax: f32 => tmax; slot: u32 => slot; l: Vec3 => lr, lg, lb)
     get(origin => ox, oy, oz; dir => dx, dy, dz; radiance => lr, lg, lb)
+    sparse(
+        /// The time of the path the ray belongs to: only under motion blur.
+        time: f32,
+    )
 }
 
 soa! {
@@ -402,14 +418,23 @@ soa! {
         sample: u32,
         /// Index of the ray that hit the point, in the shaded ray queue.
         ray: u32,
-        /// The path's time (motion blur).
-        time: f32,
     }
     push(o: Vec3 => ox, oy, oz; n: Vec3 => nx, ny, nz; wo: Vec3 => wox, woy, woz; color: Vec3 => cr, cg, cb;
          specular: Vec3 => sr, sg, sb; shininess: f32 => shininess; w: Vec3 => wr, wg, wb; slot: u32 => slot;
-         key: u32 => key; sample: u32 => sample; ray: u32 => ray; time: f32 => time)
+         key: u32 => key; sample: u32 => sample; ray: u32 => ray)
     get(origin => ox, oy, oz; normal => nx, ny, nz; wo => wox, woy, woz; color => cr, cg, cb;
         specular => sr, sg, sb; weight => wr, wg, wb)
+    sparse(
+        /// The path's time: only under motion blur.
+        time: f32,
+    )
+}
+
+/// Entry `i` of a sparse column ([`soa!`]'s `sparse`): its value, or the default where
+/// the scene does not use the column and it is empty.
+#[inline(always)]
+pub fn sparse<T: Copy + Default>(column: &[T], i: usize) -> T {
+    column.get(i).copied().unwrap_or_default()
 }
 
 /// The queues of one wave, owned by a worker and reused from wave to wave.
@@ -472,7 +497,8 @@ mod tests {
         fn ray_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), any::<u32>(), vec3(), any::<u32>(), any::<(u32, u32)>()), 1..40)) {
             let mut q = RayQueue::default();
             for &(o, d, slot, w, depth, (key, sample)) in &rays {
-                q.push(o, d, slot, w, depth, key, sample, slot as f32, key as f32);
+                q.push(o, d, slot, w, depth, key, sample, slot as f32);
+                q.time.push(key as f32);
             }
             prop_assert_eq!(q.len(), rays.len());
             for (i, &(o, d, slot, w, depth, (key, sample))) in rays.iter().enumerate() {
@@ -484,14 +510,14 @@ mod tests {
             tail.append_range(&q, 1..q.len());
             prop_assert_eq!(tail.len(), q.len() - 1);
             for i in 0..tail.len() {
-                prop_assert_eq!((tail.origin(i), tail.key[i]), (q.origin(i + 1), q.key[i + 1]));
+                prop_assert_eq!((tail.origin(i), tail.key[i], tail.time[i]), (q.origin(i + 1), q.key[i + 1], q.time[i + 1]));
             }
             let ids: Vec<u32> = (0..q.len() as u32).rev().collect();
             let mut rev = RayQueue::default();
             rev.gather(&q, &ids);
             for (j, &i) in ids.iter().enumerate() {
                 let i = i as usize;
-                prop_assert_eq!((rev.dir(j), rev.weight(j), rev.slot[j]), (q.dir(i), q.weight(i), q.slot[i]));
+                prop_assert_eq!((rev.dir(j), rev.weight(j), rev.slot[j], rev.time[j]), (q.dir(i), q.weight(i), q.slot[i], q.time[i]));
             }
             prop_assert!(q.bytes() >= 15 * 4 * q.len());
             q.clear();
@@ -504,13 +530,14 @@ mod tests {
         fn shadow_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), 0f32..1e6, any::<u32>(), vec3()), 1..40)) {
             let mut q = ShadowQueue::default();
             for &(o, d, t, slot, l) in &rays {
-                q.push(o, d, t, slot, l, t);
+                q.push(o, d, t, slot, l);
             }
             for (i, &(o, d, t, slot, l)) in rays.iter().enumerate() {
                 prop_assert_eq!((q.origin(i), q.dir(i), q.radiance(i)), (o, d, l));
-                prop_assert_eq!((q.tmax[i], q.slot[i], q.time[i]), (t, slot, t));
+                prop_assert_eq!((q.tmax[i], q.slot[i]), (t, slot));
             }
-            prop_assert_eq!(q.bytes(), q.ox.capacity() * 4 * 12);
+            prop_assert_eq!(q.bytes(), q.ox.capacity() * 4 * 11);
+            prop_assert!(q.time.is_empty(), "a sparse column nobody pushed stays empty");
         }
     }
 }

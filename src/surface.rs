@@ -9,7 +9,7 @@ use wide::f32x16;
 use crate::accel::offset::{offset_lanes, offset_ray_origin};
 use crate::accel::shapes::{quad_point, sphere_point, triangle_point, Shape};
 use crate::accel::NO_LIGHT;
-use crate::queue::{HitQueue, RayQueue, SurfaceQueue};
+use crate::queue::{sparse, HitQueue, RayQueue, SurfaceQueue};
 use crate::scene::{Color, Material, Scene};
 use crate::simd::{LaneIds, LANES, V3};
 use crate::texture::uv;
@@ -148,7 +148,7 @@ pub fn color_at(scene: &Scene, color: Color, prim: usize, time: f32, x: Vec3) ->
 /// object's space and back ([`Moving::extra_error`](crate::accel::moving::Moving::extra_error)).
 #[inline]
 pub fn hit_point(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> (Vec3, Vec3, Vec3) {
-    let (id, time) = (hits.prim[i], rays.time[i]);
+    let (id, time) = (hits.prim[i], sparse(&rays.time, i));
     let shape = scene.accel.shape_at(id, time);
     let (x, mut err) = shape.surface_point(rays.origin(i), rays.dir(i), hits.t[i]);
     if let Some(m) = scene.accel.moving.as_ref().filter(|_| scene.accel.is_moving(id)) {
@@ -162,7 +162,7 @@ pub fn hit_point(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> (
 pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
     let (color, specular, shininess) = diffuse_material(scene, hits.prim[i])?;
     let d = rays.dir(i);
-    let time = rays.time[i];
+    let time = sparse(&rays.time, i);
     let (x, err, ng) = hit_point(scene, rays, hits, i);
     let color = color_at(scene, color, hits.prim[i] as usize, time, x);
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
@@ -219,7 +219,9 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
     } else {
         let (mut abc, mut kind, mut kinds) = ([[0.0f32; LANES]; 9], [0u32; LANES], 0u32);
         for k in 0..LANES {
-            let (a, b, c, what) = points(hits.prim[id(k)], rays.time[id(k)]);
+            // The time only where something moves: a static scene never reads it.
+            let time = if moving { rays.time[id(k)] } else { 0.0 };
+            let (a, b, c, what) = points(hits.prim[id(k)], time);
             for (j, x) in [a, b, c].iter().flat_map(|v| v.to_array()).enumerate() {
                 abc[j][k] = x;
             }
@@ -288,7 +290,7 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
             Color::Rgb(c) => c,
             textured => {
                 let [x, y, z] = points.get_or_insert_with(|| [p.x.to_array(), p.y.to_array(), p.z.to_array()]);
-                color_at(scene, textured, hits.prim[i] as usize, rays.time[i], Vec3::new(x[k], y[k], z[k]))
+                color_at(scene, textured, hits.prim[i] as usize, sparse(&rays.time, i), Vec3::new(x[k], y[k], z[k]))
             }
         };
         (color[0][k], color[1][k], color[2][k]) = (c.x, c.y, c.z);
@@ -298,23 +300,11 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     let words = |col: &[u32]| lanes.idx.map(|i| col[i]);
     let ray_ids = lanes.idx.map(|i| i as u32);
     let (slot, key, sample) = (words(&rays.slot), words(&rays.key), words(&rays.sample));
-    let time = lanes.idx.map(|i| rays.time[i]);
     // Whole columns at once: one capacity check per column, not per value.
-    out.push_lanes(
-        o,
-        shading,
-        (-d).lanes(),
-        color,
-        specular,
-        shininess,
-        w,
-        slot,
-        key,
-        sample,
-        ray_ids,
-        time,
-        ids.len(),
-    );
+    out.push_lanes(o, shading, (-d).lanes(), color, specular, shininess, w, slot, key, sample, ray_ids, ids.len());
+    if scene.motion_blur() {
+        out.time.extend(ids.iter().map(|&i| rays.time[i as usize]));
+    }
 }
 
 /// [`shading_normal`] of every lane: `n` itself unless the scene has smooth meshes.
@@ -338,7 +328,7 @@ pub fn shading_lanes(
         shading_normal(
             scene,
             hits.prim[i] as usize,
-            rays.time[i],
+            sparse(&rays.time, i),
             Vec3::new(px[k], py[k], pz[k]),
             Vec3::new(nx[k], ny[k], nz[k]),
         )
@@ -360,6 +350,6 @@ pub fn queued_surface(q: &SurfaceQueue, p: usize) -> Surface {
         slot: q.slot[p],
         key: q.key[p],
         sample: q.sample[p],
-        time: q.time[p],
+        time: sparse(&q.time, p),
     }
 }

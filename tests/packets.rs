@@ -508,8 +508,8 @@ fn hybrid_tracer_with_and_without_interleaving_equals_the_wide_kernel() {
     let mut rays_q = RayQueue::default();
     let mut shadow = ShadowQueue::default();
     for (i, (&o, &d)) in o.iter().zip(&d).enumerate() {
-        rays_q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0, 0.0);
-        shadow.push(o, d, 0.05 + (i % 13) as f32 * 0.02, i as u32, Vec3::ONE, 0.0);
+        rays_q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0);
+        shadow.push(o, d, 0.05 + (i % 13) as f32 * 0.02, i as u32, Vec3::ONE);
     }
     let answers = |accel: &Accel, kernel: Kernel| {
         let mut tracer = Tracer::new(accel, kernel, true);
@@ -540,8 +540,8 @@ fn hybrid_keeps_coherent_queues_in_packets_and_leaves_incoherent_ones() {
         let (o, d) = rays(&accel, n, coherent, 5);
         let (mut q, mut shadow) = (RayQueue::default(), ShadowQueue::default());
         for (i, (&o, &d)) in o.iter().zip(&d).enumerate() {
-            q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0, 0.0);
-            shadow.push(o, d, f32::INFINITY, i as u32, Vec3::ONE, 0.0);
+            q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0);
+            shadow.push(o, d, f32::INFINITY, i as u32, Vec3::ONE);
         }
         let mut tracer = Tracer::new(&accel, Kernel::HYBRID, true);
         tracer.closest(&q, Coherence::Bounce, &mut HitQueue::default());

@@ -12,7 +12,7 @@ use super::order::{octant, packet_order, Order};
 use super::packet::{Columns, PacketConfig, PacketWork};
 use super::Ray;
 use super::{Accel, Traversal};
-use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
+use crate::queue::{self, FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
 use crate::simd::{Vector, LANES};
 
 /// SIMD width of a packet kernel.
@@ -163,9 +163,9 @@ impl<'a> Tracer<'a> {
             let mut best = (hits.t[i], hits.prim[i]);
             let ray = Ray::infinite(rays.origin(i), rays.dir(i));
             if self.count {
-                m.closest::<true>(ray, rays.time[i], &mut best, &mut self.work);
+                m.closest::<true>(ray, queue::sparse(&rays.time, i), &mut best, &mut self.work);
             } else {
-                m.closest::<false>(ray, rays.time[i], &mut best, &mut self.work);
+                m.closest::<false>(ray, queue::sparse(&rays.time, i), &mut best, &mut self.work);
             }
             (hits.t[i], hits.prim[i]) = best;
         }
@@ -177,9 +177,9 @@ impl<'a> Tracer<'a> {
         for (i, blocked) in self.blocked.iter_mut().enumerate().filter(|(_, b)| !**b) {
             let ray = Ray::new(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i]);
             *blocked = if self.count {
-                m.occluded::<true>(ray, shadow.time[i], &mut self.work)
+                m.occluded::<true>(ray, queue::sparse(&shadow.time, i), &mut self.work)
             } else {
-                m.occluded::<false>(ray, shadow.time[i], &mut self.work)
+                m.occluded::<false>(ray, queue::sparse(&shadow.time, i), &mut self.work)
             };
         }
     }

@@ -38,17 +38,7 @@ pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, ra
         let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
         for k in 0..count {
             let slot = (i0 + k as u64 - first) as u32;
-            rays.push(
-                cam.position,
-                Vec3::new(dx[k], dy[k], dz[k]),
-                slot,
-                Vec3::ZERO,
-                0,
-                0,
-                0,
-                0.0,
-                scene.settings.shutter[0],
-            );
+            rays.push(cam.position, Vec3::new(dx[k], dy[k], dz[k]), slot, Vec3::ZERO, 0, 0, 0, 0.0);
         }
     }
 }

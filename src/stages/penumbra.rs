@@ -98,6 +98,7 @@ fn generate(
     q.active.clear();
     let (cols, rows) = sample_grid(scene.settings.shadow_samples);
     let levels = morton_levels(cols, rows);
+    let mb = scene.motion_blur();
     for (i, &k) in penumbra.index.iter().enumerate() {
         let k = k as usize;
         let start = q.rays.len() as u32;
@@ -110,7 +111,10 @@ fn generate(
                 let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
                 cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
             }
-            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l, surf.time);
+            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l);
+            if mb {
+                shadow.time.push(surf.time);
+            }
         });
         let end = q.rays.len() as u32;
         q.points.push(start, end, 0, 0);

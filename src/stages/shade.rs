@@ -104,6 +104,7 @@ pub fn shade(
         quad_shadow_lanes(scene, surfaces, shadow);
         return counts;
     }
+    let mb = scene.motion_blur();
     for p in 0..surfaces.len() {
         let surf = queued_surface(surfaces, p);
         for li in 0..scene.lights.len() {
@@ -117,7 +118,10 @@ pub fn shade(
                     counts.uniform_equivalent += n;
                 }
                 None => uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| {
-                    shadow.push(surf.o, wi, tmax, surf.slot, l, surf.time)
+                    shadow.push(surf.o, wi, tmax, surf.slot, l);
+                    if mb {
+                        shadow.time.push(surf.time);
+                    }
                 }),
             }
         }
@@ -246,11 +250,13 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
         }
     }
     let (o, wi, slot) = (o.lanes(), [wx, wy, wz], si.map(|p| q.slot[p as usize]));
-    let time = si.map(|p| q.time[p as usize]);
     // Every lane kept (the usual group): whole vectors, no per-value push.
     if m == LANES {
-        shadow.push_lanes(o, wi, tmax, slot, [lr, lg, lb], time, LANES);
+        shadow.push_lanes(o, wi, tmax, slot, [lr, lg, lb], LANES);
     } else {
-        shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], time, &keep[..m]);
+        shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], &keep[..m]);
+    }
+    if scene.motion_blur() {
+        shadow.time.extend(keep[..m].iter().map(|&k| q.time[si[k] as usize]));
     }
 }

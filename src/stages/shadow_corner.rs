@@ -34,6 +34,7 @@ pub fn shadow_corners(
     penumbra.clear();
     probes.clear();
     let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode else { return 0 };
+    let mb = scene.motion_blur();
     for k in 0..points.len() {
         let s = points.surface[k] as usize;
         let o = surfaces.origin(s);
@@ -43,7 +44,10 @@ pub fn shadow_corners(
         for target in &targets[..n] {
             let to = *target - o;
             let dist = to.length();
-            probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO, surfaces.time[s]);
+            probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO);
+            if mb {
+                probes.time.push(surfaces.time[s]);
+            }
         }
     }
     let blocked = tracer.occluded(probes);

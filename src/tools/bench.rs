@@ -187,7 +187,7 @@ pub(crate) fn closest_set(items: &[(Vec3, Vec3)], coherence: Coherence) -> RaySe
     let chunk = |c: &[(Vec3, Vec3)]| {
         let mut q = RayQueue::default();
         for (k, &(o, d)) in c.iter().enumerate() {
-            q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0, 0.0, 0.0);
+            q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0, 0.0);
         }
         q
     };
@@ -199,7 +199,7 @@ pub(crate) fn any_hit_set(items: &[(Vec3, Vec3, f32)]) -> RaySet {
     let chunk = |c: &[(Vec3, Vec3, f32)]| {
         let mut q = ShadowQueue::default();
         for (k, &(o, d, t)) in c.iter().enumerate() {
-            q.push(o, d, t, k as u32, Vec3::ONE, 0.0);
+            q.push(o, d, t, k as u32, Vec3::ONE);
         }
         q
     };
