@@ -205,13 +205,22 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
     let d = V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) };
     // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
     // and edges, a triangle's vertices.
-    let points = |prim: u32, time: f32| match scene.accel.shape_at(prim, time) {
+    let moving_scene = scene.accel.moving.is_some();
+    // A static scene takes the tree's shapes straight, as before motion blur existed.
+    let shape = |prim: u32, time: f32| {
+        if moving_scene {
+            scene.accel.shape_at(prim, time)
+        } else {
+            scene.accel.prim(prim).shape
+        }
+    };
+    let points = |prim: u32, time: f32| match shape(prim, time) {
         Shape::Sphere { center, radius } => (center, Vec3::splat(radius), Vec3::ZERO, 0),
         Shape::Quad { corner, u, v } => (corner, u, v, 1),
         Shape::Triangle { v0, v1, v2 } => (v0, v1, v2, 2),
     };
     let first = hits.prim[id(0)];
-    let moving = scene.accel.moving.is_some() && (0..LANES).any(|k| scene.accel.is_moving(hits.prim[id(k)]));
+    let moving = moving_scene && (0..LANES).any(|k| scene.accel.is_moving(hits.prim[id(k)]));
     let (a, b, c, kind, kinds) = if !moving && (1..LANES).all(|k| hits.prim[id(k)] == first) {
         // One primitive under all lanes (a large quad or triangle): its points once.
         let (a, b, c, what) = points(first, 0.0);

@@ -475,7 +475,7 @@ impl Accel {
             self.meta.extend(accel.meta.iter().map(|m| Meta { at: u32::MAX, ..*m }));
             instances.push(moving::Instance { motion, accel, bounds, first });
         }
-        self.moving = Some(Box::new(moving::Moving { instances }));
+        self.moving = Some(Box::new(moving::Moving::new(instances)));
     }
 
     /// Every primitive id: the tree's and the moving objects'.

@@ -11,9 +11,12 @@
 //! compares it with the static scene's hits.
 
 use glam::{DAffine3, DVec3, Vec3};
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
 
+use super::bvh2::{subtree, MAX_DEPTH};
 use super::shapes::{gamma, Shape};
-use super::{nearer, slab, Accel, Ray, Traversal};
+use super::{nearer, slab, Accel, Ray, SlabRay, Traversal};
 use crate::motion::Motion;
 
 /// One moving object.
@@ -29,11 +32,18 @@ pub struct Instance {
     pub first: u32,
 }
 
-/// The moving objects of a scene, in id order.
+/// The moving objects of a scene, in id order, with a binary tree over the boxes they
+/// sweep when there are more than a few.
 pub struct Moving {
     /// The objects.
     pub instances: Vec<Instance>,
+    /// obvhs's PLOC tree over the objects' swept boxes (one object per leaf); `None` for
+    /// a few objects (tested one by one) or a tree too deep for the walk's stack.
+    top: Option<Bvh2>,
 }
+
+/// Objects up to which a ray tests every swept box instead of walking a tree over them.
+const SCAN: usize = 4;
 
 /// A world ray taken into an object's space at a time: the origin, the unit direction,
 /// and the factor that turns world distances into object ones.
@@ -61,14 +71,65 @@ impl Instance {
     /// The world box test of `ray` against the swept bound: may the ray meet the object
     /// before `tmax`?
     #[inline]
-    fn may_hit(&self, ray: &Ray, tmax: f32) -> bool {
-        let b = obvhs::aabb::Aabb::new(self.bounds.0.into(), self.bounds.1.into());
-        let near = slab(&b, &ray.slab());
+    fn may_hit(&self, ray: &SlabRay, tmax: f32) -> bool {
+        let b = Aabb::new(self.bounds.0.into(), self.bounds.1.into());
+        let near = slab(&b, ray);
         near.is_finite() && near <= tmax
     }
 }
 
 impl Moving {
+    /// The moving objects, with the tree over them when there are more than [`SCAN`].
+    pub fn new(instances: Vec<Instance>) -> Moving {
+        let top = (instances.len() > SCAN).then(|| {
+            let boxes: Vec<Aabb> = instances.iter().map(|i| Aabb::new(i.bounds.0.into(), i.bounds.1.into())).collect();
+            let params = obvhs::BvhBuildParams::medium_build();
+            obvhs::ploc::PlocBuilder::with_capacity(boxes.len()).build(
+                params.ploc_search_distance,
+                &boxes,
+                (0..boxes.len() as u32).collect(),
+                params.sort_precision,
+                params.search_depth_threshold,
+            )
+        });
+        let top = top.filter(|t| !t.nodes[0].is_leaf() && t.depth(0) < MAX_DEPTH);
+        Moving { instances, top }
+    }
+
+    /// Calls `visit` with each object whose swept box `ray` may enter before its `tmax`
+    /// (which `visit` may lower, to `f32::INFINITY`'s next float down at most), nearer
+    /// subtrees first, until `visit` returns false.
+    #[inline]
+    fn candidates<const COUNT: bool>(
+        &self,
+        ray: SlabRay,
+        c: &mut Traversal,
+        mut visit: impl FnMut(&Instance, &mut SlabRay, &mut Traversal) -> bool,
+    ) {
+        let Some(top) = &self.top else {
+            let mut ray = ray;
+            for inst in &self.instances {
+                if inst.may_hit(&ray, ray.tmax) && !visit(inst, &mut ray, c) {
+                    return;
+                }
+            }
+            return;
+        };
+        let root = top.nodes[0].aabb();
+        if !slab(root, &ray).is_finite() {
+            return;
+        }
+        subtree::<COUNT>(&top.nodes, top.nodes[0].first_index as usize, 0.0, ray, c, |r, range, c| {
+            for k in range {
+                let inst = &self.instances[top.primitive_indices[k] as usize];
+                if inst.may_hit(r, r.tmax) && !visit(inst, r, c) {
+                    return false;
+                }
+            }
+            true
+        });
+    }
+
     /// Primitives of every moving object.
     pub fn len(&self) -> usize {
         self.instances.iter().map(|i| i.accel.len()).sum()
@@ -91,37 +152,39 @@ impl Moving {
     /// `time` on a moving object, by the tie rule.
     #[inline]
     pub fn closest<const COUNT: bool>(&self, ray: Ray, time: f32, best: &mut (f32, u32), c: &mut Traversal) {
-        for inst in &self.instances {
-            // A hit exactly as far as `best` may still win the tie: look a step past it.
-            if !inst.may_hit(&ray, best.0.min(ray.tmax).next_up()) {
-                continue;
-            }
+        // A hit exactly as far as `best` may still win the tie: boxes are tested a step
+        // past it.
+        let mut search = ray.slab();
+        search.tmax = best.0.min(ray.tmax).next_up();
+        self.candidates::<COUNT>(search, c, |inst, r, c| {
             let local = object_ray(&inst.motion.at(time), &ray);
             // The object's distances, a little past the world limit so rounding loses no
             // tie; the world distances decide.
             let tmax = (best.0.min(ray.tmax) * local.scale) * (1.0 + 4.0 * f32::EPSILON);
-            let r = Ray::new(local.o, local.d, ray.tmin * local.scale, tmax);
-            if let Some((t, id)) = inst.accel.closest_wide::<COUNT>(r, c) {
+            let obj = Ray::new(local.o, local.d, ray.tmin * local.scale, tmax);
+            if let Some((t, id)) = inst.accel.closest_wide::<COUNT>(obj, c) {
                 let t = t / local.scale;
                 let id = inst.first + id;
                 if t > ray.tmin && t < ray.tmax && nearer(t, id, *best) {
                     *best = (t, id);
+                    r.tmax = t.next_up();
                 }
             }
-        }
+            true
+        });
     }
 
     /// True when a moving object blocks the shadow segment `ray` at `time`.
     #[inline]
     pub fn occluded<const COUNT: bool>(&self, ray: Ray, time: f32, c: &mut Traversal) -> bool {
-        self.instances.iter().any(|inst| {
-            if !inst.may_hit(&ray, ray.tmax) {
-                return false;
-            }
+        let mut blocked = false;
+        self.candidates::<COUNT>(ray.slab(), c, |inst, _, c| {
             let local = object_ray(&inst.motion.at(time), &ray);
-            let r = Ray::new(local.o, local.d, ray.tmin * local.scale, ray.tmax * local.scale);
-            inst.accel.occluded_wide::<COUNT>(r, c)
-        })
+            let obj = Ray::new(local.o, local.d, ray.tmin * local.scale, ray.tmax * local.scale);
+            blocked = inst.accel.occluded_wide::<COUNT>(obj, c);
+            !blocked
+        });
+        blocked
     }
 
     /// Primitive `id`'s shape in the world at `time`: its object-space shape under the
@@ -180,5 +243,59 @@ impl Moving {
     pub fn object_shape(&self, id: u32) -> Shape {
         let (inst, local) = self.instance(id);
         inst.accel.prim(local).shape
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{Primitive, NO_LIGHT};
+    use glam::{DMat4, DQuat};
+
+    /// Forty small moving spheres, object `k` with id `k`.
+    fn objects() -> Vec<Instance> {
+        let mut seed = 7u32;
+        let mut next = move || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f64 / (1u32 << 24) as f64
+        };
+        (0..40)
+            .map(|k| {
+                let p = DVec3::new(next() * 8.0 - 4.0, next() * 8.0 - 4.0, next() * 8.0 - 4.0);
+                let d = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 2.0;
+                let turn = DQuat::from_axis_angle(DVec3::Y, next() * 2.0);
+                let motion =
+                    Motion::new(DMat4::from_translation(p), DMat4::from_rotation_translation(turn, p + d)).unwrap();
+                let shape = Shape::Sphere { center: Vec3::new(0.3, 0.0, 0.0), radius: 0.2 + 0.3 * next() as f32 };
+                let accel = Accel::build(vec![Primitive { shape, material: 0, light: NO_LIGHT }]);
+                let (lo, hi) = accel.bounds();
+                Instance { bounds: motion.bound(lo, hi, [0.0, 1.0]), motion, accel, first: k }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_tree_over_moving_objects_finds_what_testing_each_one_finds() {
+        let tree = Moving::new(objects());
+        assert!(tree.top.is_some(), "40 objects get a tree");
+        let each = Moving { instances: objects(), top: None };
+        let mut c = Traversal::default();
+        let (mut hits, mut blocked) = (0, 0);
+        for i in 0..4000u32 {
+            let f = |k: u32| ((i.wrapping_mul(2_654_435_761) ^ k.wrapping_mul(40_503)) % 10_000) as f32 / 10_000.0;
+            let o = Vec3::new(f(1) * 12.0 - 6.0, f(2) * 12.0 - 6.0, 7.0);
+            let d = (Vec3::new(f(3) * 8.0 - 4.0, f(4) * 8.0 - 4.0, 0.0) - o).normalize();
+            let time = f(5);
+            let (mut a, mut b) = ((f32::INFINITY, u32::MAX), (f32::INFINITY, u32::MAX));
+            tree.closest::<false>(Ray::infinite(o, d), time, &mut a, &mut c);
+            each.closest::<false>(Ray::infinite(o, d), time, &mut b, &mut c);
+            assert_eq!(a, b, "ray {i}");
+            hits += (a.1 != u32::MAX) as u32;
+            let segment = Ray::new(o, d, 0.0, 3.0 + f(6) * 6.0);
+            let blocks = tree.occluded::<false>(segment, time, &mut c);
+            assert_eq!(blocks, each.occluded::<false>(segment, time, &mut c), "shadow ray {i}");
+            blocked += blocks as u32;
+        }
+        assert!(hits > 400 && blocked > 100, "too few hits to compare: {hits}, {blocked}");
     }
 }

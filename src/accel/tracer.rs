@@ -157,6 +157,7 @@ impl<'a> Tracer<'a> {
 
     /// Lowers every ray's hit to a moving object's where one is nearer at the ray's time
     /// (the static tree's kernels above know nothing of time).
+    #[inline(never)] // kept out of the static kernels' code
     fn closest_moving(&mut self, rays: &RayQueue, hits: &mut HitQueue) {
         let Some(m) = &self.accel.moving else { return };
         for i in 0..rays.len() {
@@ -172,6 +173,7 @@ impl<'a> Tracer<'a> {
     }
 
     /// Blocks the shadow rays still unblocked that a moving object blocks at their time.
+    #[inline(never)] // kept out of the static kernels' code
     fn occluded_moving(&mut self, shadow: &ShadowQueue) {
         let Some(m) = &self.accel.moving else { return };
         for (i, blocked) in self.blocked.iter_mut().enumerate().filter(|(_, b)| !**b) {

@@ -10,7 +10,7 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::accel::NO_LIGHT;
+use crate::accel::{lanes_of, NO_LIGHT};
 use crate::light::{
     emitted, gloss_light_pdf, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes,
     SHADOW_TMAX_SCALE,
@@ -141,6 +141,7 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
     let single = next_lit(first + 1).is_none();
     let (mut s, mut li, mut j) = (0, first, 0);
     let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
+    let mb = scene.motion_blur();
     while s < surfaces.len() {
         let mut count = 0;
         while count < LANES && s < surfaces.len() {
@@ -165,7 +166,11 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
                 (lanes.point[k - 1], lanes.light[k - 1], lanes.sample[k - 1]);
         }
         lanes.count = count;
-        quad_lanes(scene, surfaces, &lanes, shadow);
+        let kept = quad_lanes(scene, surfaces, &lanes, shadow);
+        if mb {
+            // Out here, not in the lanes' function: a call there spills its vectors.
+            shadow.time.extend(lanes_of(kept).map(|k| surfaces.time[lanes.point[k] as usize]));
+        }
     }
 }
 
@@ -210,8 +215,8 @@ impl LightLanes {
 
 /// The shadow rays of one lane group of `triples`: the scalar formulas of
 /// [`area_light_samples`](crate::light::area_light_samples) (through [`quad_sample`]), Lambert on the lanes and a Phong
-/// point's BRDF by the scalar function.
-fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) {
+/// point's BRDF by the scalar function. Returns the lanes that cast a ray (bit k: lane k).
+fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) -> u32 {
     let n = scene.settings.shadow_samples;
     let si = triples.point;
     // A run of consecutive points (one sample, one light) loads straight from the queue.
@@ -256,7 +261,5 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
     } else {
         shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], &keep[..m]);
     }
-    if scene.motion_blur() {
-        shadow.time.extend(keep[..m].iter().map(|&k| q.time[si[k] as usize]));
-    }
+    keep[..m].iter().fold(0, |mask, &k| mask | 1 << k)
 }

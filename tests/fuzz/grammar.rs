@@ -27,6 +27,10 @@ enum Kind {
     Ratio,
     MaterialRef,
     MeshFile,
+    /// `camera.shutter`: two times, valid when 0 ≤ open ≤ close ≤ 1.
+    Shutter,
+    /// `transform_end`: a short transform list.
+    Motion,
 }
 
 /// A field: name, kind, and how often it is present.
@@ -87,6 +91,30 @@ fn field_value(kind: Kind) -> BoxedStrategy<String> {
             .prop_map(quote)
             .boxed(),
         ),
+        Kind::Shutter => (
+            (0.0f64..=1.0, 0.0f64..=1.0)
+                .prop_map(|(a, b)| format!("[{}, {}]", toml_float(a.min(b)), toml_float(a.max(b))))
+                .boxed(),
+            (real(-1.0, 2.0), real(-1.0, 2.0)).prop_map(|(a, b)| format!("[{a}, {b}]")).boxed(),
+        ),
+        Kind::Motion => {
+            let step = |scale: BoxedStrategy<String>, axis: BoxedStrategy<String>| {
+                prop_oneof![
+                    vec3().prop_map(|v| format!("{{ translate = {v} }}")),
+                    (axis, real(-400.0, 400.0))
+                        .prop_map(|(a, d)| format!("{{ rotate = {{ axis = {a}, angle = {d} }} }}")),
+                    scale.prop_map(|s| format!("{{ scale = [{s}, {s}, {s}] }}")),
+                ]
+            };
+            let list = |scale: BoxedStrategy<String>, axis: BoxedStrategy<String>| {
+                prop::collection::vec(step(scale, axis), 0..4).prop_map(|steps| format!("[{}]", steps.join(", ")))
+            };
+            (
+                list(real(0.2, 3.0).boxed(), vec3().boxed()).boxed(),
+                // A mirror (singular somewhere in between), a zero scale, a zero axis.
+                list(real(-3.0, 0.0).boxed(), Just("[0, 0, 0]".to_string()).boxed()).boxed(),
+            )
+        }
     };
     prop_oneof![90 => valid, 4 => invalid, 1 => odd_value(), 1 => plain_number()].boxed()
 }
@@ -153,6 +181,8 @@ const CAMERA: &[Field] = &[
     ("fov_y", Kind::Positive, 0.7),
     ("aperture", Kind::NonNegative, 0.3),
     ("focus_distance", Kind::Positive, 0.3),
+    ("shutter", Kind::Shutter, 0.3),
+    ("transform_end", Kind::Motion, 0.1),
 ];
 const BACKGROUND: &[Field] = &[("color", Kind::Color, 0.9)];
 const DIFFUSE: &[Field] =
@@ -165,15 +195,21 @@ const QUAD_LIGHT: &[Field] = &[
     ("edge_u", Kind::Vec3, 0.97),
     ("edge_v", Kind::Vec3, 0.97),
     ("radiance", Kind::Color, 0.97),
+    ("transform_end", Kind::Motion, 0.02),
 ];
 const POINT_LIGHT: &[Field] = &[("position", Kind::Vec3, 0.97), ("intensity", Kind::Color, 0.97)];
-const SPHERE: &[Field] =
-    &[("center", Kind::Vec3, 0.97), ("radius", Kind::Positive, 0.97), ("material", Kind::MaterialRef, 0.97)];
+const SPHERE: &[Field] = &[
+    ("center", Kind::Vec3, 0.97),
+    ("radius", Kind::Positive, 0.97),
+    ("material", Kind::MaterialRef, 0.97),
+    ("transform_end", Kind::Motion, 0.2),
+];
 const QUAD: &[Field] = &[
     ("corner", Kind::Vec3, 0.97),
     ("edge_u", Kind::Vec3, 0.97),
     ("edge_v", Kind::Vec3, 0.97),
     ("material", Kind::MaterialRef, 0.97),
+    ("transform_end", Kind::Motion, 0.2),
 ];
 const MESH: &[Field] = &[
     ("file", Kind::MeshFile, 0.97),
@@ -181,6 +217,7 @@ const MESH: &[Field] = &[
     ("scale", Kind::Positive, 0.5),
     ("rotate_y", Kind::Real, 0.5),
     ("translate", Kind::Vec3, 0.5),
+    ("transform_end", Kind::Motion, 0.2),
 ];
 const MATERIAL_TYPES: &[(&str, &[Field])] = &[("diffuse", DIFFUSE), ("mirror", MIRROR), ("dielectric", DIELECTRIC)];
 const LIGHT_TYPES: &[(&str, &[Field])] = &[("quad", QUAD_LIGHT), ("point", POINT_LIGHT)];
