@@ -19,7 +19,8 @@ use crate::simd::{LaneIds, Real, LANES, V3};
 
 /// Pinhole rays through the film positions `film(i)` of points `range`, for their first
 /// hit's depth only (they are intersected, never shaded). Slot: the point index minus
-/// `range.start`. No randomness: a point's probe depends only on its film position. The
+/// `range.start`. No randomness: a point's probe depends only on its film position (and
+/// under motion blur sees moving objects at mid-shutter). The
 /// directions are computed 16 at a time on lanes ([`Camera::pinhole_dirs`]).
 pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, rays: &mut RayQueue) {
     rays.clear();
@@ -40,6 +41,12 @@ pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, ra
             let slot = (i0 + k as u64 - first) as u32;
             rays.push(cam.position, Vec3::new(dx[k], dy[k], dz[k]), slot, Vec3::ZERO, 0, 0, 0, 0.0);
         }
+    }
+    if scene.motion_blur() {
+        // Under motion blur a probe sees moving objects at mid-shutter (the camera as
+        // at time 0: the blur radii use its view axis).
+        let [open, close] = s.shutter;
+        rays.time.resize(rays.len(), open + 0.5 * (close - open));
     }
 }
 
