@@ -470,12 +470,10 @@ impl Accel {
         let mut instances = Vec::with_capacity(objects.len());
         for (motion, accel) in objects {
             let first = self.meta.len() as u32;
-            let (lo, hi) = accel.bounds();
-            let bounds = motion.bound(lo, hi, shutter);
             self.meta.extend(accel.meta.iter().map(|m| Meta { at: u32::MAX, ..*m }));
-            instances.push(moving::Instance { motion, accel, bounds, first });
+            instances.push(moving::Instance::new(motion, accel, first, shutter));
         }
-        self.moving = Some(Box::new(moving::Moving::new(instances)));
+        self.moving = Some(Box::new(moving::Moving::new(instances, shutter)));
     }
 
     /// Every primitive id: the tree's and the moving objects'.

@@ -26,6 +26,8 @@ pub struct Instance {
     /// Its primitives in object space (ids local to it).
     pub accel: Accel,
     /// The world box it sweeps over the shutter ([`Motion::bound`] of its tree's box).
+    /// (Boxes per quarter of the shutter, Embree's multi-segment motion blur, were
+    /// measured not to pay: docs/performance.md.)
     pub bounds: (Vec3, Vec3),
     /// The id its first primitive has in the scene (after every static primitive and the
     /// objects before it).
@@ -37,6 +39,8 @@ pub struct Instance {
 pub struct Moving {
     /// The objects.
     pub instances: Vec<Instance>,
+    /// The shutter their boxes cover.
+    shutter: [f32; 2],
     /// obvhs's PLOC tree over the objects' swept boxes (one object per leaf); `None` for
     /// a few objects (tested one by one) or a tree too deep for the walk's stack.
     top: Option<Bvh2>,
@@ -70,17 +74,25 @@ pub fn object_ray(m: &DAffine3, ray: &Ray) -> ObjectRay {
 impl Instance {
     /// The world box test of `ray` against the swept bound: may the ray meet the object
     /// before `tmax`?
+    /// An object moving from `motion` over `shutter`, its primitives `accel` in object
+    /// space, its first primitive's scene id `first`.
+    pub fn new(motion: Motion, accel: Accel, first: u32, shutter: [f32; 2]) -> Instance {
+        let (lo, hi) = accel.bounds();
+        Instance { bounds: motion.bound(lo, hi, shutter), motion, accel, first }
+    }
+
+    /// May `ray` meet the object (its swept box) before `tmax`?
     #[inline]
     fn may_hit(&self, ray: &SlabRay, tmax: f32) -> bool {
-        let b = Aabb::new(self.bounds.0.into(), self.bounds.1.into());
-        let near = slab(&b, ray);
+        let (lo, hi) = self.bounds;
+        let near = slab(&Aabb::new(lo.into(), hi.into()), ray);
         near.is_finite() && near <= tmax
     }
 }
 
 impl Moving {
     /// The moving objects, with the tree over them when there are more than [`SCAN`].
-    pub fn new(instances: Vec<Instance>) -> Moving {
+    pub fn new(instances: Vec<Instance>, shutter: [f32; 2]) -> Moving {
         let top = (instances.len() > SCAN).then(|| {
             let boxes: Vec<Aabb> = instances.iter().map(|i| Aabb::new(i.bounds.0.into(), i.bounds.1.into())).collect();
             let params = obvhs::BvhBuildParams::medium_build();
@@ -93,7 +105,15 @@ impl Moving {
             )
         });
         let top = top.filter(|t| !t.nodes[0].is_leaf() && t.depth(0) < MAX_DEPTH);
-        Moving { instances, top }
+        Moving { instances, shutter, top }
+    }
+
+    /// `time` moved into the shutter, where the swept boxes hold the objects: rays
+    /// without a time (a queue that never drew one reads 0) see them at the nearest
+    /// shutter time. Every query takes its time through here.
+    #[inline]
+    fn clamp(&self, time: f32) -> f32 {
+        time.clamp(self.shutter[0], self.shutter[1])
     }
 
     /// Calls `visit` with each object whose swept box `ray` may enter before its `tmax`
@@ -152,6 +172,7 @@ impl Moving {
     /// `time` on a moving object, by the tie rule.
     #[inline]
     pub fn closest<const COUNT: bool>(&self, ray: Ray, time: f32, best: &mut (f32, u32), c: &mut Traversal) {
+        let time = self.clamp(time);
         // A hit exactly as far as `best` may still win the tie: boxes are tested a step
         // past it.
         let mut search = ray.slab();
@@ -177,6 +198,7 @@ impl Moving {
     /// True when a moving object blocks the shadow segment `ray` at `time`.
     #[inline]
     pub fn occluded<const COUNT: bool>(&self, ray: Ray, time: f32, c: &mut Traversal) -> bool {
+        let time = self.clamp(time);
         let mut blocked = false;
         self.candidates::<COUNT>(ray.slab(), c, |inst, _, c| {
             let local = object_ray(&inst.motion.at(time), &ray);
@@ -193,6 +215,7 @@ impl Moving {
     /// determinant (its motion is a uniform scale times a rotation at both ends).
     #[inline]
     pub fn shape_at(&self, id: u32, time: f32) -> Shape {
+        let time = self.clamp(time);
         let (inst, local) = self.instance(id);
         let m = inst.motion.at(time);
         let p = |v: Vec3| m.transform_point3(v.as_dvec3()).as_vec3();
@@ -213,6 +236,7 @@ impl Moving {
     /// vertices by a step of theirs.
     #[inline]
     pub fn extra_error(&self, id: u32, time: f32, x: Vec3) -> Vec3 {
+        let time = self.clamp(time);
         let (inst, _) = self.instance(id);
         let m = inst.motion.at(time);
         let p = m.inverse().transform_point3(x.as_dvec3()).abs();
@@ -225,6 +249,7 @@ impl Moving {
     /// (the inverse transpose), not normalised.
     #[inline]
     pub fn normal_at(&self, id: u32, time: f32, n: Vec3) -> Vec3 {
+        let time = self.clamp(time);
         let (inst, _) = self.instance(id);
         let m = inst.motion.at(time);
         (m.matrix3.inverse().transpose() * n.as_dvec3()).as_vec3()
@@ -234,6 +259,7 @@ impl Moving {
     /// texture coordinates are defined).
     #[inline]
     pub fn to_object(&self, id: u32, time: f32, x: Vec3) -> Vec3 {
+        let time = self.clamp(time);
         let (inst, _) = self.instance(id);
         inst.motion.at(time).inverse().transform_point3(x.as_dvec3()).as_vec3()
     }
@@ -268,17 +294,16 @@ mod tests {
                     Motion::new(DMat4::from_translation(p), DMat4::from_rotation_translation(turn, p + d)).unwrap();
                 let shape = Shape::Sphere { center: Vec3::new(0.3, 0.0, 0.0), radius: 0.2 + 0.3 * next() as f32 };
                 let accel = Accel::build(vec![Primitive { shape, material: 0, light: NO_LIGHT }]);
-                let (lo, hi) = accel.bounds();
-                Instance { bounds: motion.bound(lo, hi, [0.0, 1.0]), motion, accel, first: k }
+                Instance::new(motion, accel, k, [0.0, 1.0])
             })
             .collect()
     }
 
     #[test]
     fn the_tree_over_moving_objects_finds_what_testing_each_one_finds() {
-        let tree = Moving::new(objects());
+        let tree = Moving::new(objects(), [0.0, 1.0]);
         assert!(tree.top.is_some(), "40 objects get a tree");
-        let each = Moving { instances: objects(), top: None };
+        let each = Moving { instances: objects(), shutter: [0.0, 1.0], top: None };
         let mut c = Traversal::default();
         let (mut hits, mut blocked) = (0, 0);
         for i in 0..4000u32 {
