@@ -254,16 +254,7 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
         y: is_sphere.select(s.y, is_quad.select(q.y, t.y)),
         z: is_sphere.select(s.z, is_quad.select(q.z, t.z)),
     };
-    let (p, mut err) = (pick(sphere.0, quad.0, triangle.0), pick(sphere.1, quad.1, triangle.1));
-    if let Some(m) = scene.accel.moving.as_ref().filter(|_| moving) {
-        let (px, py, pz) = (p.x.to_array(), p.y.to_array(), p.z.to_array());
-        let mut extra = [[0.0f32; LANES]; 3];
-        for k in (0..LANES).filter(|&k| scene.accel.is_moving(hits.prim[id(k)])) {
-            let e = m.extra_error(hits.prim[id(k)], rays.time[id(k)], Vec3::new(px[k], py[k], pz[k]));
-            (extra[0][k], extra[1][k], extra[2][k]) = (e.x, e.y, e.z);
-        }
-        err = err + V3 { x: f32x16::from(extra[0]), y: f32x16::from(extra[1]), z: f32x16::from(extra[2]) };
-    }
+    let (p, err) = (pick(sphere.0, quad.0, triangle.0), pick(sphere.1, quad.1, triangle.1));
     // `kinds` has bit 1 << kind: 4 = triangles only, 2 = parallelograms only.
     let ng = match kinds {
         4 => (b - a).cross(c - a),
@@ -271,7 +262,27 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
         _ => pick(sphere.0 - a, b.cross(c), (b - a).cross(c - a)),
     }
     .normalize();
-    HitLanes { d, p, err, ng }
+    let mut h = HitLanes { d, p, err, ng };
+    if moving {
+        moving_error(scene, rays, hits, ids, &mut h);
+    }
+    h
+}
+
+/// Adds to the error bounds of `h` (the hits of rays `ids`) what a moving primitive's
+/// point adds ([`Moving::extra_error`](crate::accel::moving::Moving::extra_error)). Out
+/// of line, called last: a call among [`hit_lanes`]' vectors would spill them.
+#[inline(never)]
+fn moving_error(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], h: &mut HitLanes) {
+    let Some(m) = &scene.accel.moving else { return };
+    let lanes = LaneIds::new(ids);
+    let (px, py, pz) = (h.p.x.to_array(), h.p.y.to_array(), h.p.z.to_array());
+    let mut extra = [[0.0f32; LANES]; 3];
+    for (k, &i) in lanes.idx.iter().enumerate().filter(|(_, &i)| scene.accel.is_moving(hits.prim[i])) {
+        let e = m.extra_error(hits.prim[i], rays.time[i], Vec3::new(px[k], py[k], pz[k]));
+        (extra[0][k], extra[1][k], extra[2][k]) = (e.x, e.y, e.z);
+    }
+    h.err = h.err + V3 { x: f32x16::from(extra[0]), y: f32x16::from(extra[1]), z: f32x16::from(extra[2]) };
 }
 
 /// Appends to `out`, in order, the diffuse surfaces of rays `ids` (at most 16, each of
