@@ -51,8 +51,6 @@ pub struct Surface {
     pub key: u32,
     /// Camera sample index of the incoming ray's path.
     pub sample: u32,
-    /// The path's time (motion blur).
-    pub time: f32,
 }
 
 /// The shading normal at point `x` of primitive `prim` at `time`, on the side of the unit
@@ -178,7 +176,6 @@ pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize
         slot: rays.slot[i],
         key: rays.key[i],
         sample: rays.sample[i],
-        time,
     })
 }
 
@@ -370,6 +367,5 @@ pub fn queued_surface(q: &SurfaceQueue, p: usize) -> Surface {
         slot: q.slot[p],
         key: q.key[p],
         sample: q.sample[p],
-        time: sparse(&q.time, p),
     }
 }

@@ -149,7 +149,7 @@ pub struct Camera {
     pub focus_distance: f32,
     /// How the camera moves over the shutter (`None`: it stays still, and its rays are
     /// generated as they are).
-    pub motion: Option<CameraMotion>,
+    pub motion: Option<Box<CameraMotion>>,
 }
 
 /// A moving camera: rays are generated for the camera at time 0 and carried to where it

@@ -112,11 +112,12 @@ fn generate(
                 cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
             }
             shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l);
-            if mb {
-                shadow.time.push(surf.time);
-            }
         });
         let end = q.rays.len() as u32;
+        if mb {
+            // The point's rays carry its path's time.
+            q.rays.time.resize(end as usize, surfaces.time[points.surface[k] as usize]);
+        }
         q.points.push(start, end, 0, 0);
         if progressive {
             let scramble = hash(&[surf.key, surf.sample, li as u32, dim::STOP_ORDER]);

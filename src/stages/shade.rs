@@ -117,12 +117,13 @@ pub fn shade(
                     points.push(p as u32, li as u32, surf.slot, sum);
                     counts.uniform_equivalent += n;
                 }
-                None => uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| {
-                    shadow.push(surf.o, wi, tmax, surf.slot, l);
+                None => {
+                    uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l));
                     if mb {
-                        shadow.time.push(surf.time);
+                        // The point's rays carry its path's time.
+                        shadow.time.resize(shadow.len(), surfaces.time[p]);
                     }
-                }),
+                }
             }
         }
     }

@@ -45,9 +45,10 @@ pub fn shadow_corners(
             let to = *target - o;
             let dist = to.length();
             probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO);
-            if mb {
-                probes.time.push(surfaces.time[s]);
-            }
+        }
+        if mb {
+            // The point's probes carry its path's time.
+            probes.time.resize(probes.len(), surfaces.time[s]);
         }
     }
     let blocked = tracer.occluded(probes);

@@ -133,7 +133,7 @@ pub(super) fn camera(c: &CameraDesc, camera: &mut Camera, shutter: [f32; 2], ctx
     }
     let motion = CameraMotion { motion: m, from_start: DAffine3::from_mat4(start).inverse() };
     if shutter[0] < shutter[1] {
-        camera.motion = Some(motion);
+        camera.motion = Some(Box::new(motion));
     } else if shutter[0] > 0.0 {
         let moved = motion.ray(shutter[0], camera.position, camera.forward);
         let (_, right) = motion.ray(shutter[0], camera.position, camera.right);
