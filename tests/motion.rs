@@ -258,6 +258,15 @@ fn bad_motion_input_names_the_field() {
             "uniform scale",
         ),
         (
+            vec![
+                "camera.shutter=[0,1]",
+                "objects.2.transform=[{scale=[1,2,1]}]",
+                "objects.2.transform_end=[{scale=[2,2,2]}]",
+            ],
+            "objects.2.transform",
+            "uniform scale",
+        ),
+        (
             vec!["objects.2.transform_end=[{rotate={axis=[0,0,0],angle=3}}]"],
             "objects.2.transform_end.0",
             "axis is zero",

@@ -94,9 +94,14 @@ pub(super) fn object(ctx: &Ctx, path: &str, o: &ObjectDesc, shutter: [f32; 2]) -
     }
     let m = motion(ctx, path, start, end, shutter)?;
     if let ObjectDesc::Sphere { .. } = o {
+        // Both ends: a moving sphere is built without its `transform`, whose own check
+        // then never runs.
         let s = |ops: &[TransformOp]| Transform::from_ops(ops).ok().and_then(|t| t.uniform_scale());
-        if s(end).is_none() {
-            return Err(ctx.fail(&field, "a sphere takes only a uniform scale (with rotations and translations)"));
+        let bad = [(start.as_deref(), format!("{path}.transform")), (Some(&end[..]), field.clone())]
+            .into_iter()
+            .find(|(ops, _)| ops.is_some_and(|ops| s(ops).is_none()));
+        if let Some((_, at)) = bad {
+            return Err(ctx.fail(&at, "a sphere takes only a uniform scale (with rotations and translations)"));
         }
     }
     if shutter[0] == shutter[1] || m.is_static() {
