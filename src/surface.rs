@@ -6,6 +6,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use wide::f32x16;
 
+use crate::accel::moving::Moving;
 use crate::accel::offset::{offset_lanes, offset_ray_origin};
 use crate::accel::shapes::{quad_point, sphere_point, triangle_point, Shape};
 use crate::accel::NO_LIGHT;
@@ -195,6 +196,29 @@ pub struct HitLanes {
 /// The hits of rays `ids` (1 to 16, in queue order; lanes past the last repeat it):
 /// every lane runs the formulas of the shapes present and keeps its own shape's.
 pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -> HitLanes {
+    // A static scene takes the tree's shapes straight, in its own copy of the formulas.
+    let Some(m) = &scene.accel.moving else {
+        return shape_lanes(rays, hits, ids, true, |prim, _| scene.accel.prim(prim).shape);
+    };
+    let moving = ids.iter().any(|&i| scene.accel.is_moving(hits.prim[i as usize]));
+    let mut h = shape_lanes(rays, hits, ids, !moving, |prim, i| scene.accel.shape_at(prim, sparse(&rays.time, i)));
+    if moving {
+        moving_error(m, scene, rays, hits, ids, &mut h);
+    }
+    h
+}
+
+/// [`hit_lanes`] with each ray's shape given by `shape(prim, ray)`; `shared`: one
+/// primitive under every lane has one shape (false where shapes move with each ray's
+/// time).
+#[inline(always)]
+fn shape_lanes(
+    rays: &RayQueue,
+    hits: &HitQueue,
+    ids: &[u32],
+    shared: bool,
+    shape: impl Fn(u32, usize) -> Shape,
+) -> HitLanes {
     let lanes = LaneIds::new(ids);
     let id = |k: usize| lanes.idx[k];
     let ray = |v: &[f32]| lanes.gather(v);
@@ -202,32 +226,20 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
     let d = V3 { x: ray(&rays.dx), y: ray(&rays.dy), z: ray(&rays.dz) };
     // Each shape as three points: a sphere's centre and radius, a parallelogram's corner
     // and edges, a triangle's vertices.
-    let moving_scene = scene.accel.moving.is_some();
-    // A static scene takes the tree's shapes straight, as before motion blur existed.
-    let shape = |prim: u32, time: f32| {
-        if moving_scene {
-            scene.accel.shape_at(prim, time)
-        } else {
-            scene.accel.prim(prim).shape
-        }
-    };
-    let points = |prim: u32, time: f32| match shape(prim, time) {
+    let points = |k: usize| match shape(hits.prim[id(k)], id(k)) {
         Shape::Sphere { center, radius } => (center, Vec3::splat(radius), Vec3::ZERO, 0),
         Shape::Quad { corner, u, v } => (corner, u, v, 1),
         Shape::Triangle { v0, v1, v2 } => (v0, v1, v2, 2),
     };
     let first = hits.prim[id(0)];
-    let moving = moving_scene && (0..LANES).any(|k| scene.accel.is_moving(hits.prim[id(k)]));
-    let (a, b, c, kind, kinds) = if !moving && (1..LANES).all(|k| hits.prim[id(k)] == first) {
+    let (a, b, c, kind, kinds) = if shared && (1..LANES).all(|k| hits.prim[id(k)] == first) {
         // One primitive under all lanes (a large quad or triangle): its points once.
-        let (a, b, c, what) = points(first, 0.0);
+        let (a, b, c, what) = points(0);
         (V3::splat(a), V3::splat(b), V3::splat(c), [what; LANES], 1 << what)
     } else {
         let (mut abc, mut kind, mut kinds) = ([[0.0f32; LANES]; 9], [0u32; LANES], 0u32);
         for k in 0..LANES {
-            // The time only where something moves: a static scene never reads it.
-            let time = if moving { rays.time[id(k)] } else { 0.0 };
-            let (a, b, c, what) = points(hits.prim[id(k)], time);
+            let (a, b, c, what) = points(k);
             for (j, x) in [a, b, c].iter().flat_map(|v| v.to_array()).enumerate() {
                 abc[j][k] = x;
             }
@@ -259,19 +271,14 @@ pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -
         _ => pick(sphere.0 - a, b.cross(c), (b - a).cross(c - a)),
     }
     .normalize();
-    let mut h = HitLanes { d, p, err, ng };
-    if moving {
-        moving_error(scene, rays, hits, ids, &mut h);
-    }
-    h
+    HitLanes { d, p, err, ng }
 }
 
 /// Adds to the error bounds of `h` (the hits of rays `ids`) what a moving primitive's
 /// point adds ([`Moving::extra_error`](crate::accel::moving::Moving::extra_error)). Out
 /// of line, called last: a call among [`hit_lanes`]' vectors would spill them.
 #[inline(never)]
-fn moving_error(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], h: &mut HitLanes) {
-    let Some(m) = &scene.accel.moving else { return };
+fn moving_error(m: &Moving, scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], h: &mut HitLanes) {
     let lanes = LaneIds::new(ids);
     let (px, py, pz) = (h.p.x.to_array(), h.p.y.to_array(), h.p.z.to_array());
     let mut extra = [[0.0f32; LANES]; 3];

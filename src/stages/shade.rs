@@ -262,5 +262,5 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
     } else {
         shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], &keep[..m]);
     }
-    keep[..m].iter().fold(0, |mask, &k| mask | 1 << k)
+    !dark & ((1 << triples.count) - 1)
 }
