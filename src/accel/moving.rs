@@ -44,6 +44,9 @@ pub struct Moving {
     /// obvhs's PLOC tree over the objects' swept boxes (one object per leaf); `None` for
     /// a few objects (tested one by one) or a tree too deep for the walk's stack.
     top: Option<Bvh2>,
+    /// Primitives of every object, counted once: [`Accel::len`](super::Accel::len) and
+    /// every moving-or-not test per shaded point subtract it.
+    prims: usize,
 }
 
 /// Objects up to which a ray tests every swept box instead of walking a tree over them.
@@ -105,7 +108,8 @@ impl Moving {
             )
         });
         let top = top.filter(|t| !t.nodes[0].is_leaf() && t.depth(0) < MAX_DEPTH);
-        Moving { instances, shutter, top }
+        let prims = instances.iter().map(|i| i.accel.len()).sum();
+        Moving { instances, shutter, top, prims }
     }
 
     /// `time` moved into the shutter, where the swept boxes hold the objects: rays
@@ -152,7 +156,7 @@ impl Moving {
 
     /// Primitives of every moving object.
     pub fn len(&self) -> usize {
-        self.instances.iter().map(|i| i.accel.len()).sum()
+        self.prims
     }
 
     /// True when there is no moving primitive.
@@ -303,7 +307,7 @@ mod tests {
     fn the_tree_over_moving_objects_finds_what_testing_each_one_finds() {
         let tree = Moving::new(objects(), [0.0, 1.0]);
         assert!(tree.top.is_some(), "40 objects get a tree");
-        let each = Moving { instances: objects(), shutter: [0.0, 1.0], top: None };
+        let each = Moving { top: None, ..Moving::new(objects(), [0.0, 1.0]) };
         let mut c = Traversal::default();
         let (mut hits, mut blocked) = (0, 0);
         for i in 0..4000u32 {
