@@ -275,15 +275,15 @@ fn shape_lanes(
 }
 
 /// Adds to the error bounds of `h` (the hits of rays `ids`) what a moving primitive's
-/// point adds ([`Moving::extra_error`](crate::accel::moving::Moving::extra_error)). Out
-/// of line, called last: a call among [`hit_lanes`]' vectors would spill them.
+/// point adds ([`Moving::extra_error`]). Out of line, called last: a call among
+/// [`hit_lanes`]' vectors would spill them.
 #[inline(never)]
 fn moving_error(m: &Moving, scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], h: &mut HitLanes) {
     let lanes = LaneIds::new(ids);
     let (px, py, pz) = (h.p.x.to_array(), h.p.y.to_array(), h.p.z.to_array());
     let mut extra = [[0.0f32; LANES]; 3];
     for (k, &i) in lanes.idx.iter().enumerate().filter(|(_, &i)| scene.accel.is_moving(hits.prim[i])) {
-        let e = m.extra_error(hits.prim[i], rays.time[i], Vec3::new(px[k], py[k], pz[k]));
+        let e = m.extra_error(hits.prim[i], sparse(&rays.time, i), Vec3::new(px[k], py[k], pz[k]));
         (extra[0][k], extra[1][k], extra[2][k]) = (e.x, e.y, e.z);
     }
     h.err = h.err + V3 { x: f32x16::from(extra[0]), y: f32x16::from(extra[1]), z: f32x16::from(extra[2]) };

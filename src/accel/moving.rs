@@ -75,8 +75,6 @@ pub fn object_ray(m: &DAffine3, ray: &Ray) -> ObjectRay {
 }
 
 impl Instance {
-    /// The world box test of `ray` against the swept bound: may the ray meet the object
-    /// before `tmax`?
     /// An object moving from `motion` over `shutter`, its primitives `accel` in object
     /// space, its first primitive's scene id `first`.
     pub fn new(motion: Motion, accel: Accel, first: u32, shutter: [f32; 2]) -> Instance {
