@@ -8,8 +8,9 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::Path;
 use wavetrace::accel::packet::PacketConfig;
+use wavetrace::accel::tracer::{Kernel, Width};
 use wavetrace::scene::{load, SceneSource};
-use wavetrace::tools::bench::{ray_sets, trace, Kernel, RENDER_MAX_LEAVES};
+use wavetrace::tools::bench::{ray_sets, trace};
 
 fn kernels(c: &mut Criterion) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
@@ -23,11 +24,11 @@ fn kernels(c: &mut Criterion) {
         for (set_name, set) in &sets {
             g.throughput(Throughput::Elements(set.len() as u64));
             let kernels = [
-                ("packet4", Kernel::Packet(4, PacketConfig::RENDER)),
-                ("packet8", Kernel::Packet(8, PacketConfig::RENDER)),
-                ("packet16", Kernel::Packet(16, PacketConfig::RENDER)),
+                ("packet4", Kernel::Packet(Width::X4, PacketConfig::RENDER)),
+                ("packet8", Kernel::Packet(Width::X8, PacketConfig::RENDER)),
+                ("packet16", Kernel::Packet(Width::X16, PacketConfig::RENDER)),
                 ("wide", Kernel::Wide),
-                ("hybrid", Kernel::Hybrid(16, PacketConfig::RENDER, RENDER_MAX_LEAVES)),
+                ("hybrid", Kernel::HYBRID),
             ];
             for (label, kernel) in kernels {
                 g.bench_function(format!("{set_name}/{label}"), |b| {

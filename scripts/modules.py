@@ -3,13 +3,15 @@
 
 Prints which top-level modules each module uses (`crate::X` paths), then checks: no
 import cycle between top-level modules, nor between the modules of any folder (the
-sibling files and subfolders of `src/accel/`, `src/accel/wide/`, ...: a `crate::`,
+sibling files and subfolders of `src/accel/`, `src/accel/wbvh/`, ...: a `crate::`,
 `super::` or `self::` path from anywhere below one sibling into another is an edge; a
 folder's own `mod.rs` is the parent, not a sibling), no stage (src/stages/*.rs) using another stage
 or tracing a single ray (the tracer's `occluded_one`; stages hand whole queues to it),
 no file in src/ over 800 lines, no function in the driver (src/render/) over 60 lines,
-and no function with more than 6 parameters whose `allow(clippy::too_many_arguments)`
-does not state its reason in a comment. Exit 1 on a violation.
+no function with more than 6 parameters whose `allow(clippy::too_many_arguments)`
+does not state its reason in a comment, and no queue column (a field of a `soa!` queue in
+queue.rs) grown outside queue.rs (`.col.push(`, `.resize(`, `.extend(`...): queues grow by
+whole entries, through the macro's pushes. Exit 1 on a violation.
 Usage: scripts/modules.py [--graph]
 """
 import os
@@ -76,7 +78,7 @@ def code(text):
 
 
 def module_path(rel):
-    """`accel/wide/walk.rs` -> ["accel", "wide", "walk"]; `accel/wide/mod.rs` -> ["accel", "wide"]."""
+    """`accel/wbvh/walk.rs` -> ["accel", "wbvh", "walk"]; `accel/wbvh/mod.rs` -> ["accel", "wbvh"]."""
     parts = rel[:-3].split(os.sep)
     if parts[-1] == "mod" or (len(parts) == 1 and parts[0] in ("lib", "main")):
         parts = parts[:-1]
@@ -152,8 +154,29 @@ def find_cycles(graph):
     return cycles
 
 
+QUEUE_GROWS = r"\.({})\.(push|resize|extend|extend_from_slice|insert|append|truncate)\("
+
+
+def queue_columns():
+    """The column names of the `soa!` queues of queue.rs that no other struct in src/ also
+    uses as a `Vec` field name (those could not be told apart by name)."""
+    text = open(os.path.join(SRC, "queue.rs"), encoding="utf-8").read()
+    cols = set()
+    for block in re.findall(r"soa! \{(.*?)\n\}", text, re.S):
+        body = block.split("push(")[0] + "".join(re.findall(r"sparse\((.*?)\)", block, re.S))
+        cols |= set(re.findall(r"^\s*(\w+)\s*:", body, re.M))
+    other = set()
+    for root, _, files in os.walk(SRC):
+        for f in files:
+            if f.endswith(".rs") and not (root == SRC and f == "queue.rs"):
+                other |= set(re.findall(r"\b(\w+)\s*:\s*Vec<", open(os.path.join(root, f), encoding="utf-8").read()))
+    return sorted(cols - other)
+
+
 def main():
     uses, stage_uses, long_files, long_fns, single_rays = {}, [], [], [], []
+    grows = re.compile(QUEUE_GROWS.format("|".join(queue_columns())))
+    hand_pushes = []
     all_files = []
     stages = {f[:-3] for f in os.listdir(os.path.join(SRC, "stages")) if f.endswith(".rs") and f != "mod.rs"}
     for root, _, files in os.walk(SRC):
@@ -173,6 +196,10 @@ def main():
                 raw_above = "\n".join(text.split("\n")[max(0, line - 5):line - 1])
                 if params > MAX_PARAMS and not re.search(r"too_many_arguments\)\]\s*//\s*\S", raw_above):
                     long_fns.append(f"{rel}:{line}: fn {name} has {params} parameters and no stated reason")
+            if rel != "queue.rs":
+                for m in grows.finditer(body):
+                    line = body.count("\n", 0, m.start()) + 1
+                    hand_pushes.append(f"{rel}:{line}: queue column `{m.group(1)}` grown by hand ({m.group(2)}): push whole entries (soa!)")
             mod = top_module(rel)
             if mod is None:
                 continue
@@ -211,6 +238,9 @@ def main():
     for me in single_rays:
         print(f"stage `{me}` traces a single ray (occluded_one): queue the rays and trace the queue")
         ok = False
+    for msg in hand_pushes:
+        print(msg)
+        ok = False
     for msg in long_fns:
         print(msg)
         ok = False
@@ -220,6 +250,7 @@ def main():
     if ok:
         print(
             f"modules ok: {len(uses)} top-level modules, no cycle between them or inside a folder, no stage using another or tracing a single ray, "
+            f"no queue column grown outside queue.rs, "
             f"no file over {MAX_LINES} "
             f"lines, no driver function over {MAX_DRIVER_FN} lines, no unexplained parameter list over {MAX_PARAMS}"
         )

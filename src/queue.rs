@@ -20,10 +20,12 @@ use crate::simd::{push_lanes, LANES};
 /// and its methods. `push(...)` lists the pushed values: `name: T => field` stores one
 /// field, `name: Vec3 => x, y, z` stores a vector in three `f32` fields; `get(...)`
 /// lists the `Vec3` fields read back as one value by `name(i)`; `sparse(...)` lists
-/// columns that a scene may not use: each is empty or as long as the others, pushed by
-/// the stages that write it only when the scene uses it (read with [`sparse`]), so a
-/// scene without it writes nothing there. Like the item lists of pbrt-v4's `soa`
-/// definitions, the field list is the only place a queue's layout is written.
+/// columns that a scene may not use: each is empty or as long as the others. Every push
+/// takes them last, as `Option`s (`None` where the scene does not use them, so a scene
+/// without them writes nothing there); they are read with [`sparse`] and carried from
+/// entry to entry with [`sparse_opt`]. Like the item lists of pbrt-v4's `soa`
+/// definitions, the field list is the only place a queue's layout is written: no stage
+/// grows a column by hand (`scripts/modules.py` checks).
 macro_rules! soa {
     (
         $(#[$meta:meta])*
@@ -45,8 +47,11 @@ macro_rules! soa {
             /// Appends one entry.
             #[inline]
             #[allow(clippy::too_many_arguments)] // one argument per value of the entry
-            pub fn push(&mut self, $( $arg: $aty ),+) {
+            pub fn push(&mut self, $( $arg: $aty, )+ $($( $sfield: Option<$sty>, )+)?) {
                 $( soa!(@put self, $arg, $($col),+); )+
+                $($( if let Some(v) = $sfield {
+                    self.$sfield.push(v);
+                } )+)?
             }
 
             /// Number of entries.
@@ -78,16 +83,40 @@ macro_rules! soa {
             /// Every column is written here, so none can be left short.
             #[inline]
             #[allow(clippy::too_many_arguments)] // one argument per value of the entry
-            pub fn push_lanes(&mut self, $( $arg: soa!(@lanes $aty; $($col),+) ),+ , count: usize) {
+            pub fn push_lanes(
+                &mut self,
+                $( $arg: soa!(@lanes $aty; $($col),+), )+
+                $($( $sfield: Option<&[$sty; LANES]>, )+)?
+                count: usize,
+            ) {
                 $( soa!(@put_lanes self, $arg, count, $($col),+); )+
+                $($( if let Some(v) = $sfield {
+                    push_lanes(&mut self.$sfield, *v, count);
+                } )+)?
             }
 
             /// Appends the lanes `picks` (in that order) of 16 entries given as lanes, as
             /// [`push_lanes`](Self::push_lanes) takes them.
             #[inline]
             #[allow(clippy::too_many_arguments)] // one argument per value of the entry
-            pub fn push_picked(&mut self, $( $arg: soa!(@lanes $aty; $($col),+) ),+ , picks: &[usize]) {
+            pub fn push_picked(
+                &mut self,
+                $( $arg: soa!(@lanes $aty; $($col),+), )+
+                $($( $sfield: Option<&[$sty; LANES]>, )+)?
+                picks: &[usize],
+            ) {
                 $( soa!(@put_picked self, $arg, picks, $($col),+); )+
+                $($( if let Some(v) = $sfield {
+                    self.$sfield.extend(picks.iter().map(|&k| v[k]));
+                } )+)?
+            }
+
+            /// Empties the queue and refills it with `n` entries of the given values
+            /// (sparse columns stay empty).
+            #[allow(clippy::too_many_arguments)] // one argument per value of the entry
+            pub fn reset(&mut self, n: usize, $( $arg: $aty ),+) {
+                self.clear();
+                $( soa!(@resize self, n, $arg, $($col),+); )+
             }
 
             /// Appends entries `range` of `src` (sparse columns where `src` has them).
@@ -107,6 +136,16 @@ macro_rules! soa {
                 } )+)?
             }
 
+            $(
+                /// Sizes every sparse column to the queue's length, the entries it adds
+                /// set to the given values (a pass that gives each entry its value after
+                /// pushing them all).
+                pub fn fill_sparse(&mut self, $( $sfield: $sty ),+) {
+                    let n = self.len();
+                    $( self.$sfield.resize(n, $sfield); )+
+                }
+            )?
+
             $($(
                 /// Field group of entry `i` as a vector.
                 #[inline]
@@ -121,6 +160,12 @@ macro_rules! soa {
         $s.$x.push($v.x);
         $s.$y.push($v.y);
         $s.$z.push($v.z);
+    }};
+    (@resize $s:ident, $n:ident, $v:ident, $c:ident) => { $s.$c.resize($n, $v) };
+    (@resize $s:ident, $n:ident, $v:ident, $x:ident, $y:ident, $z:ident) => {{
+        $s.$x.resize($n, $v.x);
+        $s.$y.resize($n, $v.y);
+        $s.$z.resize($n, $v.z);
     }};
     (@first $s:ident, $f:ident $(, $rest:ident)*) => { $s.$f };
     (@lanes $t:ty; $c:ident) => { [$t; LANES] };
@@ -437,6 +482,13 @@ pub fn sparse<T: Copy + Default>(column: &[T], i: usize) -> T {
     column.get(i).copied().unwrap_or_default()
 }
 
+/// Entry `i` of a sparse column ([`soa!`]'s `sparse`) where the queue has the column:
+/// what an entry derived from entry `i` (a bounce, a shadow ray) is pushed with.
+#[inline(always)]
+pub fn sparse_opt<T: Copy>(column: &[T], i: usize) -> Option<T> {
+    column.get(i).copied()
+}
+
 /// The queues of one wave, owned by a worker and reused from wave to wave.
 #[derive(Default, Debug, Clone)]
 pub struct WaveQueues {
@@ -497,8 +549,7 @@ mod tests {
         fn ray_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), any::<u32>(), vec3(), any::<u32>(), any::<(u32, u32)>()), 1..40)) {
             let mut q = RayQueue::default();
             for &(o, d, slot, w, depth, (key, sample)) in &rays {
-                q.push(o, d, slot, w, depth, key, sample, slot as f32);
-                q.time.push(key as f32);
+                q.push(o, d, slot, w, depth, key, sample, slot as f32, Some(key as f32));
             }
             prop_assert_eq!(q.len(), rays.len());
             for (i, &(o, d, slot, w, depth, (key, sample))) in rays.iter().enumerate() {
@@ -530,7 +581,7 @@ mod tests {
         fn shadow_queue_round_trips(rays in prop::collection::vec((vec3(), vec3(), 0f32..1e6, any::<u32>(), vec3()), 1..40)) {
             let mut q = ShadowQueue::default();
             for &(o, d, t, slot, l) in &rays {
-                q.push(o, d, t, slot, l);
+                q.push(o, d, t, slot, l, None);
             }
             for (i, &(o, d, t, slot, l)) in rays.iter().enumerate() {
                 prop_assert_eq!((q.origin(i), q.dir(i), q.radiance(i)), (o, d, l));

@@ -281,15 +281,15 @@ real_vector!(f32x16, u32x16);
 /// What float vectors add to [`Real`]: lane masks (a lane all ones or all zeros, as
 /// `Self`), loads and stores, and the traversal kernels' unchecked minimum and maximum.
 pub trait Vector: Real + BitAnd<Output = Self> + BitOr<Output = Self> {
-    /// Number of lanes (at most [`LANES`]).
-    const LANES: usize;
-    /// The first `Self::LANES` values of `a`.
+    /// Number of lanes of this vector type (at most [`LANES`], the renderer's).
+    const WIDTH: usize;
+    /// The first `Self::WIDTH` values of `a`.
     fn load(a: &[f32; LANES]) -> Self;
-    /// The first `Self::LANES` values of `a` (at least that long).
+    /// The first `Self::WIDTH` values of `a` (at least that long).
     fn load_lanes(a: &[f32]) -> Self;
     /// Writes the lanes to the front of `a`.
     fn store(self, a: &mut [f32; LANES]);
-    /// Lane `i` (below `Self::LANES`).
+    /// Lane `i` (below `Self::WIDTH`).
     fn lane(self, i: usize) -> f32;
     /// Lane-wise minimum without NaN handling (the kernels never produce NaN there).
     fn fast_min(self, o: Self) -> Self;
@@ -321,7 +321,7 @@ pub trait Vector: Real + BitAnd<Output = Self> + BitOr<Output = Self> {
 macro_rules! vector {
     ($t:ty, $n:expr) => {
         impl Vector for $t {
-            const LANES: usize = $n;
+            const WIDTH: usize = $n;
             #[inline(always)]
             fn load(a: &[f32; LANES]) -> Self {
                 let mut v = [0.0f32; $n];

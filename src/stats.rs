@@ -409,7 +409,7 @@ pub struct TraversalReport {
     pub prims_per_ray: f64,
     /// Share of the stage's rays traced in packets.
     pub packet_share: f64,
-    /// Active lanes / 8 over the packets' node tests (0 without packets).
+    /// Active lanes / [`LANES`](crate::simd::LANES) over the packets' node tests (0 without packets).
     pub lane_utilisation: f64,
 }
 

@@ -73,9 +73,9 @@ pub fn shading_normal(scene: &Scene, prim: usize, time: f32, x: Vec3, n: Vec3) -
     let q = x - v0;
     let (b1, b2) = (w.dot(q.cross(e2)), w.dot(e1.cross(q)));
     let ns = (1.0 - b1 - b2) * vn[0] + b1 * vn[1] + b2 * vn[2];
-    let ns = match &scene.accel.moving {
-        Some(m) if scene.accel.is_moving(prim as u32) => m.normal_at(prim as u32, time, ns),
-        _ => ns,
+    let ns = match scene.accel.moving_of(prim as u32) {
+        Some(m) => m.normal_at(prim as u32, time, ns),
+        None => ns,
     }
     .normalize_or_zero();
     if ns == Vec3::ZERO {
@@ -106,11 +106,9 @@ pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> 
 /// corner UVs interpolated (its barycentric (b1, b2) when its mesh has none). A moving
 /// primitive's are those of the point taken back into its object's space.
 pub fn uv_at(scene: &Scene, prim: usize, time: f32, x: Vec3) -> Vec2 {
-    let (shape, x) = match &scene.accel.moving {
-        Some(m) if scene.accel.is_moving(prim as u32) => {
-            (m.object_shape(prim as u32), m.to_object(prim as u32, time, x))
-        }
-        _ => (scene.accel.prim(prim as u32).shape, x),
+    let (shape, x) = match scene.accel.moving_of(prim as u32) {
+        Some(m) => (m.object_shape(prim as u32), m.to_object(prim as u32, time, x)),
+        None => (scene.accel.prim(prim as u32).shape, x),
     };
     match shape {
         Shape::Sphere { center, .. } => match scene.uv_frames.get(prim) {
@@ -150,7 +148,7 @@ pub fn hit_point(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> (
     let (id, time) = (hits.prim[i], sparse(&rays.time, i));
     let shape = scene.accel.shape_at(id, time);
     let (x, mut err) = shape.surface_point(rays.origin(i), rays.dir(i), hits.t[i]);
-    if let Some(m) = scene.accel.moving.as_ref().filter(|_| scene.accel.is_moving(id)) {
+    if let Some(m) = scene.accel.moving_of(id) {
         err += m.extra_error(id, time, x);
     }
     (x, err, shape.normal(x).normalize())
@@ -197,7 +195,7 @@ pub struct HitLanes {
 /// every lane runs the formulas of the shapes present and keeps its own shape's.
 pub fn hit_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32]) -> HitLanes {
     // A static scene takes the tree's shapes straight, in its own copy of the formulas.
-    let Some(m) = &scene.accel.moving else {
+    let Some(m) = scene.accel.moving() else {
         return shape_lanes(rays, hits, ids, true, |prim, _| scene.accel.prim(prim).shape);
     };
     let moving = ids.iter().any(|&i| scene.accel.is_moving(hits.prim[i as usize]));
@@ -323,12 +321,25 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     }
     let words = |col: &[u32]| lanes.idx.map(|i| col[i]);
     let ray_ids = lanes.idx.map(|i| i as u32);
+    let time = (!rays.time.is_empty()).then(|| lanes.idx.map(|i| rays.time[i]));
     let (slot, key, sample) = (words(&rays.slot), words(&rays.key), words(&rays.sample));
     // Whole columns at once: one capacity check per column, not per value.
-    out.push_lanes(o, shading, (-d).lanes(), color, specular, shininess, w, slot, key, sample, ray_ids, ids.len());
-    if scene.motion_blur() {
-        out.time.extend(ids.iter().map(|&i| rays.time[i as usize]));
-    }
+    let n = ids.len();
+    out.push_lanes(
+        o,
+        shading,
+        (-d).lanes(),
+        color,
+        specular,
+        shininess,
+        w,
+        slot,
+        key,
+        sample,
+        ray_ids,
+        time.as_ref(),
+        n,
+    );
 }
 
 /// [`shading_normal`] of every lane: `n` itself unless the scene has smooth meshes.

@@ -82,6 +82,7 @@ use glam::Vec3;
 use wavetrace::accel::packet::{PacketConfig, PacketWork};
 use wavetrace::accel::{Accel, Primitive, Ray, Shape, Traversal, NO_LIGHT};
 use wavetrace::simd::{Vector, LANES};
+use wavetrace::tools::kernels;
 use wide::{f32x16, f32x4, f32x8};
 
 /// A deterministic uniform stream in [0, 1).
@@ -134,20 +135,24 @@ fn check_width<S: Vector>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConf
     let mut occ = [false; LANES];
     let mut rng = Rng(99);
     let mut wrong = Vec::new();
-    for (chunk, (o, d)) in o.chunks(S::LANES).zip(d.chunks(S::LANES)).enumerate() {
-        accel.closest_packet::<S>(o, d, None, 0.0, &mut out, &mut work);
+    for (chunk, (o, d)) in o.chunks(S::WIDTH).zip(d.chunks(S::WIDTH)).enumerate() {
+        kernels::packet_closest::<S>(accel, o, d, 0.0, &mut out, &mut work);
         let mut tmax = [0.0f32; LANES];
         let mut single = [None; LANES];
         for l in 0..o.len() {
-            single[l] = accel.closest::<false>(Ray::new(o[l], d[l], 0.0, f32::INFINITY), &mut Traversal::default());
+            single[l] = kernels::binary_closest::<false>(
+                accel,
+                Ray::new(o[l], d[l], 0.0, f32::INFINITY),
+                &mut Traversal::default(),
+            );
             tmax[l] = match single[l] {
                 Some((t, _)) => t * (0.5 + rng.next()),
                 None => 1e3,
             };
         }
-        accel.occluded_packet::<S>(o, d, None, &tmax[..o.len()], &mut occ, &mut work);
+        kernels::packet_occluded::<S>(accel, o, d, &tmax[..o.len()], &mut occ, &mut work);
         for l in 0..o.len() {
-            let ray = chunk * S::LANES + l;
+            let ray = chunk * S::WIDTH + l;
             let same = match single[l] {
                 Some((t, p)) => {
                     let q = out[l].1 as usize;
@@ -158,7 +163,8 @@ fn check_width<S: Vector>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConf
             if !same {
                 wrong.push(format!("ray {ray}: packet {:?} scalar {:?}", out[l], single[l]));
             }
-            let blocked = accel.occluded::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
+            let blocked =
+                kernels::binary_occluded::<false>(accel, Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
             if occ[l] != blocked {
                 wrong.push(format!("ray {ray}: any-hit packet {} scalar {blocked}", occ[l]));
             }
@@ -168,7 +174,7 @@ fn check_width<S: Vector>(accel: &Accel, o: &[Vec3], d: &[Vec3], cfg: PacketConf
     assert!(
         wrong.is_empty(),
         "{label}, {} lanes, {cfg:?}: {} of {n} rays differ: {:?}",
-        S::LANES,
+        S::WIDTH,
         wrong.len(),
         &wrong[..wrong.len().min(5)]
     );
@@ -182,8 +188,8 @@ fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
     let mut wrong = Vec::new();
     let (mut cw, mut cs) = (Traversal::default(), Traversal::default());
     for (i, (&o, &d)) in o.iter().zip(d).enumerate() {
-        let single = accel.closest::<true>(Ray::new(o, d, 0.0, f32::INFINITY), &mut cs);
-        let wide = accel.closest_wide::<true>(Ray::new(o, d, 0.0, f32::INFINITY), &mut cw);
+        let single = kernels::binary_closest::<true>(accel, Ray::new(o, d, 0.0, f32::INFINITY), &mut cs);
+        let wide = accel.closest::<true>(Ray::new(o, d, 0.0, f32::INFINITY), &mut cw);
         let same = match (single, wide) {
             (Some((t, p)), Some((tw, q))) => tw.to_bits() == t.to_bits() && q == p,
             (None, None) => true,
@@ -194,8 +200,8 @@ fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
         }
         let tmax = single.map_or(1e3, |(t, _)| t * (0.5 + rng.next()));
         let (a, b) = (
-            accel.occluded::<false>(Ray::new(o, d, 0.0, tmax), &mut cs),
-            accel.occluded_wide::<false>(Ray::new(o, d, 0.0, tmax), &mut cw),
+            kernels::binary_occluded::<false>(accel, Ray::new(o, d, 0.0, tmax), &mut cs),
+            accel.occluded::<false>(Ray::new(o, d, 0.0, tmax), &mut cw),
         );
         if a != b {
             wrong.push(format!("ray {i}: any-hit wide {b} scalar {a}"));
@@ -212,7 +218,7 @@ fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
     check_interleaved(accel, o, d, label);
 }
 
-/// The interleaved kernel (rays walked `accel::wide::INTERLEAVE` at a time, finishing out of order)
+/// The interleaved kernel (rays walked `accel::wbvh::INTERLEAVE` at a time, finishing out of order)
 /// against the wide kernel one ray at a time: the same hits and blockers, bit for bit,
 /// and the same work counted.
 fn check_interleaved(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
@@ -221,11 +227,12 @@ fn check_interleaved(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
     let mut hits = vec![None; n];
     let mut seen = vec![0u32; n];
     let ray = |i: usize| Ray::new(o[i], d[i], 0.0, f32::INFINITY);
-    accel.closest_many::<true>(n, ray, |i, h| (hits[i], seen[i]) = (h, seen[i] + 1), &mut ci);
+    kernels::interleaved_closest::<true>(accel, n, ray, |i, h| (hits[i], seen[i]) = (h, seen[i] + 1), &mut ci);
     let tmax: Vec<f32> =
         (0..n).map(|i| hits[i].map_or(1e3, |(t, _): (f32, u32)| t * (0.25 + (i % 7) as f32 * 0.15))).collect();
     let mut blocked = vec![false; n];
-    accel.occluded_many::<true>(
+    kernels::interleaved_occluded::<true>(
+        accel,
         n,
         |i| Ray::new(o[i], d[i], 0.0, tmax[i]),
         |i, b| (blocked[i], seen[i]) = (b, seen[i] + 2),
@@ -233,8 +240,8 @@ fn check_interleaved(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
     );
     let mut wrong = Vec::new();
     for i in 0..n {
-        let single = accel.closest_wide::<true>(ray(i), &mut cw);
-        let occluded = accel.occluded_wide::<true>(Ray::new(o[i], d[i], 0.0, tmax[i]), &mut cw);
+        let single = accel.closest::<true>(ray(i), &mut cw);
+        let occluded = accel.occluded::<true>(Ray::new(o[i], d[i], 0.0, tmax[i]), &mut cw);
         let same = match (single, hits[i]) {
             (Some((t, p)), Some((u, q))) => t.to_bits() == u.to_bits() && p == q,
             (None, None) => true,
@@ -420,30 +427,35 @@ fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_wide_or_interleave
     let mut out = [(0.0f32, 0u32); LANES];
     let mut occ = [false; LANES];
     for (o, d) in o.chunks(LANES).zip(d.chunks(LANES)) {
-        accel.closest_packet::<f32x16>(o, d, None, 0.0, &mut out, &mut work);
+        kernels::packet_closest::<f32x16>(&accel, o, d, 0.0, &mut out, &mut work);
         escaped += out[..o.len()].iter().filter(|h| h.1 == u32::MAX).count();
         let far = [4.0 * r; LANES];
-        accel.occluded_packet::<f32x16>(o, d, None, &far[..o.len()], &mut occ, &mut work);
+        kernels::packet_occluded::<f32x16>(&accel, o, d, &far[..o.len()], &mut occ, &mut work);
         unblocked += occ[..o.len()].iter().filter(|&&b| !b).count();
     }
     assert_eq!((escaped, unblocked), (0, 0), "of {n} rays from inside a closed mesh of {} triangles", f.len());
     assert!(work.steps > 0);
     // The wide BVH's single-ray kernel, on the same rays.
     let mut c = Traversal::default();
-    let escaped = (0..n)
-        .filter(|&i| accel.closest_wide::<true>(Ray::new(o[i], d[i], 0.0, f32::INFINITY), &mut c).is_none())
-        .count();
-    let unblocked =
-        (0..n).filter(|&i| !accel.occluded_wide::<true>(Ray::new(o[i], d[i], 0.0, 4.0 * r), &mut c)).count();
+    let escaped =
+        (0..n).filter(|&i| accel.closest::<true>(Ray::new(o[i], d[i], 0.0, f32::INFINITY), &mut c).is_none()).count();
+    let unblocked = (0..n).filter(|&i| !accel.occluded::<true>(Ray::new(o[i], d[i], 0.0, 4.0 * r), &mut c)).count();
     assert_eq!((escaped, unblocked), (0, 0), "wide kernel: of {n} rays from inside a closed mesh");
     let (mut escaped, mut unblocked) = (0, 0);
-    accel.closest_many::<false>(
+    kernels::interleaved_closest::<false>(
+        &accel,
         n,
         |i| Ray::new(o[i], d[i], 0.0, f32::INFINITY),
         |_, h| escaped += h.is_none() as usize,
         &mut c,
     );
-    accel.occluded_many::<false>(n, |i| Ray::new(o[i], d[i], 0.0, 4.0 * r), |_, b| unblocked += !b as usize, &mut c);
+    kernels::interleaved_occluded::<false>(
+        &accel,
+        n,
+        |i| Ray::new(o[i], d[i], 0.0, 4.0 * r),
+        |_, b| unblocked += !b as usize,
+        &mut c,
+    );
     assert_eq!((escaped, unblocked), (0, 0), "interleaved kernel: of {n} rays from inside a closed mesh");
     assert!(c.nodes > 0);
 }
@@ -474,7 +486,8 @@ fn axis_parallel_rays_along_a_shared_edge_hit_the_wall_in_every_kernel() {
         }
     }
     for (&o, &d) in o.iter().zip(&d) {
-        let hit = accel.closest::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut Traversal::default());
+        let hit =
+            kernels::binary_closest::<false>(&accel, Ray::new(o, d, 0.0, f32::INFINITY), &mut Traversal::default());
         assert!(hit.is_some_and(|h| (h.0 - 10.0).abs() < 1e-5), "ray from {o:?} along {d:?} missed the wall: {hit:?}");
         // Every primitive the triangle test says is hit was met, whichever box it sits in
         // (a ray along the shared edge runs in a face of both boxes): the answer is the
@@ -484,7 +497,7 @@ fn axis_parallel_rays_along_a_shared_edge_hit_the_wall_in_every_kernel() {
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         assert_eq!(hit, brute, "ray from {o:?} along {d:?}");
         assert!(
-            accel.occluded::<false>(Ray::new(o, d, 0.0, 20.0), &mut Traversal::default()),
+            kernels::binary_occluded::<false>(&accel, Ray::new(o, d, 0.0, 20.0), &mut Traversal::default()),
             "ray from {o:?} unblocked"
         );
     }
@@ -508,8 +521,8 @@ fn hybrid_tracer_with_and_without_interleaving_equals_the_wide_kernel() {
     let mut rays_q = RayQueue::default();
     let mut shadow = ShadowQueue::default();
     for (i, (&o, &d)) in o.iter().zip(&d).enumerate() {
-        rays_q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0);
-        shadow.push(o, d, 0.05 + (i % 13) as f32 * 0.02, i as u32, Vec3::ONE);
+        rays_q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0, None);
+        shadow.push(o, d, 0.05 + (i % 13) as f32 * 0.02, i as u32, Vec3::ONE, None);
     }
     let answers = |accel: &Accel, kernel: Kernel| {
         let mut tracer = Tracer::new(accel, kernel, true);
@@ -532,7 +545,7 @@ fn hybrid_tracer_with_and_without_interleaving_equals_the_wide_kernel() {
 /// packets after the probe. Closest hits and shadow rays alike.
 #[test]
 fn hybrid_keeps_coherent_queues_in_packets_and_leaves_incoherent_ones() {
-    use wavetrace::accel::tracer::{Coherence, Kernel, Tracer, PROBE};
+    use wavetrace::accel::tracer::{Coherence, Kernel, Tracer, PROBE_PACKETS};
     use wavetrace::queue::{HitQueue, RayQueue, ShadowQueue};
     let accel = mesh_accel(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/stanford-bunny.obj"));
     let n = 4096;
@@ -540,8 +553,8 @@ fn hybrid_keeps_coherent_queues_in_packets_and_leaves_incoherent_ones() {
         let (o, d) = rays(&accel, n, coherent, 5);
         let (mut q, mut shadow) = (RayQueue::default(), ShadowQueue::default());
         for (i, (&o, &d)) in o.iter().zip(&d).enumerate() {
-            q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0);
-            shadow.push(o, d, f32::INFINITY, i as u32, Vec3::ONE);
+            q.push(o, d, i as u32, Vec3::ONE, 1, 0, 0, 0.0, None);
+            shadow.push(o, d, f32::INFINITY, i as u32, Vec3::ONE, None);
         }
         let mut tracer = Tracer::new(&accel, Kernel::HYBRID, true);
         tracer.closest(&q, Coherence::Bounce, &mut HitQueue::default());
@@ -552,6 +565,6 @@ fn hybrid_keeps_coherent_queues_in_packets_and_leaves_incoherent_ones() {
     let (closest, shadow) = packet_rays(true);
     assert!(closest > n * 9 / 10 && shadow > n * 9 / 10, "coherent: {closest} and {shadow} of {n} in packets");
     let (closest, shadow) = packet_rays(false);
-    let probe = PROBE * LANES;
+    let probe = PROBE_PACKETS * LANES;
     assert!(closest <= probe && shadow <= probe, "incoherent: {closest} and {shadow} in packets, probe {probe}");
 }

@@ -449,7 +449,7 @@ fn nested_spheres_a_ray_through_the_centre_passes_straight_through() {
         // Tolerance: 1e-6 on the accumulated weight.
         assert!((next.weight(i).x as f64 - w).abs() < 1e-6, "weight {} vs {w}", next.weight(i).x);
         let mut q = RayQueue::default();
-        q.push(next.origin(i), next.dir(i), 0, next.weight(i), 1, 9, 0, 0.0);
+        q.push(next.origin(i), next.dir(i), 0, next.weight(i), 1, 9, 0, 0.0, None);
         rays = q;
     }
 

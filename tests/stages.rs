@@ -70,7 +70,7 @@ fn shadow_corners(scene: &mut Scene, probe: Probe, surfaces: &SurfaceQueue, poin
 fn wave(rays: &[(Vec3, Vec3, u32, Vec3, u32)]) -> RayQueue {
     let mut q = RayQueue::default();
     for (i, &(o, d, slot, w, depth)) in rays.iter().enumerate() {
-        q.push(o, d.normalize(), slot, w, depth, 7 + i as u32, 0, 0.0);
+        q.push(o, d.normalize(), slot, w, depth, 7 + i as u32, 0, 0.0, None);
     }
     q
 }
@@ -173,7 +173,7 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
             });
         for k in 0..3000 {
             let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
-            rays.push(o, rng.unit(), k, Vec3::new(0.5, 1.0, 0.25), 0, k, k, 0.0);
+            rays.push(o, rng.unit(), k, Vec3::new(0.5, 1.0, 0.25), 0, k, k, 0.0, None);
         }
         // And at the middle of diffuse primitives, so every shape gets hit.
         let diffuse = |p: usize| wavetrace::surface::diffuse_material(&scene, p as u32).is_some();
@@ -181,7 +181,7 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
         for k in 0..3000u32 {
             let (a, b) = scene.accel.prim(prims[(k as usize * 7919) % prims.len()] as u32).shape.bounds();
             let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
-            rays.push(o, (0.5 * (a + b) - o).normalize(), k, Vec3::ONE, 0, k, k, 0.0);
+            rays.push(o, (0.5 * (a + b) - o).normalize(), k, Vec3::ONE, 0, k, k, 0.0, None);
         }
         let hits = trace(&scene, &rays);
         let ids: Vec<u32> = (0..rays.len() as u32)
@@ -246,6 +246,7 @@ fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32
                     k1,
                     sample,
                     0.0,
+                    None,
                 );
             }
             Material::Dielectric { ior, ratio, tint, .. } => {
@@ -259,10 +260,20 @@ fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32
                     (Some(_), ReflectRatio::Fresnel) => fresnel(-d.dot(ns), side.eta),
                 };
                 if c > 0.0 {
-                    next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, w * c, depth, k1, sample, 0.0);
+                    next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, w * c, depth, k1, sample, 0.0, None);
                 }
                 if let Some(t) = refracted.filter(|_| c < 1.0) {
-                    next.push(offset_ray_origin(x, err, -n), t, slot, w * tint * (1.0 - c), depth, k2, sample, 0.0);
+                    next.push(
+                        offset_ray_origin(x, err, -n),
+                        t,
+                        slot,
+                        w * tint * (1.0 - c),
+                        depth,
+                        k2,
+                        sample,
+                        0.0,
+                        None,
+                    );
                 }
             }
             Material::Diffuse { .. } | Material::Conductor { .. } => unreachable!("only smooth mirrors and glass here"),
@@ -300,7 +311,7 @@ fn scatter_on_lanes_gives_the_scalar_functions_rays_bit_for_bit() {
             // From afar, or from inside the object's bounds (leaving a sphere from within).
             let o = if k % 3 == 0 { 0.5 * (a + b) + 0.01 * rng.unit() } else { target + 5.0 * rng.unit() };
             let d = if k % 3 == 0 { rng.unit() } else { (target - o).normalize() };
-            rays.push(o, d, k, Vec3::new(0.5, 1.0, 0.25), k % 4, k.wrapping_mul(2_654_435_761), k, 0.0);
+            rays.push(o, d, k, Vec3::new(0.5, 1.0, 0.25), k % 4, k.wrapping_mul(2_654_435_761), k, 0.0, None);
         }
         let hits = trace(&scene, &rays);
         let ids: Vec<u32> = (0..rays.len() as u32)
@@ -358,7 +369,7 @@ fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
             let Some(surf) = wavetrace::surface::diffuse_surface(&scene, &rays, &hits, i) else { continue };
             for li in 0..scene.lights.len() {
                 wavetrace::light::uniform_shadow_rays(&scene, &surf, li, |wi, tmax, l| {
-                    want.push(surf.o, wi, tmax, surf.slot, l)
+                    want.push(surf.o, wi, tmax, surf.slot, l, None)
                 });
             }
         }
@@ -727,7 +738,7 @@ fn a_pixels_shadow_rays_are_stratified_over_all_its_camera_samples() {
     let scene = quad_lit("", &["render.shadows.samples=16"]);
     let mut rays = RayQueue::default();
     for sample in 0..16 {
-        rays.push(Vec3::new(0.1, 1.0, 0.2), DOWN, 0, Vec3::ONE, 0, 0x5eed, sample, 0.0);
+        rays.push(Vec3::new(0.1, 1.0, 0.2), DOWN, 0, Vec3::ONE, 0, 0x5eed, sample, 0.0, None);
     }
     let hits = trace(&scene, &rays);
     let out = shade(&scene, &rays, &hits);
@@ -750,7 +761,7 @@ fn a_pixels_shadow_rays_are_stratified_over_all_its_camera_samples() {
     }
     // A different point key draws a different (scrambled) pattern.
     let mut other = RayQueue::default();
-    other.push(Vec3::new(0.1, 1.0, 0.2), DOWN, 0, Vec3::ONE, 0, 0x5eee, 0, 0.0);
+    other.push(Vec3::new(0.1, 1.0, 0.2), DOWN, 0, Vec3::ONE, 0, 0x5eee, 0, 0.0, None);
     let o = shade(&scene, &other, &trace(&scene, &other));
     assert_ne!(light_uv(&scene, o.shadow.origin(0), o.shadow.dir(0)), uv[0]);
 }

@@ -2,10 +2,12 @@
 //!
 //! [`Accel`] holds the primitives in leaf order and the wide tree over them: obvhs builds
 //! a binary tree (`bvh2/`: its build, and the binary single-ray walk kept as the tests'
-//! reference), collapsed into the wide tree (`wide/`: the collapse, the node layout, the
+//! reference), collapsed into the wide tree (`wbvh/`: the collapse, the node layout, the
 //! single-ray and interleaved walks, the beam walk of packets), whose packets' leaf tests
-//! are in `packet/`. Every traversal entry point is a method of
-//! [`Accel`] here and takes a [`Ray`]; every kernel follows the rules defined here (the
+//! are in `packet/`. The renderer asks two questions, [`Accel::closest`] and
+//! [`Accel::occluded`], of a ray here or of a whole queue through the tracer (which picks
+//! the kernel); the kernels kept to be measured against them are reached through
+//! `tools::kernels`. Every kernel follows the rules defined here (the
 //! conservative box test [`slab`] with [`inv_dir`]'s reciprocals, the culling slack
 //! [`CULL`], the tie rule [`nearer`] with [`tie_limit`], boxes widened by one float), so
 //! all of them return the same hit, bit for bit, whatever the tree and the order they
@@ -20,7 +22,7 @@ pub mod order;
 pub mod packet;
 pub mod shapes;
 pub mod tracer;
-pub mod wide;
+pub mod wbvh;
 
 pub use shapes::{Primitive, Shape, NO_LIGHT};
 
@@ -29,8 +31,7 @@ use obvhs::bvh2::Bvh2;
 use obvhs::BvhBuildParams;
 use std::time::Instant;
 
-use crate::simd::Vector;
-use wide::{Wide, WideBvh};
+use wbvh::{Wide, WideBvh};
 
 /// Traversal work counters: what one or more traversals cost.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -52,12 +53,14 @@ pub struct Traversal {
 /// docs/performance.md).
 pub const MAX_LEAF: u32 = 8;
 
-/// Conservative ray–box slab test: the far distance is widened by 1 + 2γ₃ (PBRT's
-/// bound on the rounding of the slab distances), so a ray through a box's edge or corner
-/// is never lost to rounding.
+/// What every box test multiplies its far distance by: 1 + 2γ₃, PBRT's bound on the
+/// rounding of the slab distances, so a ray through a box's edge or corner is never lost
+/// to rounding.
+pub(crate) const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// Conservative ray–box slab test: the far distance is widened by [`WIDEN`].
 #[inline(always)]
 pub(crate) fn slab(b: &obvhs::aabb::Aabb, ray: &SlabRay) -> f32 {
-    const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
     let t1 = (b.min - ray.origin) * ray.inv_direction;
     let t2 = (b.max - ray.origin) * ray.inv_direction;
     let tmin = t1.min(t2).max_element();
@@ -214,7 +217,7 @@ pub struct Accel {
     pub interleave: bool,
     /// The moving objects, whose primitives take the ids after the tree's (`None`
     /// without motion blur: a static scene pays nothing for it).
-    pub moving: Option<Box<moving::Moving>>,
+    moving: Option<Box<moving::Moving>>,
 }
 
 /// Seconds each phase of a BVH build took (`wavetrace bench` prints them): obvhs's PLOC
@@ -414,7 +417,8 @@ impl Accel {
             widen_boxes(b);
             // obvhs sizes its traversal stack by `max_depth` (96 by default); a pathological
             // mesh (found by fuzzing) builds deeper trees, which take obvhs's traversal (see
-            // `STACK`), so give it a stack that holds them, as obvhs's own insertion does.
+            // `bvh2::STACK_DEPTH`), so give it a stack that holds them, as obvhs's own
+            // insertion does.
             depth = b.depth(0);
             b.max_depth = (depth + 1).max(b.max_depth);
             #[cfg(debug_assertions)]
@@ -490,6 +494,18 @@ impl Accel {
         }
     }
 
+    /// The moving objects (`None` without motion blur).
+    #[inline]
+    pub fn moving(&self) -> Option<&moving::Moving> {
+        self.moving.as_deref()
+    }
+
+    /// The moving objects when primitive `id` is one of theirs (`None` for the tree's).
+    #[inline]
+    pub fn moving_of(&self, id: u32) -> Option<&moving::Moving> {
+        self.moving.as_deref().filter(|_| self.is_moving(id))
+    }
+
     /// True when primitive `id` belongs to a moving object.
     #[inline]
     pub fn is_moving(&self, id: u32) -> bool {
@@ -561,52 +577,55 @@ impl Accel {
         self.bounds
     }
 
-    /// Closest hit along `ray`: `(t, primitive index)`, or `None`; one ray through the
-    /// binary tree where it is kept, else through the wide one. Counts its work in `c`
-    /// when `COUNT`.
+    /// Closest hit along `ray`: `(t, primitive index)`, or `None`: one ray through the
+    /// wide tree (all of a node's children in one SIMD test; the binary tree where no wide
+    /// one could be encoded). Counts its work in `c` when `COUNT`. The renderer's queues
+    /// go through [`Tracer::closest`](tracer::Tracer::closest), which picks the kernel;
+    /// every kernel returns this hit, bit for bit.
     #[inline]
     pub fn closest<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
-        match &self.bvh {
-            Some(_) => bvh2::closest::<COUNT>(self, ray, c),
-            None => self.closest_wide::<COUNT>(ray, c),
-        }
-    }
-
-    /// True when some non-emitting primitive blocks `ray`'s segment; stops at the first
-    /// blocker. Area lights never block shadow rays. One ray through the binary tree
-    /// where it is kept, else through the wide one.
-    #[inline]
-    pub fn occluded<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
-        match &self.bvh {
-            Some(_) => bvh2::occluded::<COUNT>(self, ray, c),
-            None => self.occluded_wide::<COUNT>(ray, c),
-        }
-    }
-
-    /// [`Accel::closest`] through the wide BVH (one ray, all of a node's children in one
-    /// SIMD test): the same hit bit for bit.
-    #[inline]
-    pub fn closest_wide<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
         match &self.wide {
             Some(w) => w.closest::<COUNT>(self.slack, ray, c),
             None => bvh2::closest::<COUNT>(self, ray, c),
         }
     }
 
-    /// [`Accel::occluded`] through the wide BVH: the same answer.
+    /// True when some non-emitting primitive blocks `ray`'s segment; stops at the first
+    /// blocker. Area lights never block shadow rays. One ray through the wide tree (the
+    /// binary one where there is no wide tree); queues go through
+    /// [`Tracer::occluded`](tracer::Tracer::occluded).
     #[inline]
-    pub fn occluded_wide<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
+    pub fn occluded<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
         match &self.wide {
             Some(w) => w.occluded::<COUNT>(self.slack, ray, c),
             None => bvh2::occluded::<COUNT>(self, ray, c),
         }
     }
 
-    /// [`Accel::closest`] of `n` rays (`ray(i)`), walked [`INTERLEAVE`](wide::INTERLEAVE)
+    /// [`Accel::closest`] through the binary tree where it is kept
+    /// ([`Accel::build_reference`]): the tests' independent reference.
+    #[inline]
+    pub(crate) fn closest_binary<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
+        match &self.bvh {
+            Some(_) => bvh2::closest::<COUNT>(self, ray, c),
+            None => self.closest::<COUNT>(ray, c),
+        }
+    }
+
+    /// [`Accel::occluded`] through the binary tree where it is kept.
+    #[inline]
+    pub(crate) fn occluded_binary<const COUNT: bool>(&self, ray: Ray, c: &mut Traversal) -> bool {
+        match &self.bvh {
+            Some(_) => bvh2::occluded::<COUNT>(self, ray, c),
+            None => self.occluded::<COUNT>(ray, c),
+        }
+    }
+
+    /// [`Accel::closest`] of `n` rays (`ray(i)`), walked [`INTERLEAVE`](wbvh::INTERLEAVE)
     /// at a time through the wide BVH so that their memory loads overlap: `out(i, hit)`
     /// for every ray, in the order they finish, each the same hit as alone.
     #[inline]
-    pub fn closest_many<const COUNT: bool>(
+    pub(crate) fn closest_many<const COUNT: bool>(
         &self,
         n: usize,
         ray: impl Fn(usize) -> Ray,
@@ -622,7 +641,7 @@ impl Accel {
     /// [`Accel::occluded`] of `n` rays, interleaved as [`Accel::closest_many`] walks them:
     /// `out(i, blocked)` for every ray, in the order they finish.
     #[inline]
-    pub fn occluded_many<const COUNT: bool>(
+    pub(crate) fn occluded_many<const COUNT: bool>(
         &self,
         n: usize,
         ray: impl Fn(usize) -> Ray,
@@ -633,52 +652,5 @@ impl Accel {
             Some(w) => w.occluded_many::<COUNT>(self.slack, n, ray, out, c),
             None => (0..n).for_each(|i| out(i, bvh2::occluded::<COUNT>(self, ray(i), c))),
         }
-    }
-
-    /// [`Accel::closest`] through obvhs's own single-ray traversal: the fallback for
-    /// binary trees too deep for the fixed stack, and a reference the benchmarks compare
-    /// with (it may differ on ties within rounding: see [`CULL`]).
-    pub fn closest_obvhs(&self, ray: Ray) -> Option<(f32, u32)> {
-        bvh2::closest_obvhs(self, ray)
-    }
-
-    /// [`Accel::occluded`] through obvhs's own any-hit traversal.
-    pub fn occluded_obvhs(&self, ray: Ray) -> bool {
-        bvh2::occluded_obvhs(self, ray)
-    }
-
-    /// Closest hits of a packet of up to `S::LANES` rays (`o`, `d` of equal length) within
-    /// `(tmin, ∞)`, walked together through the wide tree: `out[l]` is `(t, primitive)`
-    /// or `(∞, u32::MAX)`, the same hits as [`Accel::closest`]. `cols`: the same
-    /// rays as queue columns, when they are a full packet of consecutive entries.
-    #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
-    #[inline]
-    pub fn closest_packet<S: Vector>(
-        &self,
-        o: &[Vec3],
-        d: &[Vec3],
-        cols: Option<packet::Columns>,
-        tmin: f32,
-        out: &mut [(f32, u32)],
-        work: &mut packet::PacketWork,
-    ) {
-        packet::closest::<S>(self, o, d, cols, tmin, out, work)
-    }
-
-    /// Any-hit tests of a packet of up to `S::LANES` shadow segments `(0, tmax[l])`:
-    /// `out[l]` is true when a non-emitting primitive blocks lane l, the same answers as
-    /// [`Accel::occluded`]. `cols` as for [`Accel::closest_packet`].
-    #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
-    #[inline]
-    pub fn occluded_packet<S: Vector>(
-        &self,
-        o: &[Vec3],
-        d: &[Vec3],
-        cols: Option<packet::Columns>,
-        tmax: &[f32],
-        out: &mut [bool],
-        work: &mut packet::PacketWork,
-    ) {
-        packet::occluded::<S>(self, o, d, cols, tmax, out, work)
     }
 }

@@ -14,7 +14,7 @@ use glam::{DAffine3, DVec3, Vec3};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 
-use super::bvh2::{subtree, MAX_DEPTH};
+use super::bvh2::{subtree, STACK_DEPTH};
 use super::shapes::{gamma, Shape};
 use super::{nearer, slab, Accel, Ray, SlabRay, Traversal};
 use crate::motion::Motion;
@@ -105,7 +105,7 @@ impl Moving {
                 params.search_depth_threshold,
             )
         });
-        let top = top.filter(|t| !t.nodes[0].is_leaf() && t.depth(0) < MAX_DEPTH);
+        let top = top.filter(|t| !t.nodes[0].is_leaf() && t.depth(0) < STACK_DEPTH);
         let prims = instances.iter().map(|i| i.accel.len()).sum();
         Moving { instances, shutter, top, prims }
     }
@@ -185,7 +185,7 @@ impl Moving {
             // tie; the world distances decide.
             let tmax = (best.0.min(ray.tmax) * local.scale) * (1.0 + 4.0 * f32::EPSILON);
             let obj = Ray::new(local.o, local.d, ray.tmin * local.scale, tmax);
-            if let Some((t, id)) = inst.accel.closest_wide::<COUNT>(obj, c) {
+            if let Some((t, id)) = inst.accel.closest::<COUNT>(obj, c) {
                 let t = t / local.scale;
                 let id = inst.first + id;
                 if t > ray.tmin && t < ray.tmax && nearer(t, id, *best) {
@@ -205,7 +205,7 @@ impl Moving {
         self.candidates::<COUNT>(ray.slab(), c, |inst, _, c| {
             let local = object_ray(&inst.motion.at(time), &ray);
             let obj = Ray::new(local.o, local.d, ray.tmin * local.scale, ray.tmax * local.scale);
-            blocked = inst.accel.occluded_wide::<COUNT>(obj, c);
+            blocked = inst.accel.occluded::<COUNT>(obj, c);
             !blocked
         });
         blocked

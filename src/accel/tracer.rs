@@ -26,7 +26,19 @@ pub enum Width {
     X16,
 }
 
-/// Which traversal kernel a tracer runs.
+impl Width {
+    /// The width of `lanes` lanes: 4, 8, else 16.
+    pub fn of(lanes: usize) -> Width {
+        match lanes {
+            4 => Width::X4,
+            8 => Width::X8,
+            _ => Width::X16,
+        }
+    }
+}
+
+/// Which traversal kernel a tracer runs: the renderer's ([`Kernel::render`]) or, for
+/// `wavetrace bench` and the kernel tests, any other to measure against it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kernel {
     /// One ray at a time over the binary BVH where the accel keeps one
@@ -34,14 +46,14 @@ pub enum Kernel {
     Scalar,
     /// One ray at a time over the wide BVH (all of a node's children in one SIMD test).
     Wide,
-    /// Rays walked [`INTERLEAVE`](super::wide::INTERLEAVE) at a time over the wide BVH,
+    /// Rays walked [`INTERLEAVE`](super::wbvh::INTERLEAVE) at a time over the wide BVH,
     /// their memory loads overlapped ([`Accel::closest_many`]).
     Interleaved,
     /// Packets of `width` lanes, formed and traced as `cfg` says (their lone rays over the
     /// binary BVH).
     Packet(Width, PacketConfig),
     /// Chosen per queue by measured coherence: camera rays in packets; bounce and shadow
-    /// queues start with [`PROBE`] packets spread over the queue, and when their beams
+    /// queues start with [`PROBE_PACKETS`] packets spread over the queue, and when their beams
     /// reach more than `max_leaves` leaves per 100 rays, the rest of the queue goes over
     /// the wide BVH: interleaved ([`Kernel::Interleaved`]) when the tree outgrows the
     /// last-level cache ([`Accel::interleave`]) or the walks are node-bound
@@ -89,7 +101,7 @@ impl Kernel {
 
 /// Packets a hybrid kernel traces of a bounce or shadow queue, spread over it, before it
 /// judges the queue's coherence.
-pub const PROBE: usize = 8;
+pub const PROBE_PACKETS: usize = 8;
 
 /// Where a queue's rays come from, which decides how they are ordered into packets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -139,9 +151,7 @@ impl<'a> Tracer<'a> {
         };
         match packets {
             None if self.kernel == Kernel::Interleaved => {
-                hits.clear();
-                hits.t.resize(rays.len(), f32::INFINITY);
-                hits.prim.resize(rays.len(), MISS);
+                hits.reset(rays.len(), f32::INFINITY, MISS);
                 self.closest_interleaved(rays, rays.len(), |k| k, hits);
             }
             None if self.count => self.closest_single::<true>(rays, hits),
@@ -256,10 +266,7 @@ impl<'a> Tracer<'a> {
         hits: &mut HitQueue,
     ) {
         let n = rays.len();
-        hits.t.clear();
-        hits.t.resize(n, f32::INFINITY);
-        hits.prim.clear();
-        hits.prim.resize(n, MISS);
+        hits.reset(n, f32::INFINITY, MISS);
         let how = if coherence == Coherence::Camera { Order::Keep } else { cfg.bounce_order };
         packet_order(self.accel, n, |i| rays.origin(i), |i| rays.dir(i), how, &mut self.order);
         let mut pw = PacketWork::default();
@@ -267,14 +274,14 @@ impl<'a> Tracer<'a> {
         let leave = self.kernel.leave_packets(coherence);
         let mut order = std::mem::take(&mut self.order);
         if leave.is_some() {
-            spread_probe(&mut order, S::LANES);
+            spread_probe(&mut order, S::WIDTH);
         }
         let mut alone = false;
-        for (p, group) in order.chunks(S::LANES).enumerate() {
-            let leaving = sparse(p, leave, &pw, S::LANES);
-            if leaving && (self.accel.interleave || node_bound(&pw, S::LANES)) {
+        for (p, group) in order.chunks(S::WIDTH).enumerate() {
+            let leaving = sparse(p, leave, &pw, S::WIDTH);
+            if leaving && (self.accel.interleave || node_bound(&pw, S::WIDTH)) {
                 // Incoherent, and walks that wait on node loads: the rest walks interleaved.
-                let rest = &order[p * S::LANES..];
+                let rest = &order[p * S::WIDTH..];
                 self.closest_interleaved(rays, rest.len(), |k| rest[k].1 as usize, hits);
                 break;
             }
@@ -293,9 +300,9 @@ impl<'a> Tracer<'a> {
                     };
                 }
             } else if shares_octant(&d[..k], cfg) {
-                let cols = consecutive(group, S::LANES)
+                let cols = consecutive(group, S::WIDTH)
                     .map(|i| Columns([&rays.ox, &rays.oy, &rays.oz, &rays.dx, &rays.dy, &rays.dz].map(|v| &v[i..])));
-                self.accel.closest_packet::<S>(&o[..k], &d[..k], cols, 0.0, &mut out, &mut pw);
+                super::packet::closest::<S>(self.accel, &o[..k], &d[..k], cols, 0.0, &mut out, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
                 // Lanes traced alone here are not counted (as before the tracer existed).
@@ -358,14 +365,14 @@ impl<'a> Tracer<'a> {
         let leave = self.kernel.leave_packets(Coherence::Bounce);
         let mut order = std::mem::take(&mut self.order);
         if leave.is_some() {
-            spread_probe(&mut order, S::LANES);
+            spread_probe(&mut order, S::WIDTH);
         }
         let mut alone = false;
-        for (p, group) in order.chunks(S::LANES).enumerate() {
-            let leaving = sparse(p, leave, &pw, S::LANES);
+        for (p, group) in order.chunks(S::WIDTH).enumerate() {
+            let leaving = sparse(p, leave, &pw, S::WIDTH);
             if leaving && accel.interleave {
                 // Incoherent, and the tree outgrows the cache: the rest walks interleaved.
-                let rest = &order[p * S::LANES..];
+                let rest = &order[p * S::WIDTH..];
                 self.occluded_interleaved(shadow, rest.len(), |k| rest[k].1 as usize);
                 break;
             }
@@ -384,10 +391,10 @@ impl<'a> Tracer<'a> {
                     };
                 }
             } else if shares_octant(&d[..k], cfg) {
-                let cols = consecutive(group, S::LANES).map(|i| {
+                let cols = consecutive(group, S::WIDTH).map(|i| {
                     Columns([&shadow.ox, &shadow.oy, &shadow.oz, &shadow.dx, &shadow.dy, &shadow.dz].map(|v| &v[i..]))
                 });
-                accel.occluded_packet::<S>(&o[..k], &d[..k], cols, &t[..k], &mut blocked, &mut pw);
+                super::packet::occluded::<S>(accel, &o[..k], &d[..k], cols, &t[..k], &mut blocked, &mut pw);
                 self.work.packet_rays += k as u64;
             } else {
                 for l in 0..k {
@@ -412,7 +419,7 @@ impl<'a> Tracer<'a> {
     }
 }
 
-/// Whether a queue leaves packets before its packet `p`: once [`PROBE`] packets of
+/// Whether a queue leaves packets before its packet `p`: once [`PROBE_PACKETS`] packets of
 /// `lanes` rays are done, when their beams (`pw`) reached more than `leave` leaves per 100
 /// rays. A ray alone visits about one leaf, and a beam's leaf costs about what a ray's
 /// does (one SIMD test), so past one leaf a ray packets cost more than single rays:
@@ -423,33 +430,33 @@ impl<'a> Tracer<'a> {
 #[inline]
 fn sparse(p: usize, leave: Option<u32>, pw: &PacketWork, lanes: usize) -> bool {
     match leave {
-        Some(max) if p == PROBE => pw.steps * 100 > max as u64 * (PROBE * lanes) as u64,
+        Some(max) if p == PROBE_PACKETS => pw.steps * 100 > max as u64 * (PROBE_PACKETS * lanes) as u64,
         _ => false,
     }
 }
 
-/// Whether the probe's rays (`pw`, [`PROBE`] packets of `lanes` rays) entered fewer than
+/// Whether the probe's rays (`pw`, [`PROBE_PACKETS`] packets of `lanes` rays) entered fewer than
 /// one leaf in four rays: their walks are node visits, whose loads interleaving overlaps,
 /// and not primitive tests, to which it only adds work (closest hits through a mesh in
 /// the cache, interleaved ÷ one at a time: random rays 1.11–1.15, kitchen's 0.90; bounce
 /// rays 0.87–0.97: docs/performance.md).
 #[inline]
 fn node_bound(pw: &PacketWork, lanes: usize) -> bool {
-    pw.lanes * 4 < (PROBE * lanes) as u64
+    pw.lanes * 4 < (PROBE_PACKETS * lanes) as u64
 }
 
-/// Moves [`PROBE`] full packets spread evenly over `order` (cut into packets of `lanes`)
+/// Moves [`PROBE_PACKETS`] full packets spread evenly over `order` (cut into packets of `lanes`)
 /// to its front, so the probe judges the whole queue: a queue in screen order starts in
 /// one corner of the image (on the Cornell box, rays from the ceiling beside the light).
 /// Packets keep their rays: only the order they are traced in changes, and no answer.
 fn spread_probe(order: &mut [(u64, u32)], lanes: usize) {
     let full = order.len() / lanes;
-    if full <= PROBE {
+    if full <= PROBE_PACKETS {
         return;
     }
     // k grows with j and k ≥ j, so each swap brings forward a packet no swap has moved.
-    for j in 1..PROBE {
-        let k = j * full / PROBE;
+    for j in 1..PROBE_PACKETS {
+        let k = j * full / PROBE_PACKETS;
         if k != j {
             let (front, back) = order.split_at_mut(k * lanes);
             front[j * lanes..(j + 1) * lanes].swap_with_slice(&mut back[..lanes]);
@@ -485,9 +492,9 @@ fn single_closest<const COUNT: bool>(
     work: &mut Traversal,
 ) -> (f32, u32) {
     let hit = if kernel.wide_singles() {
-        accel.closest_wide::<COUNT>(Ray::new(o, d, 0.0, f32::INFINITY), work)
-    } else {
         accel.closest::<COUNT>(Ray::new(o, d, 0.0, f32::INFINITY), work)
+    } else {
+        accel.closest_binary::<COUNT>(Ray::new(o, d, 0.0, f32::INFINITY), work)
     };
     hit.unwrap_or((f32::INFINITY, MISS))
 }
@@ -503,9 +510,9 @@ fn single_occluded<const COUNT: bool>(
     work: &mut Traversal,
 ) -> bool {
     if kernel.wide_singles() {
-        accel.occluded_wide::<COUNT>(Ray::new(o, d, 0.0, tmax), work)
-    } else {
         accel.occluded::<COUNT>(Ray::new(o, d, 0.0, tmax), work)
+    } else {
+        accel.occluded_binary::<COUNT>(Ray::new(o, d, 0.0, tmax), work)
     }
 }
 
@@ -530,11 +537,15 @@ mod tests {
             ids.sort_unstable();
             assert!(ids.iter().enumerate().all(|(i, &x)| x == i as u32), "{n}/{lanes}: not a permutation");
             let full = n / lanes;
-            let probe: Vec<usize> = packets[..PROBE.min(full)].iter().map(|p| p[0].1 as usize / lanes).collect();
-            if full > PROBE {
+            let probe: Vec<usize> =
+                packets[..PROBE_PACKETS.min(full)].iter().map(|p| p[0].1 as usize / lanes).collect();
+            if full > PROBE_PACKETS {
                 assert_eq!(probe[0], 0);
                 assert!(probe.windows(2).all(|w| w[0] < w[1]), "{n}/{lanes}: {probe:?}");
-                assert!(probe[PROBE - 1] >= full * (PROBE - 1) / PROBE, "{n}/{lanes}: {probe:?} ends early");
+                assert!(
+                    probe[PROBE_PACKETS - 1] >= full * (PROBE_PACKETS - 1) / PROBE_PACKETS,
+                    "{n}/{lanes}: {probe:?} ends early"
+                );
             } else {
                 assert!(probe.iter().enumerate().all(|(i, &p)| p == i), "{n}/{lanes}: a short queue moved");
             }

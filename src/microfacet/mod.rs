@@ -45,8 +45,9 @@ pub struct Microfacet {
 }
 
 /// Mitsuba clamps roughness to this (`MicrofacetDistribution::configure`): α = 0 would
-/// make D a delta, which the smooth plugins handle instead.
-const MIN_ALPHA: f32 = 1e-4;
+/// make D a delta, which the smooth plugins handle instead; below it the distribution's
+/// sampling loses its precision. The scene loaders clamp roughness to it too.
+pub const MIN_ALPHA: f32 = 1e-4;
 
 impl Microfacet {
     /// The roughness pair as Mitsuba uses it, clamped to [`MIN_ALPHA`].

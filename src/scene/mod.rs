@@ -10,6 +10,7 @@ pub mod mitsuba;
 pub mod ply;
 pub mod text;
 pub mod transform;
+pub mod values;
 
 use glam::{DAffine3, Mat3, Vec2, Vec3};
 
@@ -20,7 +21,8 @@ use crate::motion::Motion;
 use crate::simd::{Real, V3};
 use crate::texture::Texture;
 
-pub use load::{load, SceneSource};
+pub use load::load;
+pub use values::SceneSource;
 
 /// The default scene, compiled into the binary: what `wavetrace` renders with no SCENE.
 pub const DEFAULT_SCENE: &str = include_str!("../../scenes/default.toml");
@@ -336,7 +338,7 @@ impl Scene {
     #[inline]
     pub fn motion_blur(&self) -> bool {
         let [open, close] = self.settings.shutter;
-        open < close && (self.accel.moving.is_some() || self.camera.motion.is_some())
+        open < close && (self.accel.moving().is_some() || self.camera.motion.is_some())
     }
 }
 

@@ -94,11 +94,11 @@ pub fn shutter_times(scene: &Scene, rays: &mut RayQueue) {
         return;
     }
     let [open, close] = scene.settings.shutter;
-    rays.time.clear();
+    rays.fill_sparse(open);
     for i in 0..rays.len() {
         let u = sobol_owen(rays.sample[i], hash(&[rays.key[i], dim::TIME])).x;
         let time = open + (close - open) * u;
-        rays.time.push(time);
+        rays.time[i] = time;
         if let Some(m) = &scene.camera.motion {
             let (o, d) = m.ray(time, rays.origin(i), rays.dir(i));
             (rays.ox[i], rays.oy[i], rays.oz[i]) = (o.x, o.y, o.z);
@@ -125,9 +125,9 @@ fn push(
     let d = cam.pinhole_dir(film, s.width, s.height);
     if cam.aperture > 0.0 {
         let (o, d) = thin_lens(scene, d, lens());
-        rays.push(o, d, slot, w, 0, key, sample, 0.0);
+        rays.push(o, d, slot, w, 0, key, sample, 0.0, None);
     } else {
-        rays.push(cam.position, d, slot, w, 0, key, sample, 0.0);
+        rays.push(cam.position, d, slot, w, 0, key, sample, 0.0, None);
     }
 }
 
@@ -181,7 +181,18 @@ fn lens_rays(
         let (disk_x, disk_y) = concentric_disk_lanes(x, y, n);
         let (o, dir) = thin_lens_lanes(scene, d, disk_x, disk_y);
         let sample = words(l + u32x16::splat(base));
-        rays.push_lanes(o.lanes(), dir.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], sample, [0.0; LANES], n);
+        rays.push_lanes(
+            o.lanes(),
+            dir.lanes(),
+            [slot; LANES],
+            w,
+            [0; LANES],
+            [key; LANES],
+            sample,
+            [0.0; LANES],
+            None,
+            n,
+        );
     }
 }
 
@@ -257,10 +268,21 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
             };
             let (disk_x, disk_y) = concentric_disk_lanes(x, y, count);
             let (o, d) = thin_lens_lanes(scene, d, disk_x, disk_y);
-            rays.push_lanes(o.lanes(), d.lanes(), [slot; LANES], w, [0; LANES], [key; LANES], jw, [0.0; LANES], count);
+            rays.push_lanes(
+                o.lanes(),
+                d.lanes(),
+                [slot; LANES],
+                w,
+                [0; LANES],
+                [key; LANES],
+                jw,
+                [0.0; LANES],
+                None,
+                count,
+            );
         } else {
             let o = cam.position.to_array().map(|x| [x; LANES]);
-            rays.push_lanes(o, [dx, dy, dz], [slot; LANES], w, [0; LANES], [key; LANES], jw, [0.0; LANES], count);
+            rays.push_lanes(o, [dx, dy, dz], [slot; LANES], w, [0; LANES], [key; LANES], jw, [0.0; LANES], None, count);
         }
     }
 }

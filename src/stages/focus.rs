@@ -27,6 +27,10 @@ pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, ra
     let s = &scene.settings;
     let cam = &scene.camera;
     let first = range.start;
+    // Under motion blur a probe sees moving objects at mid-shutter (the camera as at time
+    // 0: the blur radii use its view axis).
+    let [open, close] = s.shutter;
+    let time = scene.motion_blur().then_some(open + 0.5 * (close - open));
     for i0 in range.clone().step_by(LANES) {
         let count = (range.end - i0).min(LANES as u64) as usize;
         // Lanes past the last point repeat it and are not written.
@@ -39,14 +43,8 @@ pub fn generate(scene: &Scene, range: Range<u64>, film: impl Fn(u32) -> Vec2, ra
         let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
         for k in 0..count {
             let slot = (i0 + k as u64 - first) as u32;
-            rays.push(cam.position, Vec3::new(dx[k], dy[k], dz[k]), slot, Vec3::ZERO, 0, 0, 0, 0.0);
+            rays.push(cam.position, Vec3::new(dx[k], dy[k], dz[k]), slot, Vec3::ZERO, 0, 0, 0, 0.0, time);
         }
-    }
-    if scene.motion_blur() {
-        // Under motion blur a probe sees moving objects at mid-shutter (the camera as
-        // at time 0: the blur radii use its view axis).
-        let [open, close] = s.shutter;
-        rays.time.resize(rays.len(), open + 0.5 * (close - open));
     }
 }
 

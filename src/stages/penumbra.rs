@@ -15,7 +15,7 @@
 
 use crate::accel::tracer::Tracer;
 use crate::light::{area_light_samples, sample_grid, SHADOW_TMAX_SCALE};
-use crate::queue::{FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, SurfaceQueue};
+use crate::queue::{sparse_opt, FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, SurfaceQueue};
 use crate::sampling::{dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
 use crate::surface::queued_surface;
@@ -98,12 +98,13 @@ fn generate(
     q.active.clear();
     let (cols, rows) = sample_grid(scene.settings.shadow_samples);
     let levels = morton_levels(cols, rows);
-    let mb = scene.motion_blur();
     for (i, &k) in penumbra.index.iter().enumerate() {
         let k = k as usize;
         let start = q.rays.len() as u32;
         let surf = queued_surface(surfaces, points.surface[k] as usize);
         let li = points.light[k] as usize;
+        // The point's rays carry its path's time.
+        let time = sparse_opt(&surfaces.time, points.surface[k] as usize);
         q.cells.clear();
         let (shadow, cells) = (&mut q.rays, &mut q.cells);
         area_light_samples(scene, &surf, li, |cell, wi, dist, l| {
@@ -111,13 +112,9 @@ fn generate(
                 let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
                 cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
             }
-            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l);
+            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l, time);
         });
         let end = q.rays.len() as u32;
-        if mb {
-            // The point's rays carry its path's time.
-            q.rays.time.resize(end as usize, surfaces.time[points.surface[k] as usize]);
-        }
         q.points.push(start, end, 0, 0);
         if progressive {
             let scramble = hash(&[surf.key, surf.sample, li as u32, dim::STOP_ORDER]);

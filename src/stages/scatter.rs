@@ -17,7 +17,7 @@ use crate::microfacet::{
     fresnel_conductor, rough_conductor_eval, rough_conductor_pdf, rough_dielectric_eval, rough_dielectric_pdf,
     rough_dielectric_split, tangents,
 };
-use crate::queue::{sparse, HitQueue, IndexQueue, RayQueue, ShadowQueue};
+use crate::queue::{sparse_opt, HitQueue, IndexQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
 use crate::scene::{Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
@@ -189,8 +189,9 @@ fn glossy(
     let prim_id = hits.prim[i] as usize;
     let d = rays.dir(i);
     let (x, err, ng) = hit_point(scene, rays, hits, i);
-    let time = sparse(&rays.time, i);
-    let mb = scene.motion_blur();
+    // The path's time, carried by the rays it goes on with.
+    let carried = sparse_opt(&rays.time, i);
+    let time = carried.unwrap_or_default();
     let (w, slot, depth, key, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
     let key1 = hash(&[key, 1]);
     let u = sobol_owen(sample, hash(&[key, dim::GLOSS]));
@@ -204,10 +205,7 @@ fn glossy(
         let (f, pdf) = bsdf(frame.to_local(l.wi));
         let c = w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
         if c != Vec3::ZERO {
-            shadow.push(origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, slot, c);
-            if mb {
-                shadow.time.push(time);
-            }
+            shadow.push(origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, slot, c, carried);
         }
     };
     match *material {
@@ -219,10 +217,17 @@ fn glossy(
             let tint = w * color;
             let Some(mf) = roughness else {
                 let f = conductor_fresnel(-d.dot(ns), eta, k);
-                next.push(offset_ray_origin(x, err, n), reflect(d, ns), slot, tint * f, depth, key1, sample, 0.0);
-                if mb {
-                    next.time.push(time);
-                }
+                next.push(
+                    offset_ray_origin(x, err, n),
+                    reflect(d, ns),
+                    slot,
+                    tint * f,
+                    depth,
+                    key1,
+                    sample,
+                    0.0,
+                    carried,
+                );
                 return;
             };
             let frame = Frame::new(ns);
@@ -239,10 +244,7 @@ fn glossy(
             let weight = conductor_fresnel(wi.dot(m), eta, k) * mf.smith_g1(wo, m);
             let pdf = if mis { rough_conductor_pdf(&mf, wi, wo) } else { 0.0 };
             let wo = frame.to_world(wo);
-            next.push(origin(wo), wo, slot, tint * weight, depth, key1, sample, pdf);
-            if mb {
-                next.time.push(time);
-            }
+            next.push(origin(wo), wo, slot, tint * weight, depth, key1, sample, pdf, carried);
         }
         Material::Dielectric { ior, tint, roughness: Some(mf), .. } => {
             // Rough glass is oriented by its outward normal; the split handles either side.
@@ -265,10 +267,7 @@ fn glossy(
             if let Some((wo, weight)) = branch {
                 let pdf = if mis { rough_dielectric_pdf(&mf, ior, wi, wo) } else { 0.0 };
                 let wo = frame.to_world(wo);
-                next.push(origin(wo), wo, slot, w * tint * (weight / p), depth, key, sample, pdf);
-                if mb {
-                    next.time.push(time);
-                }
+                next.push(origin(wo), wo, slot, w * tint * (weight / p), depth, key, sample, pdf, carried);
             }
         }
         Material::Diffuse { .. } | Material::Mirror { .. } | Material::Dielectric { roughness: None, .. } => {
@@ -346,17 +345,14 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     };
     let (key1, key2) = (keys(1), keys(2));
     let at = |v: &[[f32; LANES]; 3], k: usize| Vec3::new(v[0][k], v[1][k], v[2][k]);
-    let mb = scene.motion_blur();
     for (k, &i) in ids.iter().enumerate() {
         let i = i as usize;
         let (w, slot, depth, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.sample[i]);
+        let time = sparse_opt(&rays.time, i);
         let (_, fixed, color, mirror) = mat[k];
         let Some(mirror) = mirror else { continue };
         if mirror {
-            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample, 0.0);
-            if mb {
-                next.time.push(rays.time[i]);
-            }
+            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample, 0.0, time);
             continue;
         }
         let refracted = refracts & (1 << k) != 0;
@@ -366,13 +362,10 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
             (true, true) => fresnel_r[k],
         };
         if c > 0.0 {
-            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0);
+            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0, time);
         }
         if refracted && c < 1.0 {
-            next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample, 0.0);
-        }
-        if mb {
-            next.time.resize(next.len(), rays.time[i]);
+            next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample, 0.0, time);
         }
     }
 }

@@ -10,12 +10,14 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::accel::{lanes_of, NO_LIGHT};
+use crate::accel::NO_LIGHT;
 use crate::light::{
     emitted, gloss_light_pdf, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes,
     SHADOW_TMAX_SCALE,
 };
-use crate::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
+use crate::queue::{
+    sparse_opt, FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS,
+};
 use crate::sampling::power_heuristic;
 use crate::scene::{Light, Scene, ShadowMode};
 use crate::simd::{LaneIds, Word, LANES, V3};
@@ -104,9 +106,10 @@ pub fn shade(
         quad_shadow_lanes(scene, surfaces, shadow);
         return counts;
     }
-    let mb = scene.motion_blur();
     for p in 0..surfaces.len() {
         let surf = queued_surface(surfaces, p);
+        // The point's rays carry its path's time.
+        let time = sparse_opt(&surfaces.time, p);
         for li in 0..scene.lights.len() {
             // An area light the adaptive test probes: its unoccluded contribution costs
             // no rays; the shadow-corner stage decides whether it reaches the film. Count
@@ -118,11 +121,9 @@ pub fn shade(
                     counts.uniform_equivalent += n;
                 }
                 None => {
-                    uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l));
-                    if mb {
-                        // The point's rays carry its path's time.
-                        shadow.time.resize(shadow.len(), surfaces.time[p]);
-                    }
+                    uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| {
+                        shadow.push(surf.o, wi, tmax, surf.slot, l, time);
+                    });
                 }
             }
         }
@@ -142,7 +143,6 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
     let single = next_lit(first + 1).is_none();
     let (mut s, mut li, mut j) = (0, first, 0);
     let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
-    let mb = scene.motion_blur();
     while s < surfaces.len() {
         let mut count = 0;
         while count < LANES && s < surfaces.len() {
@@ -167,11 +167,7 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
                 (lanes.point[k - 1], lanes.light[k - 1], lanes.sample[k - 1]);
         }
         lanes.count = count;
-        let kept = quad_lanes(scene, surfaces, &lanes, shadow);
-        if mb {
-            // Out here, not in the lanes' function: a call there spills its vectors.
-            shadow.time.extend(lanes_of(kept).map(|k| surfaces.time[lanes.point[k] as usize]));
-        }
+        quad_lanes(scene, surfaces, &lanes, shadow);
     }
 }
 
@@ -216,8 +212,8 @@ impl LightLanes {
 
 /// The shadow rays of one lane group of `triples`: the scalar formulas of
 /// [`area_light_samples`](crate::light::area_light_samples) (through [`quad_sample`]), Lambert on the lanes and a Phong
-/// point's BRDF by the scalar function. Returns the lanes that cast a ray (bit k: lane k).
-fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) -> u32 {
+/// point's BRDF by the scalar function.
+fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) {
     let n = scene.settings.shadow_samples;
     let si = triples.point;
     // A run of consecutive points (one sample, one light) loads straight from the queue.
@@ -256,11 +252,12 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
         }
     }
     let (o, wi, slot) = (o.lanes(), [wx, wy, wz], si.map(|p| q.slot[p as usize]));
+    // Each ray carries its point's path time.
+    let time = (!q.time.is_empty()).then(|| si.map(|p| q.time[p as usize]));
     // Every lane kept (the usual group): whole vectors, no per-value push.
     if m == LANES {
-        shadow.push_lanes(o, wi, tmax, slot, [lr, lg, lb], LANES);
+        shadow.push_lanes(o, wi, tmax, slot, [lr, lg, lb], time.as_ref(), LANES);
     } else {
-        shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], &keep[..m]);
+        shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], time.as_ref(), &keep[..m]);
     }
-    !dark & ((1 << triples.count) - 1)
 }

@@ -12,7 +12,7 @@ use glam::Vec3;
 
 use crate::accel::tracer::Tracer;
 use crate::light::{probe_count, probe_targets, SHADOW_TMAX_SCALE};
-use crate::queue::{FilmQueue, IndexQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue};
+use crate::queue::{sparse_opt, FilmQueue, IndexQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue};
 use crate::sampling::hash;
 use crate::scene::{Scene, ShadowMode};
 
@@ -34,21 +34,18 @@ pub fn shadow_corners(
     penumbra.clear();
     probes.clear();
     let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode else { return 0 };
-    let mb = scene.motion_blur();
     for k in 0..points.len() {
         let s = points.surface[k] as usize;
         let o = surfaces.origin(s);
+        // The point's probes carry its path's time.
+        let time = sparse_opt(&surfaces.time, s);
         let li = points.light[k] as usize;
         let targets = probe_targets(scene, probe, li, hash(&[surfaces.key[s], surfaces.sample[s]]));
         let n = probe_count(&scene.lights[li], probe) as usize;
         for target in &targets[..n] {
             let to = *target - o;
             let dist = to.length();
-            probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO);
-        }
-        if mb {
-            // The point's probes carry its path's time.
-            probes.time.resize(probes.len(), surfaces.time[s]);
+            probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO, time);
         }
     }
     let blocked = tracer.occluded(probes);

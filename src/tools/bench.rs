@@ -20,7 +20,7 @@ use serde::Serialize;
 use std::time::Instant;
 
 use crate::accel::packet::PacketConfig;
-use crate::accel::tracer::{Coherence, Kernel as TracerKernel, Tracer, Width};
+use crate::accel::tracer::{Coherence, Kernel, Tracer, Width};
 use crate::accel::{Accel, BuildPhases};
 use crate::error::{Error, Result};
 use crate::film::tiles;
@@ -78,9 +78,9 @@ impl Default for BenchOptions {
     }
 }
 
-/// The renderer's hybrid threshold ([`TracerKernel::HYBRID`]'s `max_leaves`).
-pub const RENDER_MAX_LEAVES: u32 = match TracerKernel::HYBRID {
-    TracerKernel::Hybrid { max_leaves, .. } => max_leaves,
+/// The renderer's hybrid threshold ([`Kernel::HYBRID`]'s `max_leaves`).
+pub const RENDER_MAX_LEAVES: u32 = match Kernel::HYBRID {
+    Kernel::Hybrid { max_leaves, .. } => max_leaves,
     _ => 0,
 };
 
@@ -187,7 +187,7 @@ pub(crate) fn closest_set(items: &[(Vec3, Vec3)], coherence: Coherence) -> RaySe
     let chunk = |c: &[(Vec3, Vec3)]| {
         let mut q = RayQueue::default();
         for (k, &(o, d)) in c.iter().enumerate() {
-            q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0, 0.0);
+            q.push(o, d, k as u32, Vec3::ONE, (coherence == Coherence::Bounce) as u32, 0, 0, 0.0, None);
         }
         q
     };
@@ -199,7 +199,7 @@ pub(crate) fn any_hit_set(items: &[(Vec3, Vec3, f32)]) -> RaySet {
     let chunk = |c: &[(Vec3, Vec3, f32)]| {
         let mut q = ShadowQueue::default();
         for (k, &(o, d, t)) in c.iter().enumerate() {
-            q.push(o, d, t, k as u32, Vec3::ONE);
+            q.push(o, d, t, k as u32, Vec3::ONE, None);
         }
         q
     };
@@ -252,7 +252,7 @@ pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
     let (mut primary, mut shadows, mut bounces) =
         (Thinned::new(max_rays), Thinned::new(max_rays), Thinned::new(max_rays));
     let (mut rays, mut hits, mut shadow) = (RayQueue::default(), HitQueue::default(), Vec::new());
-    let mut tracer = Tracer::new(&scene.accel, TracerKernel::Wide, false);
+    let mut tracer = Tracer::new(&scene.accel, Kernel::Wide, false);
     for tile in tiles(s.width, s.height) {
         camera::generate(scene, &tile, 0..tile.pixels() as u64 * spp, &mut rays);
         intersect::intersect(&mut tracer, &rays, Coherence::Camera, &mut hits);
@@ -277,41 +277,6 @@ pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
     ]
 }
 
-/// A traversal kernel to measure.
-#[derive(Clone, Copy, Debug)]
-pub enum Kernel {
-    /// Packets of this many lanes (4, 8 or 16), formed and traced as configured.
-    Packet(usize, PacketConfig),
-    /// One ray at a time over the wide BVH.
-    Wide,
-    /// Rays interleaved over the wide BVH.
-    Interleaved,
-    /// The renderer's hybrid with packets of this many lanes, leaving packets for a
-    /// bounce or shadow queue whose beams reach more leaves per 100 rays than this.
-    Hybrid(usize, PacketConfig, u32),
-}
-
-/// SIMD width of a packet kernel of `n` lanes (4, 8, else 16).
-fn width(n: usize) -> Width {
-    match n {
-        4 => Width::X4,
-        8 => Width::X8,
-        _ => Width::X16,
-    }
-}
-
-impl Kernel {
-    /// The tracer kernel.
-    fn tracer(self) -> TracerKernel {
-        match self {
-            Kernel::Wide => TracerKernel::Wide,
-            Kernel::Interleaved => TracerKernel::Interleaved,
-            Kernel::Packet(n, c) => TracerKernel::Packet(width(n), c),
-            Kernel::Hybrid(n, cfg, max_leaves) => TracerKernel::Hybrid { width: width(n), cfg, max_leaves },
-        }
-    }
-}
-
 /// Seconds one trace took by each clock.
 #[derive(Clone, Copy, Debug)]
 pub struct Seconds {
@@ -327,7 +292,7 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
     let start = Instant::now();
     let cpu0 = cpu_seconds();
     // Each thread builds its own tracer (its scratch is per thread); no counters.
-    let tracer = || Tracer::new(accel, kernel.tracer(), false);
+    let tracer = || Tracer::new(accel, kernel, false);
     let sum: u64 = pool.install(|| match set {
         RaySet::Closest(chunks, coherence) => chunks
             .par_iter()
@@ -358,10 +323,10 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
 /// The kernels `wavetrace bench` measures, with their column names.
 fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 4] {
     [
-        (KERNELS[0], Kernel::Packet(opts.lanes, opts.packet)),
+        (KERNELS[0], Kernel::Packet(Width::of(opts.lanes), opts.packet)),
         (KERNELS[1], Kernel::Wide),
         (KERNELS[2], Kernel::Interleaved),
-        (KERNELS[3], Kernel::Hybrid(opts.lanes, opts.packet, opts.max_leaves)),
+        (KERNELS[3], Kernel::Hybrid { width: Width::of(opts.lanes), cfg: opts.packet, max_leaves: opts.max_leaves }),
     ]
 }
 

@@ -158,14 +158,14 @@ pub fn mesh_ray_sets(accel: &Accel, side: usize) -> Vec<(&'static str, RaySet)> 
     let mut c0 = Traversal::default();
     let (mut shadow, mut bounce, mut bounce_shadow) = (Vec::new(), Vec::new(), Vec::new());
     for (i, &(o, d)) in camera.iter().enumerate() {
-        if let Some((t, prim)) = accel.closest_wide::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c0) {
+        if let Some((t, prim)) = accel.closest::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c0) {
             let (p, n) = hit_point(accel, o, d, t, prim);
             shadow.push(to_light(i, p, 2));
             bounce.push((p, cosine_direction(n, u(i, 4), u(i, 5))));
         }
     }
     for (i, &(o, d)) in bounce.iter().enumerate() {
-        if let Some((t, prim)) = accel.closest_wide::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c0) {
+        if let Some((t, prim)) = accel.closest::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c0) {
             bounce_shadow.push(to_light(i, hit_point(accel, o, d, t, prim).0, 6));
         }
     }
@@ -237,10 +237,8 @@ pub fn export(dir: &Path, accel: &Accel, sets: &[(&'static str, RaySet)]) -> Res
         write_npy(&file("dirs"), "<f4", &[n, 3], &f32_bytes(rays.iter().flat_map(|r| r.1.to_array())))?;
         write_npy(&file("tmax"), "<f4", &[n], &f32_bytes(rays.iter().map(|r| r.2)))?;
         if let RaySet::AnyHit(_) = set {
-            let blocked: Vec<u8> = rays
-                .iter()
-                .map(|&(o, d, t)| accel.occluded_wide::<false>(Ray::new(o, d, 0.0, t), &mut c) as u8)
-                .collect();
+            let blocked: Vec<u8> =
+                rays.iter().map(|&(o, d, t)| accel.occluded::<false>(Ray::new(o, d, 0.0, t), &mut c) as u8).collect();
             write_npy(&file("blocked"), "|u1", &[n], &blocked)?;
             list += &format!("{name} anyhit\n");
         } else {
@@ -248,7 +246,7 @@ pub fn export(dir: &Path, accel: &Accel, sets: &[(&'static str, RaySet)]) -> Res
                 .iter()
                 .map(|&(o, d, _)| {
                     accel
-                        .closest_wide::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c)
+                        .closest::<false>(Ray::new(o, d, 0.0, f32::INFINITY), &mut c)
                         .map_or((f32::INFINITY, -1), |(t, p)| (t, p as i32))
                 })
                 .collect();
@@ -290,7 +288,7 @@ mod tests {
         for i in 0..2000 {
             let d = sphere_dir(u(i, 0), u(i, 1));
             assert!(
-                accel.closest_wide::<false>(Ray::new(Vec3::ZERO, d, 0.0, f32::INFINITY), &mut c).is_some(),
+                accel.closest::<false>(Ray::new(Vec3::ZERO, d, 0.0, f32::INFINITY), &mut c).is_some(),
                 "ray {i} escaped"
             );
         }

@@ -12,6 +12,7 @@
 //! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets;
 //! - [`merge`]: tile headers, and the exact merge of a render's tiles.
 //! - [`bench_mesh`]: the ray sets around a bare mesh, a generated sphere, `.npy` export.
+//! - [`kernels`]: the traversal kernels kept to be measured against the renderer's.
 
 pub mod bench;
 pub mod bench_mesh;
@@ -19,6 +20,7 @@ pub mod compare;
 #[cfg(feature = "flip")]
 pub mod flip;
 pub mod heatmap;
+pub mod kernels;
 pub mod merge;
 pub mod output;
 #[cfg(feature = "plot")]

@@ -38,7 +38,7 @@ fn self_shadowed(s: f64, t: [f64; 3]) -> (usize, usize) {
         let az = rng.range(0.0, std::f32::consts::TAU) as f64;
         let o = base + DVec3::new(rng.range(-3.0, 3.0) as f64 * s, h * s, rng.range(-3.0, 3.0) as f64 * s);
         let d = DVec3::new(below.cos() * az.cos(), -below.sin(), below.cos() * az.sin());
-        rays.push(o.as_vec3(), d.as_vec3().normalize(), 0, Vec3::ONE, 0, rng.0 as u32, 0, 0.0);
+        rays.push(o.as_vec3(), d.as_vec3().normalize(), 0, Vec3::ONE, 0, rng.0 as u32, 0, 0.0, None);
     }
     let (_, hits, shadow_q, _) = step_all(&scene, &rays);
     assert!(hits.prim.iter().all(|&p| p != MISS), "every ray hits the plane");

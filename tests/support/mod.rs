@@ -106,7 +106,7 @@ pub fn probe_camera(from: Vec3, p: Vec3) -> String {
 /// A queue of one ray from `o` along `d` (normalised), slot 0, weight 1, depth 0.
 pub fn one_ray(o: Vec3, d: Vec3) -> RayQueue {
     let mut q = RayQueue::default();
-    q.push(o, d.normalize(), 0, Vec3::ONE, 0, 7, 0, 0.0);
+    q.push(o, d.normalize(), 0, Vec3::ONE, 0, 7, 0, 0.0, None);
     q
 }
 

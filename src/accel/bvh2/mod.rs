@@ -12,17 +12,17 @@ use super::{cull_at, nearer, slab, tie_limit, Accel, BuildPhases, Lap, Ray, Slab
 
 /// Deepest tree the fixed-size traversal stack handles; deeper trees (never seen from
 /// obvhs's builders on real meshes) fall back to obvhs's own traversal.
-pub(crate) const MAX_DEPTH: usize = 128;
+pub(crate) const STACK_DEPTH: usize = 128;
 
-/// The node indices a traversal still has to visit (fixed size, see [`MAX_DEPTH`]).
+/// The node indices a traversal still has to visit (fixed size, see [`STACK_DEPTH`]).
 pub(crate) struct NodeStack {
-    items: [u32; MAX_DEPTH],
+    items: [u32; STACK_DEPTH],
     len: usize,
 }
 
 impl NodeStack {
     pub(crate) fn new() -> NodeStack {
-        NodeStack { items: [0; MAX_DEPTH], len: 0 }
+        NodeStack { items: [0; STACK_DEPTH], len: 0 }
     }
 
     /// The next inner node after testing a node pair whose inner children to `descend`
@@ -213,8 +213,8 @@ fn traverse<const COUNT: bool>(
     subtree::<COUNT>(nodes, root.first_index as usize, accel.slack, ray, c, leaf);
 }
 
-/// [`Accel::closest_obvhs`]: obvhs's `Bvh2::ray_traverse`, with the tie rule applied in
-/// its callback. Culls boxes at `tmax` exactly, so on a tie within rounding it may return
+/// Closest hit through obvhs's own `Bvh2::ray_traverse` (the fallback of [`closest`] for
+/// trees deeper than [`STACK_DEPTH`]), with the tie rule applied in its callback. Culls boxes at `tmax` exactly, so on a tie within rounding it may return
 /// another hit than the other kernels (see [`CULL`](crate::accel::CULL)).
 pub(crate) fn closest_obvhs(accel: &Accel, ray: Ray) -> Option<(f32, u32)> {
     let bvh = accel.bvh.as_ref()?;
@@ -237,7 +237,7 @@ pub(crate) fn closest_obvhs(accel: &Accel, ray: Ray) -> Option<(f32, u32)> {
     (best.1 != u32::MAX).then_some(best)
 }
 
-/// [`Accel::occluded_obvhs`]: obvhs's `Bvh2::ray_traverse_miss`.
+/// Any hit through obvhs's own `Bvh2::ray_traverse_miss` (the fallback of [`occluded`]).
 pub(crate) fn occluded_obvhs(accel: &Accel, ray: Ray) -> bool {
     let Some(bvh) = accel.bvh.as_ref() else { return false };
     let (o, d) = (ray.origin, ray.dir);
@@ -251,11 +251,11 @@ pub(crate) fn occluded_obvhs(accel: &Accel, ray: Ray) -> bool {
     })
 }
 
-/// [`Accel::closest`]: the binary walk, or obvhs's for a tree deeper than [`MAX_DEPTH`].
+/// [`Accel::closest`] through the binary tree: its own walk, or obvhs's for a tree deeper than [`STACK_DEPTH`].
 #[inline]
 pub(crate) fn closest<const COUNT: bool>(accel: &Accel, ray: Ray, c: &mut Traversal) -> Option<(f32, u32)> {
     let bvh = accel.bvh.as_ref()?;
-    if accel.depth >= MAX_DEPTH {
+    if accel.depth >= STACK_DEPTH {
         return closest_obvhs(accel, ray);
     }
     let (o, d) = (ray.origin, ray.dir);
@@ -277,11 +277,11 @@ pub(crate) fn closest<const COUNT: bool>(accel: &Accel, ray: Ray, c: &mut Traver
     (best.1 != u32::MAX).then_some(best)
 }
 
-/// [`Accel::occluded`]: the binary walk, or obvhs's for a tree deeper than [`MAX_DEPTH`].
+/// [`Accel::occluded`] through the binary tree: its own walk, or obvhs's for a tree deeper than [`STACK_DEPTH`].
 #[inline]
 pub(crate) fn occluded<const COUNT: bool>(accel: &Accel, ray: Ray, c: &mut Traversal) -> bool {
     let Some(bvh) = accel.bvh.as_ref() else { return false };
-    if accel.depth >= MAX_DEPTH {
+    if accel.depth >= STACK_DEPTH {
         return occluded_obvhs(accel, ray);
     }
     let (o, d) = (ray.origin, ray.dir);

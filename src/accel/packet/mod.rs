@@ -1,6 +1,6 @@
 //! Packet traversal of the wide tree: a packet of rays (4, 8 or 16 lanes of `wide`; the
 //! renderer uses [`LANES`](crate::simd::LANES)) walks the tree together as one beam
-//! (`wide::beam`: each node's children tested once for the whole packet); each leaf the
+//! (`wbvh::beam`: each node's children tested once for the whole packet); each leaf the
 //! beam reaches is slab-tested for every lane, and its primitives (watertight triangles
 //! after Woop, Benthin and Wald; spheres; parallelograms) for the lanes that enter it, all
 //! lanes at once. A packet whose beam keeps reaching leaves no lane enters gives up and

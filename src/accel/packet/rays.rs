@@ -4,8 +4,8 @@ use glam::Vec3;
 
 use super::Columns;
 use crate::accel::shapes::{intersect_triangle, shear_axes, Shape};
-use crate::accel::wide::Beam;
-use crate::accel::CULL;
+use crate::accel::wbvh::Beam;
+use crate::accel::{CULL, WIDEN};
 use crate::simd::{Vector, LANES};
 
 /// How a triangle's vertex components are permuted into each lane's sheared frame.
@@ -56,7 +56,7 @@ impl<'a, S: Vector> Lanes<'a, S> {
         // bits and the divisions are correctly rounded, so the lanes hold the scalar
         // rays' values.
         let (origin, dir) = match cols {
-            Some(Columns([ox, oy, oz, dx, dy, dz])) if o.len() == S::LANES => {
+            Some(Columns([ox, oy, oz, dx, dy, dz])) if o.len() == S::WIDTH => {
                 let load3 = |a: [&[f32]; 3]| a.map(S::load_lanes);
                 (load3([ox, oy, oz]), load3([dx, dy, dz]))
             }
@@ -122,7 +122,6 @@ impl<'a, S: Vector> Lanes<'a, S> {
     /// single-ray traversals' test.
     #[inline(always)]
     pub(super) fn slab_box(&self, min: [f32; 3], max: [f32; 3], tmax: S) -> (u32, S) {
-        const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let mut near = S::splat(f32::NEG_INFINITY);
         let mut far = S::splat(f32::INFINITY);
         for k in 0..3 {

@@ -49,7 +49,7 @@ fn check<S: Vector>(accel: &Accel) -> PacketWork {
     };
     let mut work = PacketWork::default();
     for round in 0..400 {
-        let n = 1 + (rnd() * S::LANES as f32) as usize % S::LANES;
+        let n = 1 + (rnd() * S::WIDTH as f32) as usize % S::WIDTH;
         let (mut o, mut d) = (Vec::new(), Vec::new());
         for _ in 0..n {
             let orig = Vec3::new(rnd() * 6.0, rnd() * 6.0, 3.0 + rnd());
@@ -67,10 +67,10 @@ fn check<S: Vector>(accel: &Accel) -> PacketWork {
             d.push(dir.normalize());
         }
         let mut out = [(0.0, 0); LANES];
-        accel.closest_packet::<S>(&o, &d, None, 0.0, &mut out, &mut work);
+        super::closest::<S>(accel, &o, &d, None, 0.0, &mut out, &mut work);
         let tmax: Vec<f32> = (0..n).map(|_| 1.0 + rnd() * 4.0).collect();
         let mut occ = [false; LANES];
-        accel.occluded_packet::<S>(&o, &d, None, &tmax, &mut occ, &mut work);
+        super::occluded::<S>(accel, &o, &d, None, &tmax, &mut occ, &mut work);
         // The same rays as queue columns (a full packet's lanes load from them): the same
         // answers, bit for bit.
         let col = |f: fn(&Vec3) -> f32, v: &[Vec3]| v.iter().map(f).collect::<Vec<f32>>();
@@ -84,8 +84,8 @@ fn check<S: Vector>(accel: &Accel) -> PacketWork {
         ];
         let cols = Some(Columns([&c[0][..], &c[1][..], &c[2][..], &c[3][..], &c[4][..], &c[5][..]]));
         let (mut out_c, mut occ_c) = ([(0.0, 0); LANES], [false; LANES]);
-        accel.closest_packet::<S>(&o, &d, cols, 0.0, &mut out_c, &mut PacketWork::default());
-        accel.occluded_packet::<S>(&o, &d, cols, &tmax, &mut occ_c, &mut PacketWork::default());
+        super::closest::<S>(accel, &o, &d, cols, 0.0, &mut out_c, &mut PacketWork::default());
+        super::occluded::<S>(accel, &o, &d, cols, &tmax, &mut occ_c, &mut PacketWork::default());
         let bits = |v: &[(f32, u32)]| v.iter().map(|&(t, p)| (t.to_bits(), p)).collect::<Vec<_>>();
         assert_eq!((bits(&out_c[..n]), &occ_c[..n]), (bits(&out[..n]), &occ[..n]));
         for l in 0..n {
@@ -102,7 +102,7 @@ fn check<S: Vector>(accel: &Accel) -> PacketWork {
             assert_eq!(occ[l], blocked, "lane {l}");
         }
     }
-    assert!(work.lanes > 0 && work.lanes <= S::LANES as u64 * work.steps);
+    assert!(work.lanes > 0 && work.lanes <= S::WIDTH as u64 * work.steps);
     work
 }
 

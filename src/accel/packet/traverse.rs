@@ -5,7 +5,7 @@ use glam::Vec3;
 
 use super::rays::Lanes;
 use super::{Columns, PacketWork};
-use crate::accel::wide::{Beam, BeamLeaf, LeafRef, Wide, WideBvh};
+use crate::accel::wbvh::{Beam, BeamLeaf, LeafRef, Wide, WideBvh};
 use crate::accel::{cull_at, lanes_of, nearer, tie_limit, Accel, Ray, Traversal};
 use crate::simd::{Vector, LANES};
 
@@ -130,7 +130,7 @@ impl Search for AnyHit {
     }
 }
 
-/// Walks the wide tree for a packet as one beam (see `wide::beam`): each leaf the beam
+/// Walks the wide tree for a packet as one beam (see `wbvh::beam`): each leaf the beam
 /// reaches is box-tested for every lane exactly, and `search` tests its primitives for
 /// the lanes that enter. False when the packet gives up: its beam reached more leaves
 /// that no lane enters than leaf entries of its lanes (and over two per lane), so its
@@ -154,7 +154,7 @@ fn walk_beam<S: Vector, const ORDER: bool>(
         work.lanes += mask.count_ones() as u64;
         if mask == 0 {
             wasted += 1;
-            if wasted > useful.max(2 * S::LANES as u64) {
+            if wasted > useful.max(2 * S::WIDTH as u64) {
                 gave_up = true;
                 return BeamLeaf::Stop;
             }
@@ -171,12 +171,12 @@ fn walk_beam<S: Vector, const ORDER: bool>(
     !gave_up
 }
 
-/// Closest hits of a packet of up to `S::LANES` rays (`o`, `d` of equal length) within
+/// Closest hits of a packet of up to `S::WIDTH` rays (`o`, `d` of equal length) within
 /// `(tmin, ∞)`: `out[l]` is `(t, primitive)` or `(∞, u32::MAX)`. The same hits as
 /// [`Accel::closest`], primitives included (the tie rule of [`nearer`]). `cols`: the
 /// same rays as queue columns, when they are a full packet of consecutive entries.
 #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
-pub fn closest<S: Vector>(
+pub(crate) fn closest<S: Vector>(
     accel: &Accel,
     o: &[Vec3],
     d: &[Vec3],
@@ -186,7 +186,7 @@ pub fn closest<S: Vector>(
     work: &mut PacketWork,
 ) {
     let n = o.len();
-    debug_assert!(n == d.len() && n <= S::LANES && out.len() >= n);
+    debug_assert!(n == d.len() && n <= S::WIDTH && out.len() >= n);
     let lanes = Lanes::<S>::new(o, d, cols, accel.slack);
     let mut tmax = [f32::NEG_INFINITY; LANES];
     tmax[..n].fill(f32::INFINITY);
@@ -196,7 +196,7 @@ pub fn closest<S: Vector>(
             for l in 0..n {
                 work.fallbacks += 1;
                 let ray = Ray::new(o[l], d[l], tmin, search.limit[l]);
-                if let Some(hit) = accel.closest_wide::<false>(ray, &mut Traversal::default()) {
+                if let Some(hit) = accel.closest::<false>(ray, &mut Traversal::default()) {
                     if nearer(hit.0, hit.1, search.best[l]) {
                         search.best[l] = hit;
                     }
@@ -207,7 +207,7 @@ pub fn closest<S: Vector>(
         // No beam (mixed direction signs) or no wide tree: each lane alone.
         for l in 0..n {
             search.best[l] = accel
-                .closest_wide::<false>(Ray::new(o[l], d[l], tmin, f32::INFINITY), &mut Traversal::default())
+                .closest::<false>(Ray::new(o[l], d[l], tmin, f32::INFINITY), &mut Traversal::default())
                 .unwrap_or((f32::INFINITY, u32::MAX));
         }
     }
@@ -215,12 +215,12 @@ pub fn closest<S: Vector>(
     out[..n].copy_from_slice(&search.best[..n]);
 }
 
-/// Any-hit tests of a packet of up to `S::LANES` shadow segments `(0, tmax[l])`:
+/// Any-hit tests of a packet of up to `S::WIDTH` shadow segments `(0, tmax[l])`:
 /// `out[l]` is true when a non-emitting primitive blocks lane l. Lanes stop as soon as
 /// they are blocked, and the packet when all are. The same answers as
-/// [`Accel::occluded`]. `cols` as for [`Accel::closest_packet`].
+/// [`Accel::occluded`]. `cols` as for [`closest`].
 #[allow(clippy::too_many_arguments)] // the rays as values and as columns, the range, the outputs
-pub fn occluded<S: Vector>(
+pub(crate) fn occluded<S: Vector>(
     accel: &Accel,
     o: &[Vec3],
     d: &[Vec3],
@@ -230,7 +230,7 @@ pub fn occluded<S: Vector>(
     work: &mut PacketWork,
 ) {
     let n = o.len();
-    debug_assert!(n == d.len() && n == tmax.len() && n <= S::LANES && out.len() >= n);
+    debug_assert!(n == d.len() && n == tmax.len() && n <= S::WIDTH && out.len() >= n);
     let lanes = Lanes::<S>::new(o, d, cols, accel.slack);
     let mut t = [f32::NEG_INFINITY; LANES];
     t[..n].copy_from_slice(tmax);
@@ -240,13 +240,12 @@ pub fn occluded<S: Vector>(
             for l in lanes_of(search.open) {
                 work.fallbacks += 1;
                 search.blocked[l] =
-                    accel.occluded_wide::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
+                    accel.occluded::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
             }
         }
     } else {
         for l in 0..n {
-            search.blocked[l] =
-                accel.occluded_wide::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
+            search.blocked[l] = accel.occluded::<false>(Ray::new(o[l], d[l], 0.0, tmax[l]), &mut Traversal::default());
         }
     }
     work.prims += search.tests;

@@ -4,17 +4,13 @@
 use glam::{Affine2, Vec2, Vec3};
 use std::path::Path;
 
-use super::transform;
-use super::{color, Ctx};
+use crate::microfacet::MIN_ALPHA;
 use crate::microfacet::{named_conductor, Distribution, Microfacet, CONDUCTORS};
 use crate::scene::format::*;
+use crate::scene::values::{color, transform, Ctx};
 use crate::scene::{Color, Material, ReflectRatio};
 use crate::texture::{Bitmap, Filter, Texture, Wrap};
 use crate::Result;
-
-/// Smallest roughness: Mitsuba's clamp (`MicrofacetDistribution`), below which the
-/// distribution's sampling loses its precision.
-pub const MIN_ALPHA: f32 = 1e-4;
 
 /// Largest roughness accepted: far beyond any measured surface (alpha ≈ 1 is already
 /// close to diffuse), and small enough that the distributions stay finite.

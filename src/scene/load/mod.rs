@@ -9,26 +9,15 @@ mod objects;
 use glam::Vec3;
 use serde::Deserialize;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::format::*;
-use super::mitsuba::xml::Loc;
-pub use super::text::{line_col, read_text};
-use super::transform::Transform;
+use super::text::line_col;
+use super::values::{check_finite, color, in_range, transform, vec3, Ctx, SceneSource, MAX_COORD};
 use super::{AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode};
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
-
-/// Largest coordinate, edge or radius magnitude: the squared length of a cross product of
-/// two edges, (4e9)⁴ = 2.6e38, must stay below f32::MAX (3.4e38), or normals and
-/// directions turn to NaN.
-pub const MAX_COORD: f32 = 4e9;
-
-/// True when every component is finite and within ±MAX_COORD.
-pub(super) fn in_range(v: Vec3) -> bool {
-    v.is_finite() && v.abs().max_element() <= MAX_COORD
-}
 
 /// Most reflection/refraction bounces a scene may ask for.
 pub const MAX_DEPTH: u32 = 64;
@@ -41,146 +30,6 @@ pub const MAX_LEVEL: u32 = 16;
 /// blur radii per corner of DOF-aware anti-aliasing.
 pub const BYTES_PER_PIXEL: u64 = 12 + 12 + 4 + 24 + 16 + 8;
 
-/// Where a scene's text came from: mesh paths are relative to `dir`.
-#[derive(Clone, Debug)]
-pub struct SceneSource {
-    /// Name used in messages (the file path, or `<default scene>`).
-    pub name: String,
-    /// The TOML text.
-    pub text: String,
-    /// Folder that relative mesh paths start from.
-    pub dir: PathBuf,
-    /// A Mitsuba XML scene to import (by the file's `.xml` extension) instead of `text`.
-    pub xml: Option<PathBuf>,
-    /// `-D name=value` parameters of a Mitsuba XML scene.
-    pub defines: Vec<(String, String)>,
-}
-
-impl SceneSource {
-    /// Reads a scene file.
-    pub fn from_file(path: &Path) -> Result<SceneSource> {
-        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
-            let name = path.display().to_string();
-            return Ok(SceneSource { name, text: String::new(), dir, xml: Some(path.into()), defines: Vec::new() });
-        }
-        let text = read_text(path)?;
-        Ok(SceneSource { name: path.display().to_string(), text, dir, xml: None, defines: Vec::new() })
-    }
-
-    /// The embedded default scene.
-    pub fn default_scene() -> SceneSource {
-        SceneSource {
-            name: "<default scene>".into(),
-            text: super::DEFAULT_SCENE.into(),
-            dir: PathBuf::from("."),
-            xml: None,
-            defines: Vec::new(),
-        }
-    }
-
-    /// A scene given as text, with meshes relative to `dir`.
-    pub fn from_text(name: &str, text: &str, dir: &Path) -> SceneSource {
-        SceneSource { name: name.into(), text: text.into(), dir: dir.into(), xml: None, defines: Vec::new() }
-    }
-}
-
-/// Error context: maps a dotted field path back to the file position or `--set` flag.
-pub(super) struct Ctx<'a> {
-    pub(super) src: &'a SceneSource,
-    doc: Option<toml_edit::ImDocument<&'a str>>,
-    sets: &'a [String],
-    /// For an imported scene: field prefix → the element it came from.
-    places: &'a [(String, Loc)],
-}
-
-impl Ctx<'_> {
-    pub(super) fn fail(&self, path: &str, msg: impl std::fmt::Display) -> Error {
-        if let Some(set) = self.sets.iter().find(|s| {
-            let key = s.split('=').next().unwrap_or("");
-            key == path || path.starts_with(&format!("{key}.")) || key.starts_with(&format!("{path}."))
-        }) {
-            return Error::input(format!("{} (--set {set}): field `{path}`: {msg}", self.src.name));
-        }
-        // An imported scene: the element the field came from (the longest prefix).
-        let place = self
-            .places
-            .iter()
-            .filter(|(p, _)| path == p || path.starts_with(&format!("{p}.")))
-            .max_by_key(|(p, _)| p.len());
-        if let Some((_, loc)) = place {
-            return Error::at(&loc.file, Some((loc.line as usize, loc.col as usize)), path, msg);
-        }
-        Error::at(&self.src.name, self.locate(path), path, msg)
-    }
-
-    fn locate(&self, path: &str) -> Option<(usize, usize)> {
-        let doc = self.doc.as_ref()?;
-        let mut item = doc.as_item();
-        let mut span = None;
-        for seg in path.split('.') {
-            let next = match seg.parse::<usize>() {
-                Ok(i) => item.get(i),
-                Err(_) => item.get(seg),
-            };
-            match next {
-                Some(it) => {
-                    item = it;
-                    span = it.span().or(span);
-                }
-                None => break,
-            }
-        }
-        span.map(|s| line_col(&self.src.text, s.start))
-    }
-
-    /// The dotted path of the innermost value in the file whose text holds byte `offset`:
-    /// the field a serde error (an unknown `mode`, a string for a number) points at.
-    /// `None` when the offset is outside every value (a table header, a key).
-    fn field_at(&self, offset: usize) -> Option<String> {
-        fn in_value(v: &toml_edit::Value, offset: usize, path: &mut Vec<String>) -> Option<String> {
-            if !v.span()?.contains(&offset) {
-                return None;
-            }
-            let inner = match v {
-                toml_edit::Value::Array(a) => a.iter().enumerate().find_map(|(i, e)| {
-                    path.push(i.to_string());
-                    let found = in_value(e, offset, path);
-                    path.pop();
-                    found
-                }),
-                toml_edit::Value::InlineTable(t) => t.iter().find_map(|(k, e)| {
-                    path.push(k.to_string());
-                    let found = in_value(e, offset, path);
-                    path.pop();
-                    found
-                }),
-                _ => None,
-            };
-            inner.or_else(|| Some(path.join(".")))
-        }
-        fn in_table(t: &toml_edit::Table, offset: usize, path: &mut Vec<String>) -> Option<String> {
-            t.iter().find_map(|(k, item)| {
-                path.push(k.to_string());
-                let found = match item {
-                    toml_edit::Item::Value(v) => in_value(v, offset, path),
-                    toml_edit::Item::Table(t) => in_table(t, offset, path),
-                    toml_edit::Item::ArrayOfTables(a) => a.iter().enumerate().find_map(|(i, t)| {
-                        path.push(i.to_string());
-                        let found = in_table(t, offset, path);
-                        path.pop();
-                        found
-                    }),
-                    toml_edit::Item::None => None,
-                };
-                path.pop();
-                found
-            })
-        }
-        in_table(self.doc.as_ref()?.as_table(), offset, &mut Vec::new())
-    }
-}
-
 /// Parses, overrides, validates and builds a scene. `sets` are `KEY=VALUE` overrides
 /// with dotted keys (array elements by index: `objects.0.radius=2`).
 pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
@@ -188,7 +37,7 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
         return load_xml(src, path, sets);
     }
     let doc = toml_edit::ImDocument::parse(src.text.as_str()).ok();
-    let ctx = Ctx { src, doc, sets, places: &[] };
+    let ctx = Ctx::new(src, doc, sets, &[]);
     // A serde error in the file: located, with the field it is about when it points at a
     // value (a bad `mode` or `probe`, a wrong type).
     let toml_err = |e: toml::de::Error| {
@@ -221,7 +70,7 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
 /// dotted paths as the TOML format), and builds it.
 fn load_xml(src: &SceneSource, path: &Path, sets: &[String]) -> Result<Scene> {
     let imported = super::mitsuba::import(path, &src.defines)?;
-    let ctx = Ctx { src, doc: None, sets, places: &imported.places };
+    let ctx = Ctx::new(src, None, sets, &imported.places);
     let mut file = imported.file;
     if !sets.is_empty() {
         let mut value = toml::Value::try_from(&file).map_err(|e| Error::Internal(format!("imported scene: {e}")))?;
@@ -277,61 +126,6 @@ fn apply_set(root: &mut toml::Value, set: &str, scene: &str) -> Result<()> {
         };
     }
     Ok(())
-}
-
-fn check_finite(v: &toml::Value, path: &str, ctx: &Ctx) -> Result<()> {
-    let join = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };
-    match v {
-        toml::Value::Float(f) if !f.is_finite() || f.abs() > f32::MAX as f64 => {
-            Err(ctx.fail(path, format!("{f} is not a finite number")))
-        }
-        toml::Value::Table(t) => t.iter().try_for_each(|(k, v)| check_finite(v, &join(k), ctx)),
-        toml::Value::Array(a) => {
-            a.iter().enumerate().try_for_each(|(i, v)| check_finite(v, &join(&i.to_string()), ctx))
-        }
-        _ => Ok(()),
-    }
-}
-
-/// A `transform` list composed; errors name the step.
-pub(super) fn transform(ctx: &Ctx, path: &str, ops: &[TransformOp]) -> Result<Transform> {
-    Transform::from_ops(ops).map_err(|(i, e)| ctx.fail(&format!("{path}.{i}"), e))
-}
-
-pub(super) fn vec3(a: [f32; 3]) -> Vec3 {
-    Vec3::from_array(a)
-}
-
-pub(super) fn color(ctx: &Ctx, path: &str, c: [f32; 3]) -> Result<Vec3> {
-    if c.iter().any(|&x| x < 0.0) {
-        return Err(ctx.fail(path, "components must be >= 0"));
-    }
-    Ok(vec3(c))
-}
-
-/// A position or extent, refused beyond ±MAX_COORD.
-pub(super) fn coord(ctx: &Ctx, path: &str, v: Vec3) -> Result<Vec3> {
-    if in_range(v) {
-        Ok(v)
-    } else {
-        Err(ctx.fail(path, format!("beyond ±{MAX_COORD:e} scene units")))
-    }
-}
-
-pub(super) fn edges(ctx: &Ctx, path: &str, u: [f32; 3], v: [f32; 3]) -> Result<(Vec3, Vec3)> {
-    let u = coord(ctx, &format!("{path}.edge_u"), vec3(u))?;
-    let v = coord(ctx, &format!("{path}.edge_v"), vec3(v))?;
-    if u.length_squared() == 0.0 {
-        return Err(ctx.fail(&format!("{path}.edge_u"), "zero-length edge"));
-    }
-    if v.length_squared() == 0.0 {
-        return Err(ctx.fail(&format!("{path}.edge_v"), "zero-length edge"));
-    }
-    let n = u.cross(v);
-    if n.length() <= 1e-12 * u.length() * v.length() || !n.is_finite() {
-        return Err(ctx.fail(&format!("{path}.edge_v"), "edges are parallel: the parallelogram has zero area"));
-    }
-    Ok((u, v))
 }
 
 /// The image size: at least one pixel, at most 2^32, and within half the memory.

@@ -4,10 +4,10 @@
 //! equal: then it is placed, still, where it is at the shutter's time, and the scene
 //! renders as a static one (at time 0, bit for bit the scene without `transform_end`).
 
-use super::{transform, Ctx};
 use crate::motion::Motion;
 use crate::scene::format::{CameraDesc, ObjectDesc, TransformOp};
 use crate::scene::transform::{look_at, Transform};
+use crate::scene::values::{in_range, transform, Ctx};
 use crate::scene::{Camera, CameraMotion};
 use crate::Result;
 use glam::{DAffine3, DMat4};
@@ -144,7 +144,7 @@ pub(super) fn camera(c: &CameraDesc, camera: &mut Camera, shutter: [f32; 2], ctx
         let (_, right) = motion.ray(shutter[0], camera.position, camera.right);
         let (_, up) = motion.ray(shutter[0], camera.position, camera.up);
         (camera.position, camera.forward, camera.right, camera.up) = (moved.0, moved.1, right, up);
-        if !super::in_range(camera.position) {
+        if !in_range(camera.position) {
             return Err(ctx.fail("camera.transform_end", "puts the camera out of range at the shutter's time"));
         }
     }

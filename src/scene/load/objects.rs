@@ -6,13 +6,14 @@ use glam::{Mat3, Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use super::{color, coord, edges, in_range, motion, transform, vec3, Ctx, MAX_COORD};
+use super::motion;
 use crate::accel::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::accel::{BvhQuality, MAX_LEAF};
 use crate::motion::Motion;
 use crate::scene::format::*;
 use crate::scene::mesh::{self, MeshData};
 use crate::scene::transform::Transform;
+use crate::scene::values::{color, coord, edges, in_range, transform, vec3, Ctx, MAX_COORD};
 use crate::scene::{Color, Light, Material, SceneInfo};
 use crate::system::available_memory;
 use crate::texture::uv;

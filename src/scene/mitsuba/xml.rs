@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 use crate::scene::format::TransformOp;
+pub use crate::scene::values::Loc;
 use crate::{Error, Result};
 
 /// Largest XML file read, in bytes.
@@ -18,24 +19,6 @@ pub const MAX_NESTING: usize = 64;
 pub const MAX_INCLUDE_DEPTH: usize = 16;
 /// Most elements over all files (roxmltree's own node limit guards each file too).
 pub const MAX_ELEMENTS: usize = 1 << 20;
-
-/// Where an element starts.
-#[derive(Clone, Debug)]
-pub struct Loc {
-    /// File, as named in messages.
-    pub file: Rc<String>,
-    /// 1-based line.
-    pub line: u32,
-    /// 1-based column.
-    pub col: u32,
-}
-
-impl Loc {
-    /// A bad-input error at this place.
-    pub fn err(&self, msg: impl std::fmt::Display) -> Error {
-        Error::input(format!("{}:{}:{}: {msg}", self.file, self.line, self.col))
-    }
-}
 
 /// An element with its attributes (after `$` substitution) and child elements.
 #[derive(Clone, Debug)]

@@ -41,7 +41,7 @@ pub type Wide = f32x8;
 /// The SIMD type of a leaf block (lanes = triangles; measured: docs/performance.md).
 type Tris = f32x8;
 /// Triangles per leaf block.
-const TRIS: usize = <Tris as Vector>::LANES;
+const TRIS: usize = <Tris as Vector>::WIDTH;
 
 /// Child slot flag: the child is a leaf.
 const LEAF_FLAG: u32 = 1 << 31;
@@ -93,7 +93,7 @@ impl LeafRef {
     }
 }
 
-/// One node: up to `S::LANES` children, their boxes by axis with one lane per child.
+/// One node: up to `S::WIDTH` children, their boxes by axis with one lane per child.
 #[derive(Clone, Copy)]
 #[repr(C)]
 struct Node<S> {

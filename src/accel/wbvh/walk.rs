@@ -5,7 +5,7 @@
 use glam::Vec3;
 
 use super::{Block, LeafRef, Sheared, Tris, WideBvh, LEAF_FLAG};
-use crate::accel::{cull_at, lanes_of, nearer, tie_limit, Ray, SlabRay, Traversal};
+use crate::accel::{cull_at, lanes_of, nearer, tie_limit, Ray, SlabRay, Traversal, WIDEN};
 use crate::simd::{Vector, LANES};
 
 thread_local! {
@@ -67,7 +67,6 @@ impl<S: Vector> Walker<S> {
         c: &mut Traversal,
         leaf: &mut impl FnMut(&mut SlabRay, &Block, u32) -> Leaf,
     ) -> bool {
-        const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let (o, inv) = (&self.o, &self.inv);
         let current = self.current;
         if current & LEAF_FLAG != 0 {
@@ -113,10 +112,10 @@ impl<S: Vector> Walker<S> {
                 // Only the child is stored: an any-hit walk pops without the culling
                 // test (the box test was against the same cull). `j ≤ i < LANES`, so
                 // the mask changes no index; it only spares a bounds check per slot.
-                let slots = &mut stack[top..top + S::LANES];
+                let slots = &mut stack[top..top + S::WIDTH];
                 let mut j = 0;
-                for (i, &child) in node.child.iter().enumerate().take(S::LANES) {
-                    slots[j & (S::LANES - 1)].0 = child;
+                for (i, &child) in node.child.iter().enumerate().take(S::WIDTH) {
+                    slots[j & (S::WIDTH - 1)].0 = child;
                     j += (bits >> i) as usize & 1;
                 }
                 top += j;
@@ -201,7 +200,7 @@ impl<S: Vector> WideBvh<S> {
     /// stack for each of the k − 1 nodes above it, plus its own W, so depth · (W − 1) + 1
     /// bounds it; W more, for the any-hit walk's stores past its top.
     fn stack_len(&self) -> usize {
-        self.depth * (S::LANES - 1) + 1 + S::LANES
+        self.depth * (S::WIDTH - 1) + 1 + S::WIDTH
     }
 
     /// Walks the tree for one ray (see [`Walker::step`]). `slack` is the tree's absolute

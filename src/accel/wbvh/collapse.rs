@@ -1,5 +1,5 @@
 //! The wide tree's build: the SAH-optimal collapse of obvhs's binary tree into wide
-//! nodes and leaf blocks (see the module docs of `wide`).
+//! nodes and leaf blocks (see the module docs of `wbvh`).
 
 use obvhs::bvh2::Bvh2;
 
@@ -48,7 +48,7 @@ impl<S: Vector> WideBvh<S> {
     /// primitives. `None` when the tree cannot be encoded (more than 2²⁷ leaf blocks, a
     /// leaf over 64 primitives): the binary traversal then serves.
     pub fn build(fine: &Bvh2, prims: &[Primitive], max_leaf: u32, phases: &mut BuildPhases) -> Option<WideBvh<S>> {
-        assert!(S::LANES <= MAX_W, "nodes hold at most {MAX_W} children");
+        assert!(S::WIDTH <= MAX_W, "nodes hold at most {MAX_W} children");
         fine.nodes.first()?;
         let mut lap = Lap::start();
         let plan = Self::plan(fine, prims, max_leaf);
@@ -58,7 +58,7 @@ impl<S: Vector> WideBvh<S> {
         let top = if root.is_leaf() || plan[0][0].kind == LEAF_SLOT {
             vec![0]
         } else {
-            let mut kids = Vec::with_capacity(S::LANES);
+            let mut kids = Vec::with_capacity(S::WIDTH);
             Self::children(fine, &plan, 0, 0, &mut kids);
             kids
         };
@@ -74,7 +74,7 @@ impl<S: Vector> WideBvh<S> {
     /// Every binary node's best [`Decision`] for 1 to `W` slots (index = slots − 1),
     /// bottom-up (by an explicit stack: fuzzed meshes build very deep trees).
     fn plan(fine: &Bvh2, prims: &[Primitive], max_leaf: u32) -> Vec<[Decision; MAX_W]> {
-        let w = S::LANES;
+        let w = S::WIDTH;
         let mut plan = vec![[Decision::default(); MAX_W]; fine.nodes.len()];
         let mut count = vec![0u32; fine.nodes.len()];
         // Per binary node: how many of the primitives below it are not triangles.
@@ -186,7 +186,7 @@ impl<S: Vector> WideBvh<S> {
         }
         let load3 = |a: &[[f32; LANES]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
         self.nodes[index] = Node { bounds: [load3(&lo), load3(&hi)], child, valid: (1 << kids.len()) - 1 };
-        let mut below = Vec::with_capacity(S::LANES);
+        let mut below = Vec::with_capacity(S::WIDTH);
         for (slot, &k) in kids.iter().enumerate() {
             if inner(k) {
                 below.clear();
@@ -355,16 +355,12 @@ mod tests {
                 let expect = (best.1 != u32::MAX).then_some(best);
                 let whole = Ray { tmax: f32::INFINITY, ..*r };
                 assert_eq!(
-                    accel.closest_wide::<false>(whole, &mut Traversal::default()),
+                    accel.closest::<false>(whole, &mut Traversal::default()),
                     expect,
                     "leaf {max_leaf}, ray {i}"
                 );
                 assert_eq!(many[i], Some(expect), "leaf {max_leaf}, ray {i}, interleaved");
-                assert_eq!(
-                    accel.occluded_wide::<false>(*r, &mut Traversal::default()),
-                    blocked,
-                    "leaf {max_leaf}, ray {i}"
-                );
+                assert_eq!(accel.occluded::<false>(*r, &mut Traversal::default()), blocked, "leaf {max_leaf}, ray {i}");
             }
         }
     }

@@ -15,6 +15,7 @@
 //! entered by the beam, and the caller's per-lane leaf test and tie rule do the rest.
 
 use super::{LeafRef, WideBvh, LEAF_FLAG};
+use crate::accel::WIDEN;
 use crate::simd::{Vector, LANES};
 
 /// A packet's rays as one beam: per axis, the origins' interval and the reciprocal
@@ -85,7 +86,6 @@ impl<S: Vector> WideBvh<S> {
     /// mask, with lower bounds of their entry distances (see the module docs).
     #[inline(always)]
     fn beam_test(&self, n: u32, beam: &Beam, cull: f32) -> (u32, S) {
-        const WIDEN: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
         let node = &self.nodes[n as usize];
         let mut near = S::splat(f32::NEG_INFINITY);
         let mut far = S::splat(f32::INFINITY);
