@@ -347,6 +347,23 @@ soa! {
     push(prev: Vec3 => prev; sum: Vec3 => sum; count: u32 => count; level: u8 => level)
 }
 
+/// Adaptive AA's queues of one tile: every pixel's refinement state and the pixels still
+/// refined. Grouped because the refine stage owns both.
+#[derive(Default, Debug, Clone)]
+pub struct RefineQueues {
+    /// Per tile pixel: its refinement state.
+    pub state: RefineQueue,
+    /// The pixels still refined (tile pixel indices, ascending).
+    pub active: IndexQueue,
+}
+
+impl RefineQueues {
+    /// Bytes held by the buffers (capacity, not length).
+    pub fn bytes(&self) -> usize {
+        self.state.bytes() + self.active.bytes()
+    }
+}
+
 soa! {
     /// The penumbra points of one wave, in penumbra-list order: where each one's rays
     /// lie in the penumbra ray queue, and (with early stopping) how far it got.
@@ -473,6 +490,17 @@ soa! {
         /// The path's time: only under motion blur.
         time: f32,
     )
+}
+
+/// The shading points waiting for the adaptive shadow test of a wave: the shadow-corner
+/// queue and the surface queue its entries point into. What the shadow-corner and
+/// penumbra stages read.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowPoints<'a> {
+    /// The wave's diffuse shading points.
+    pub surfaces: &'a SurfaceQueue,
+    /// (point, area light) pairs, with the light's unoccluded contribution.
+    pub points: &'a ShadowPointQueue,
 }
 
 /// Entry `i` of a sparse column ([`soa!`]'s `sparse`): its value, or the default where

@@ -9,9 +9,9 @@ use super::meter::Kind;
 use super::Worker;
 use crate::accel::Traversal;
 use crate::film::Tile;
-use crate::queue::{IndexQueue, RefineQueue};
+use crate::queue::RefineQueues;
 use crate::scene::{AaMode, Scene};
-use crate::stages::camera::{self, Lens};
+use crate::stages::camera::{self, Lens, RefinePass};
 use crate::stages::{focus, refine};
 use crate::stats::Stage;
 
@@ -23,16 +23,22 @@ pub(super) struct CornerBlur<'a> {
     pub lens: &'a [f32],
 }
 
+/// DOF-aware AA's one value, handed to every pass of a tile: the blur radius (pixels)
+/// from which a pixel is not refined, and the corners' blur.
+#[derive(Clone, Copy)]
+struct DofAware<'a> {
+    radius: f32,
+    blur: CornerBlur<'a>,
+}
+
 /// A worker's adaptive-AA buffers, reused from tile to tile.
 #[derive(Default)]
 pub(super) struct AaState {
     /// Per tile pixel: the centre estimate and the mean of the corners.
     centre: Vec<Vec3>,
     corner_mean: Vec<Vec3>,
-    /// Per tile pixel: refinement state.
-    refine: RefineQueue,
-    /// The pixels still being refined.
-    queue: IndexQueue,
+    /// Per tile pixel: refinement state; the pixels still being refined.
+    refine: RefineQueues,
     /// Per tile pixel: the eps of its decisions.
     eps: Vec<f32>,
     /// DOF-aware AA: blur radii (pixels) of each depth probe of the last focus pass (for
@@ -50,7 +56,6 @@ impl AaState {
         let v3 = std::mem::size_of::<Vec3>();
         v3 * (self.centre.capacity() + self.corner_mean.capacity())
             + self.refine.bytes()
-            + self.queue.bytes()
             + 4 * (self.eps.capacity() + self.blur.capacity() + self.blur_lens.capacity() + self.pixel_lens.capacity())
             + 8 * self.starts.capacity()
     }
@@ -107,39 +112,39 @@ impl Worker<'_> {
     ) {
         let AaMode::Adaptive { eps, min_level, max_level, .. } = scene.settings.aa_mode else { return };
         let np = tile.pixels();
-        let dof_aware = scene.settings.dof_radius.zip(blur);
-        if !self.decide_eps(scene, tile, dof_aware, eps) {
+        let dof = scene.settings.dof_radius.zip(blur).map(|(radius, blur)| DofAware { radius, blur });
+        if !self.decide_eps(scene, tile, dof, eps) {
             return;
         }
-        self.centres(scene, tile, dof_aware.is_some());
-        self.corner_means(scene, tile, grid, dof_aware.map(|(_, b)| b.lens));
+        self.centres(scene, tile, dof);
+        self.corner_means(scene, tile, grid, dof);
 
         let t = Instant::now();
         let aa = &mut self.aa;
-        refine::start(&aa.eps, &aa.centre, &aa.corner_mean, &mut aa.refine, &mut aa.queue, &mut self.tile.out);
-        self.pipe.meter.lap(Stage::Refine, np, aa.queue.len(), Traversal::default(), t);
+        refine::start(&aa.eps, &aa.centre, &aa.corner_mean, &mut aa.refine, &mut self.tile.out);
+        self.pipe.meter.lap(Stage::Refine, np, aa.refine.active.len(), Traversal::default(), t);
         let stats = &mut self.pipe.meter.stats;
         stats.aa_pixels += np as u64;
-        stats.aa_refined_pixels += aa.queue.len() as u64;
+        stats.aa_refined_pixels += aa.refine.active.len() as u64;
         stats.aa_uniform_rays += np as u64 * (1u64 << max_level) * scene.settings.dof_samples as u64;
 
         for level in 2..=max_level {
-            if self.aa.queue.is_empty() {
+            if self.aa.refine.active.is_empty() {
                 break;
             }
-            self.refine_level(scene, tile, level, level >= min_level, dof_aware.is_some());
+            self.refine_level(scene, tile, level, level >= min_level, dof);
         }
-        self.tile.heat.level.copy_from_slice(&self.aa.refine.level);
+        self.tile.heat.level.copy_from_slice(&self.aa.refine.state.level);
     }
 
     /// Each tile pixel's eps and, with DOF-aware AA, its lens counts (from depth probes
     /// through the pixel centres and the corners' blur). False when cancelled.
-    fn decide_eps(&mut self, scene: &Scene, tile: &Tile, dof_aware: Option<(f32, CornerBlur)>, eps: f32) -> bool {
+    fn decide_eps(&mut self, scene: &Scene, tile: &Tile, dof_aware: Option<DofAware>, eps: f32) -> bool {
         let (np, dof) = (tile.pixels(), scene.settings.dof_samples);
         let aa = &mut self.aa;
         aa.eps.clear();
         aa.pixel_lens.clear();
-        let Some((radius, CornerBlur { sharp, lens })) = dof_aware else {
+        let Some(DofAware { radius, blur: CornerBlur { sharp, lens } }) = dof_aware else {
             aa.eps.resize(np, eps);
             return true;
         };
@@ -171,7 +176,8 @@ impl Worker<'_> {
 
     /// The centre pass: one camera point per pixel (its lens rays as `aa.starts` says
     /// with DOF-aware AA).
-    fn centres(&mut self, scene: &Scene, tile: &Tile, per_point: bool) {
+    fn centres(&mut self, scene: &Scene, tile: &Tile, dof: Option<DofAware>) {
+        let per_point = dof.is_some();
         let np = tile.pixels();
         let dof = scene.settings.dof_samples;
         self.pipe.acc.begin(np);
@@ -183,8 +189,9 @@ impl Worker<'_> {
     }
 
     /// Each pixel's corner mean: from the shared grid, or from a pass over its own four
-    /// corners (`lens`: the corners' blur for their lens counts, with DOF-aware AA).
-    fn corner_means(&mut self, scene: &Scene, tile: &Tile, grid: Option<&[Vec3]>, lens: Option<&[f32]>) {
+    /// corners (with DOF-aware AA, the corners' blur gives their lens counts).
+    fn corner_means(&mut self, scene: &Scene, tile: &Tile, grid: Option<&[Vec3]>, dof: Option<DofAware>) {
+        let lens = dof.map(|d| d.blur.lens);
         let np = tile.pixels();
         let dof = scene.settings.dof_samples;
         let aa = &mut self.aa;
@@ -214,25 +221,26 @@ impl Worker<'_> {
 
     /// Refinement level `level`: 2^level stratified points in each queued pixel, then the
     /// decision (pixels may leave the queue when `may_stop`).
-    fn refine_level(&mut self, scene: &Scene, tile: &Tile, level: u32, may_stop: bool, per_point: bool) {
+    fn refine_level(&mut self, scene: &Scene, tile: &Tile, level: u32, may_stop: bool, dof: Option<DofAware>) {
+        let per_point = dof.is_some();
         let np = tile.pixels();
         let dof = scene.settings.dof_samples as u64;
         let aa = &mut self.aa;
         self.pipe.acc.begin(np);
         if per_point {
-            let (queue, pixel_lens) = (&aa.queue.index, &aa.pixel_lens);
+            let (queue, pixel_lens) = (&aa.refine.active.index, &aa.pixel_lens);
             lens_starts(&mut aa.starts, queue.len(), |i| (pixel_lens[queue[i] as usize] as u64) << level);
         }
         let lens = if per_point { Lens::PerPoint(&aa.starts) } else { Lens::Fixed(dof << level) };
-        let queue = &aa.queue.index;
+        let queue = &aa.refine.active.index;
         self.pipe.run(scene, lens.total(queue.len()), Kind::Refine, |ks, rays| {
-            camera::generate_refine(scene, tile, queue, level, lens, ks, rays)
+            camera::generate_refine(scene, RefinePass { tile, pixels: queue, level }, lens, ks, rays)
         });
         self.tile.collect_heat(&self.pipe.acc.heat, 1);
         let t = Instant::now();
-        let before = aa.queue.len();
+        let before = aa.refine.active.len();
         let (sums, out) = (&self.pipe.acc.sums, &mut self.tile.out);
-        refine::step(&aa.eps, level, may_stop, sums, &mut aa.refine, &mut aa.queue, out);
-        self.pipe.meter.lap(Stage::Refine, before, aa.queue.len(), Traversal::default(), t);
+        refine::step(&aa.eps, level, may_stop, sums, &mut aa.refine, out);
+        self.pipe.meter.lap(Stage::Refine, before, aa.refine.active.len(), Traversal::default(), t);
     }
 }

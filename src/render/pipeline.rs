@@ -10,8 +10,9 @@ use std::time::Instant;
 use super::meter::{Kind, Meter};
 use crate::accel::tracer::{Coherence, Tracer};
 use crate::film::Accumulator;
-use crate::queue::{RayQueue, WaveQueues};
+use crate::queue::{RayQueue, ShadowPoints, WaveQueues};
 use crate::scene::{Scene, ShadowMode};
+use crate::stages::shade::Shaded;
 use crate::stages::{camera, film, focus, intersect, penumbra, scatter, shade, shadow, shadow_corner};
 use crate::stats::Stage;
 
@@ -123,31 +124,29 @@ impl<'a> Pipeline<'a> {
         intersect::intersect(tr, &q.rays, coherence, &mut q.hits);
         t = m.intersect(q, heat, tr, t);
 
-        let counts = shade::shade(
-            scene,
-            &q.rays,
-            &q.hits,
-            &mut q.shadow,
-            &mut q.points,
-            &mut q.surfaces,
-            &mut q.specular,
-            &mut q.film,
-        );
+        let out = Shaded {
+            shadow: &mut q.shadow,
+            points: &mut q.points,
+            surfaces: &mut q.surfaces,
+            specular: &mut q.specular,
+            film: &mut q.film,
+        };
+        let counts = shade::shade(scene, &q.rays, &q.hits, out);
         t = m.shade(q, counts, t);
 
         let lit = shadow::occlusion(tr, &q.shadow, &mut q.film);
         t = m.shadow(q, heat, lit, tr, t);
 
         if let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode {
-            let (surfaces, points) = (&q.surfaces, &q.points);
+            let shading = ShadowPoints { surfaces: &q.surfaces, points: &q.points };
             let (probes, film, pen) = (&mut q.probes, &mut q.film, &mut q.penumbra);
-            let cast = shadow_corner::shadow_corners(scene, tr, surfaces, points, probes, film, pen);
+            let cast = shadow_corner::shadow_corners(scene, tr, shading, probes, film, pen);
             // Probe rays per point depend on the light's shape (a triangle's 3x3 set is 7).
             let probes = |li: u32| crate::light::probe_count(&scene.lights[li as usize], probe) as f32;
             t = m.shadow_corners(q, heat, (cast, &probes), tr, t);
 
-            let (surfaces, points) = (&q.surfaces, &q.points);
-            let pen = penumbra::penumbra(scene, tr, surfaces, points, &q.penumbra, &mut q.penumbra_rays, &mut q.film);
+            let shading = ShadowPoints { surfaces: &q.surfaces, points: &q.points };
+            let pen = penumbra::penumbra(scene, tr, shading, &q.penumbra, &mut q.penumbra_rays, &mut q.film);
             t = m.penumbra(q, heat, pen, tr, t);
         }
 

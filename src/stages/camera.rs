@@ -388,21 +388,25 @@ pub fn generate_centres(scene: &Scene, tile: &Tile, lens: Lens, ks: Range<u64>, 
     }
 }
 
+/// A refinement pass of adaptive AA: its tile, the pixels it refines (indices in the
+/// tile) and its level.
+#[derive(Clone, Copy, Debug)]
+pub struct RefinePass<'a> {
+    /// The tile.
+    pub tile: &'a Tile,
+    /// The pixels still refined.
+    pub pixels: &'a [u32],
+    /// The refinement level: 2^level points per pixel.
+    pub level: u32,
+}
+
 /// Adaptive AA, refinement level `level`: 2^level stratified points in each listed pixel
 /// (`pixels` are indices in the tile). `lens` splits the flattened index into listed
 /// pixel i and its ray j, of 2^level × (its lens count) rays: sample j / lens count, lens
 /// ray j % lens count. Slot: the pixel's index in the tile; weight
 /// 1 / (2^level · lens count), so a slot sums to the level's estimate.
-#[allow(clippy::too_many_arguments)] // a generator names its pass (tile, pixels, level, lens), range and queue
-pub fn generate_refine(
-    scene: &Scene,
-    tile: &Tile,
-    pixels: &[u32],
-    level: u32,
-    lens: Lens,
-    ks: Range<u64>,
-    rays: &mut RayQueue,
-) {
+pub fn generate_refine(scene: &Scene, pass: RefinePass, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
+    let RefinePass { tile, pixels, level } = pass;
     rays.clear();
     let s = &scene.settings;
     let n = 1u32 << level;
@@ -548,7 +552,7 @@ mod tests {
             check(
                 "refine",
                 lens.total(pixels.len()),
-                &|ks, q| generate_refine(&scene, &tile, &pixels, level, lens, ks, q),
+                &|ks, q| generate_refine(&scene, RefinePass { tile: &tile, pixels: &pixels, level }, lens, ks, q),
                 &|k, q| {
                     let (i, j, all) = lens.split(k);
                     let (slot, count) = (pixels[i as usize], all >> level);

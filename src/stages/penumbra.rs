@@ -15,7 +15,7 @@
 
 use crate::accel::tracer::Tracer;
 use crate::light::{area_light_samples, sample_grid, SHADOW_TMAX_SCALE};
-use crate::queue::{sparse_opt, FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, SurfaceQueue};
+use crate::queue::{sparse_opt, FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, ShadowPoints, SurfaceQueue};
 use crate::sampling::{dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
 use crate::surface::queued_surface;
@@ -46,16 +46,15 @@ pub struct PenumbraCounts {
 /// ones' contributions to `film`: all at once, or with early stopping
 /// (`render.shadows.tolerance`) in batches until every point has stopped. `q.points`
 /// tells, per penumbra point, its range in `q.rays` and the rays it traced.
-#[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
 pub fn penumbra(
     scene: &Scene,
     tracer: &mut Tracer,
-    surfaces: &SurfaceQueue,
-    points: &ShadowPointQueue,
+    shading: ShadowPoints,
     penumbra: &IndexQueue,
     q: &mut PenumbraQueues,
     film: &mut FilmQueue,
 ) -> PenumbraCounts {
+    let ShadowPoints { surfaces, points } = shading;
     let stop = scene.settings.penumbra_stop;
     generate(scene, surfaces, points, penumbra, q);
     let Some(stop) = stop else {

@@ -13,7 +13,7 @@
 use glam::Vec3;
 
 use crate::color::srgb_encode;
-use crate::queue::{IndexQueue, RefineQueue};
+use crate::queue::RefineQueues;
 
 /// The difference the paper's eps is compared with: the maximum over R, G, B of the
 /// absolute difference of display values (the PNG's sRGB transform, clamped to [0, 1]).
@@ -25,17 +25,11 @@ pub fn display_diff(a: Vec3, b: Vec3) -> f32 {
 
 /// The first decision. Pixels whose centre differs from their corner mean by more than
 /// their `eps` (one per tile pixel: `render.aa.eps`, or more for a blurred pixel with
-/// DOF-aware AA) are put in `queue` (tile pixel indices, ascending); the others get their
-/// final value in `out`.
-pub fn start(
-    eps: &[f32],
-    centre: &[Vec3],
-    corner_mean: &[Vec3],
-    state: &mut RefineQueue,
-    queue: &mut IndexQueue,
-    out: &mut [Vec3],
-) {
+/// DOF-aware AA) are put in `q.active` (tile pixel indices, ascending); the others get
+/// their final value in `out`. `q.state` gets every pixel's starting state.
+pub fn start(eps: &[f32], centre: &[Vec3], corner_mean: &[Vec3], q: &mut RefineQueues, out: &mut [Vec3]) {
     let n = centre.len();
+    let (state, queue) = (&mut q.state, &mut q.active);
     state.clear();
     queue.clear();
     for p in 0..n {
@@ -53,17 +47,9 @@ pub fn start(
 /// The decision after level `level`: `estimates[p]` holds the level's mean for each
 /// queued pixel p. Every queued pixel's samples are added to its value in `out`; when
 /// `may_stop`, pixels whose estimate agrees with the previous one within their `eps`
-/// leave `queue`.
-#[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
-pub fn step(
-    eps: &[f32],
-    level: u32,
-    may_stop: bool,
-    estimates: &[Vec3],
-    state: &mut RefineQueue,
-    queue: &mut IndexQueue,
-    out: &mut [Vec3],
-) {
+/// leave `q.active`.
+pub fn step(eps: &[f32], level: u32, may_stop: bool, estimates: &[Vec3], q: &mut RefineQueues, out: &mut [Vec3]) {
+    let (state, queue) = (&mut q.state, &mut q.active);
     let n = 1u32 << level;
     queue.index.retain(|&p| {
         let p = p as usize;
@@ -96,18 +82,18 @@ mod tests {
     fn start_and_step_follow_the_paper() {
         let centre = [Vec3::ZERO, Vec3::ONE];
         let corners = [Vec3::splat(0.001), Vec3::ZERO];
-        let (mut st, mut q, mut out) = (RefineQueue::default(), IndexQueue::default(), [Vec3::splat(-1.0); 2]);
+        let (mut rq, mut out) = (RefineQueues::default(), [Vec3::splat(-1.0); 2]);
         let eps = [0.05; 2];
-        start(&eps, &centre, &corners, &mut st, &mut q, &mut out);
-        assert_eq!(q.index, vec![1], "only the pixel whose centre differs");
+        start(&eps, &centre, &corners, &mut rq, &mut out);
+        assert_eq!(rq.active.index, vec![1], "only the pixel whose centre differs");
         assert!((out[0] - Vec3::splat(0.001 / 3.0)).length() < 1e-7);
         // Level 2 differs from the corner mean (0): stays. Level 3 agrees with level 2: leaves.
-        step(&eps, 2, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
-        assert_eq!(q.index, vec![1]);
-        step(&eps, 3, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut st, &mut q, &mut out);
-        assert!(q.is_empty());
-        assert_eq!(st.count[1], 12);
-        assert_eq!(st.level[1], 3);
+        step(&eps, 2, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut rq, &mut out);
+        assert_eq!(rq.active.index, vec![1]);
+        step(&eps, 3, true, &[Vec3::ZERO, Vec3::splat(0.5)], &mut rq, &mut out);
+        assert!(rq.active.is_empty());
+        assert_eq!(rq.state.count[1], 12);
+        assert_eq!(rq.state.level[1], 3);
         assert!((out[1] - Vec3::splat(0.5)).length() < 1e-6);
     }
 }

@@ -7,7 +7,7 @@
 //! C and 1 - C (or by exact Fresnel); total internal reflection sends all the weight
 //! to reflection.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use wide::{f32x16, u32x16};
 
@@ -15,7 +15,7 @@ use crate::accel::offset::{offset_lanes, offset_ray_origin};
 use crate::light::{gloss_light_sample, SHADOW_TMAX_SCALE};
 use crate::microfacet::{
     fresnel_conductor, rough_conductor_eval, rough_conductor_pdf, rough_dielectric_eval, rough_dielectric_pdf,
-    rough_dielectric_split, tangents,
+    rough_dielectric_split, tangents, Microfacet,
 };
 use crate::queue::{sparse_opt, HitQueue, IndexQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
@@ -139,7 +139,7 @@ pub fn scatter(
         for &i in ids {
             let material = &scene.materials[scene.accel.material(hits.prim[i as usize]) as usize];
             if is_glossy(material) {
-                glossy(scene, rays, hits, i as usize, material, next, shadow);
+                glossy(scene, rays, hits, i as usize, material, Scattered { next, shadow });
             } else {
                 smooth[n] = i;
                 n += 1;
@@ -176,103 +176,161 @@ fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// hit also samples a point on a light ([`gloss_light_sample`]) and sends its shadow ray
 /// to `shadow`, weighted by the power heuristic against the BSDF's density for it; the
 /// BSDF's ray carries its own density, which weights the emitter it may hit (shade).
-#[allow(clippy::too_many_arguments)] // the hit, and the two queues a rough hit writes
-fn glossy(
-    scene: &Scene,
-    rays: &RayQueue,
-    hits: &HitQueue,
-    i: usize,
-    material: &Material,
-    next: &mut RayQueue,
-    shadow: &mut ShadowQueue,
-) {
-    let prim_id = hits.prim[i] as usize;
-    let d = rays.dir(i);
-    let (x, err, ng) = hit_point(scene, rays, hits, i);
-    // The path's time, carried by the rays it goes on with.
-    let carried = sparse_opt(&rays.time, i);
-    let time = carried.unwrap_or_default();
-    let (w, slot, depth, key, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.key[i], rays.sample[i]);
-    let key1 = hash(&[key, 1]);
-    let u = sobol_owen(sample, hash(&[key, dim::GLOSS]));
-    // The origin of a ray leaving along `wo`: off the surface on wo's side.
-    let origin = |wo: Vec3| offset_ray_origin(x, err, if wo.dot(ng) > 0.0 { ng } else { -ng });
-    let mis = !scene.gloss_lights.is_empty();
-    // The light sample of a rough hit in `frame`, whose BSDF gives f·cos and density
-    // for a local direction.
-    let mut light = |frame: &Frame, bsdf: &dyn Fn(Vec3) -> (Vec3, f32)| {
-        let Some(l) = mis.then(|| gloss_light_sample(scene, x, key, sample)).flatten() else { return };
-        let (f, pdf) = bsdf(frame.to_local(l.wi));
-        let c = w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
-        if c != Vec3::ZERO {
-            shadow.push(origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, slot, c, carried);
-        }
-    };
+fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &Material, out: Scattered) {
+    let h = GlossyHit::new(scene, rays, hits, i);
     match *material {
         Material::Conductor { eta, k, color, roughness } => {
-            // Conductors are two-sided, like the mirror: the side the ray arrived on.
-            let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-            let ns = shading_normal(scene, prim_id, time, x, n);
-            let color = color_at(scene, color, prim_id, time, x);
-            let tint = w * color;
-            let Some(mf) = roughness else {
-                let f = conductor_fresnel(-d.dot(ns), eta, k);
-                next.push(
-                    offset_ray_origin(x, err, n),
-                    reflect(d, ns),
-                    slot,
-                    tint * f,
-                    depth,
-                    key1,
-                    sample,
-                    0.0,
-                    carried,
-                );
-                return;
-            };
-            let frame = Frame::new(ns);
-            let wi = frame.to_local(-d);
-            if wi.z <= 0.0 {
-                return;
-            }
-            light(&frame, &|wl| (color * rough_conductor_eval(&mf, eta, k, wi, wl), rough_conductor_pdf(&mf, wi, wl)));
-            let m = mf.sample(wi, u);
-            let wo = reflect(-wi, m);
-            if wo.z <= 0.0 {
-                return;
-            }
-            let weight = conductor_fresnel(wi.dot(m), eta, k) * mf.smith_g1(wo, m);
-            let pdf = if mis { rough_conductor_pdf(&mf, wi, wo) } else { 0.0 };
-            let wo = frame.to_world(wo);
-            next.push(origin(wo), wo, slot, tint * weight, depth, key1, sample, pdf, carried);
+            let color = color_at(scene, color, h.prim, h.time, h.x);
+            conductor(scene, &h, (eta, k, color), roughness, out);
         }
-        Material::Dielectric { ior, tint, roughness: Some(mf), .. } => {
-            // Rough glass is oriented by its outward normal; the split handles either side.
-            let frame = Frame::new(shading_normal(scene, prim_id, time, x, ng));
-            let wi = frame.to_local(-d);
-            light(&frame, &|wl| {
-                // Transmission is tinted, as the refracted ray is.
-                let t = if wi.z * wl.z > 0.0 { Vec3::ONE } else { tint };
-                (t * rough_dielectric_eval(&mf, ior, wi, wl), rough_dielectric_pdf(&mf, ior, wi, wl))
-            });
-            let split = rough_dielectric_split(&mf, ior, wi, u);
-            // One ray per bounce: the reflection with probability F, else the refraction
-            // (Mitsuba's choice), each weighted by its branch weight over its probability.
-            let pick = sobol_owen(sample, hash(&[key, dim::GLOSS_BRANCH])).x;
-            let (branch, p, tint, key) = if pick < split.f {
-                (split.reflect, split.f, Vec3::ONE, key1)
-            } else {
-                (split.refract, 1.0 - split.f, tint, hash(&[key, 2]))
-            };
-            if let Some((wo, weight)) = branch {
-                let pdf = if mis { rough_dielectric_pdf(&mf, ior, wi, wo) } else { 0.0 };
-                let wo = frame.to_world(wo);
-                next.push(origin(wo), wo, slot, w * tint * (weight / p), depth, key, sample, pdf, carried);
-            }
-        }
+        Material::Dielectric { ior, tint, roughness: Some(mf), .. } => rough_glass(scene, &h, ior, tint, &mf, out),
         Material::Diffuse { .. } | Material::Mirror { .. } | Material::Dielectric { roughness: None, .. } => {
             debug_assert!(false, "not a glossy material");
         }
+    }
+}
+
+/// The queues a glossy hit writes: its bounce ray, and its light sample's shadow ray.
+struct Scattered<'a> {
+    next: &'a mut RayQueue,
+    shadow: &'a mut ShadowQueue,
+}
+
+/// One glossy hit: where it is and the path that reached it.
+struct GlossyHit {
+    /// Primitive hit.
+    prim: usize,
+    /// Ray direction.
+    d: Vec3,
+    /// Hit point, its rounding error bound and the geometric normal (outward).
+    x: Vec3,
+    err: Vec3,
+    ng: Vec3,
+    /// The path's time (0 without motion blur), and as carried by its rays.
+    time: f32,
+    carried: Option<f32>,
+    /// Throughput, slot, the next ray's depth, the path's key and sample.
+    w: Vec3,
+    slot: u32,
+    depth: u32,
+    key: u32,
+    sample: u32,
+    /// The reflected ray's key.
+    key1: u32,
+    /// The microfacet sample.
+    u: Vec2,
+    /// Whether the hit samples the lights too (multiple importance sampling).
+    mis: bool,
+}
+
+impl GlossyHit {
+    fn new(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> GlossyHit {
+        let (x, err, ng) = hit_point(scene, rays, hits, i);
+        // The path's time, carried by the rays it goes on with.
+        let carried = sparse_opt(&rays.time, i);
+        let key = rays.key[i];
+        GlossyHit {
+            prim: hits.prim[i] as usize,
+            d: rays.dir(i),
+            x,
+            err,
+            ng,
+            time: carried.unwrap_or_default(),
+            carried,
+            w: rays.weight(i),
+            slot: rays.slot[i],
+            depth: rays.depth[i] + 1,
+            key,
+            sample: rays.sample[i],
+            key1: hash(&[key, 1]),
+            u: sobol_owen(rays.sample[i], hash(&[key, dim::GLOSS])),
+            mis: !scene.gloss_lights.is_empty(),
+        }
+    }
+
+    /// The origin of a ray leaving along `wo`: off the surface on wo's side.
+    fn origin(&self, wo: Vec3) -> Vec3 {
+        offset_ray_origin(self.x, self.err, if wo.dot(self.ng) > 0.0 { self.ng } else { -self.ng })
+    }
+
+    /// The light sample of a rough hit in `frame` (under MIS), whose BSDF gives f·cos and
+    /// density for a local direction: its shadow ray into `shadow`.
+    fn light(&self, scene: &Scene, frame: &Frame, bsdf: &dyn Fn(Vec3) -> (Vec3, f32), shadow: &mut ShadowQueue) {
+        let Some(l) = self.mis.then(|| gloss_light_sample(scene, self.x, self.key, self.sample)).flatten() else {
+            return;
+        };
+        let (f, pdf) = bsdf(frame.to_local(l.wi));
+        let c = self.w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
+        if c != Vec3::ZERO {
+            shadow.push(self.origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, self.slot, c, self.carried);
+        }
+    }
+}
+
+/// A conductor's ray (`(eta, k, color)`: its optical constants and texture colour at the
+/// hit); with `roughness`, also its light sample.
+fn conductor(
+    scene: &Scene,
+    h: &GlossyHit,
+    (eta, k, color): (Vec3, Vec3, Vec3),
+    roughness: Option<Microfacet>,
+    out: Scattered,
+) {
+    let Scattered { next, shadow } = out;
+    let (d, ng) = (h.d, h.ng);
+    // Conductors are two-sided, like the mirror: the side the ray arrived on.
+    let n = if d.dot(ng) < 0.0 { ng } else { -ng };
+    let ns = shading_normal(scene, h.prim, h.time, h.x, n);
+    let tint = h.w * color;
+    let Some(mf) = roughness else {
+        let f = conductor_fresnel(-d.dot(ns), eta, k);
+        let o = offset_ray_origin(h.x, h.err, n);
+        next.push(o, reflect(d, ns), h.slot, tint * f, h.depth, h.key1, h.sample, 0.0, h.carried);
+        return;
+    };
+    let frame = Frame::new(ns);
+    let wi = frame.to_local(-d);
+    if wi.z <= 0.0 {
+        return;
+    }
+    let bsdf = |wl| (color * rough_conductor_eval(&mf, eta, k, wi, wl), rough_conductor_pdf(&mf, wi, wl));
+    h.light(scene, &frame, &bsdf, shadow);
+    let m = mf.sample(wi, h.u);
+    let wo = reflect(-wi, m);
+    if wo.z <= 0.0 {
+        return;
+    }
+    let weight = conductor_fresnel(wi.dot(m), eta, k) * mf.smith_g1(wo, m);
+    let pdf = if h.mis { rough_conductor_pdf(&mf, wi, wo) } else { 0.0 };
+    let wo = frame.to_world(wo);
+    next.push(h.origin(wo), wo, h.slot, tint * weight, h.depth, h.key1, h.sample, pdf, h.carried);
+}
+
+/// Rough glass: its light sample, and one ray: the reflection with probability F, else
+/// the refraction (Mitsuba's choice), each weighted by its branch weight over its
+/// probability.
+fn rough_glass(scene: &Scene, h: &GlossyHit, ior: f32, tint: Vec3, mf: &Microfacet, out: Scattered) {
+    let Scattered { next, shadow } = out;
+    // Rough glass is oriented by its outward normal; the split handles either side.
+    let frame = Frame::new(shading_normal(scene, h.prim, h.time, h.x, h.ng));
+    let wi = frame.to_local(-h.d);
+    let bsdf = |wl: Vec3| {
+        // Transmission is tinted, as the refracted ray is.
+        let t = if wi.z * wl.z > 0.0 { Vec3::ONE } else { tint };
+        (t * rough_dielectric_eval(mf, ior, wi, wl), rough_dielectric_pdf(mf, ior, wi, wl))
+    };
+    h.light(scene, &frame, &bsdf, shadow);
+    let split = rough_dielectric_split(mf, ior, wi, h.u);
+    let pick = sobol_owen(h.sample, hash(&[h.key, dim::GLOSS_BRANCH])).x;
+    let (branch, p, tint, key) = if pick < split.f {
+        (split.reflect, split.f, Vec3::ONE, h.key1)
+    } else {
+        (split.refract, 1.0 - split.f, tint, hash(&[h.key, 2]))
+    };
+    if let Some((wo, weight)) = branch {
+        let pdf = if h.mis { rough_dielectric_pdf(mf, ior, wi, wo) } else { 0.0 };
+        let wo = frame.to_world(wo);
+        next.push(h.origin(wo), wo, h.slot, h.w * tint * (weight / p), h.depth, key, h.sample, pdf, h.carried);
     }
 }
 

@@ -34,35 +34,45 @@ pub struct ShadeCounts {
     pub uniform_fallback: u64,
 }
 
-/// Shades every ray of `rays` at its hit in `hits`: fills `shadow`, `points`, `surfaces`
-/// and `specular` (cleared first) and appends to `film`.
-#[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
-pub fn shade(
-    scene: &Scene,
-    rays: &RayQueue,
-    hits: &HitQueue,
-    shadow: &mut ShadowQueue,
-    points: &mut ShadowPointQueue,
-    surfaces: &mut SurfaceQueue,
-    specular: &mut IndexQueue,
-    film: &mut FilmQueue,
-) -> ShadeCounts {
+/// The queues the shade stage writes: every one cleared first but `film`, which collects
+/// the wave's contributions and is appended to.
+pub struct Shaded<'a> {
+    /// Uniform shadow rays (point lights, quad lights not probed).
+    pub shadow: &'a mut ShadowQueue,
+    /// (point, area light) pairs for the adaptive shadow test.
+    pub points: &'a mut ShadowPointQueue,
+    /// The diffuse shading points.
+    pub surfaces: &'a mut SurfaceQueue,
+    /// Rays that hit a mirror or a dielectric (indices into the ray queue).
+    pub specular: &'a mut IndexQueue,
+    /// Background and emitters seen.
+    pub film: &'a mut FilmQueue,
+}
+
+/// Shades every ray of `rays` at its hit in `hits`: sorts the hits ([`sort_hits`]), then
+/// casts the diffuse points' shadow rays or queues them for the adaptive test
+/// ([`light_points`]).
+pub fn shade(scene: &Scene, rays: &RayQueue, hits: &HitQueue, out: Shaded) -> ShadeCounts {
+    let Shaded { shadow, points, surfaces, specular, film } = out;
     shadow.clear();
     points.clear();
     surfaces.clear();
     specular.clear();
-    let s = &scene.settings;
-    // The lights the adaptive test probes; the others are sampled as in uniform mode.
-    let probed = |li: usize| match s.shadow_mode {
-        ShadowMode::Adaptive(probe) => probes_light(&scene.lights[li], probe, s.shadow_samples),
-        ShadowMode::Uniform => false,
-    };
-    let any_probed = (0..scene.lights.len()).any(probed);
-    // Uniform shadows go on lanes when every light is a quad (a point light's one ray
-    // would interleave with them, and keeps the scalar loop).
-    let lanes = !any_probed && scene.lights.iter().all(|l| matches!(l, Light::Quad { .. }));
-    // Diffuse hits go to the surface queue 16 at a time (in ray order); the rest is
-    // settled here.
+    sort_hits(scene, rays, hits, surfaces, specular, film);
+    light_points(scene, surfaces, shadow, points)
+}
+
+/// Settles every hit that needs no shadow ray (the background of a miss, an emitter seen,
+/// into `film`), queues mirrors and dielectrics in `specular`, and fills `surfaces` with
+/// the diffuse hits, 16 at a time in ray order.
+fn sort_hits(
+    scene: &Scene,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    surfaces: &mut SurfaceQueue,
+    specular: &mut IndexQueue,
+    film: &mut FilmQueue,
+) {
     let (mut group, mut len) = ([0u32; LANES], 0);
     for i in 0..rays.len() {
         if hits.prim[i] == MISS {
@@ -92,17 +102,38 @@ pub fn shade(
                 };
                 film.push(rays.slot[i], rays.weight(i) * radiance * mis);
             }
-        } else if rays.depth[i] < s.max_depth {
+        } else if rays.depth[i] < scene.settings.max_depth {
             specular.push(i as u32);
         }
     }
     diffuse_surfaces(scene, rays, hits, &group[..len], surfaces);
+}
+
+/// The lights of every point of `surfaces`: uniform shadow rays into `shadow`, or, for an
+/// area light the adaptive test probes, the (point, light) pair into `points` (its
+/// unoccluded contribution costs no ray; the shadow-corner stage decides whether it
+/// reaches the film).
+fn light_points(
+    scene: &Scene,
+    surfaces: &SurfaceQueue,
+    shadow: &mut ShadowQueue,
+    points: &mut ShadowPointQueue,
+) -> ShadeCounts {
+    let s = &scene.settings;
+    // The lights the adaptive test probes; the others are sampled as in uniform mode.
+    let probed = |li: usize| match s.shadow_mode {
+        ShadowMode::Adaptive(probe) => probes_light(&scene.lights[li], probe, s.shadow_samples),
+        ShadowMode::Uniform => false,
+    };
     let mut counts = ShadeCounts::default();
     if let ShadowMode::Adaptive(probe) = s.shadow_mode {
         let fallback = scene.lights.iter().filter(|l| l.lit_area() && !probes_light(l, probe, s.shadow_samples));
         counts.uniform_fallback = fallback.count() as u64 * surfaces.len() as u64;
     }
-    if lanes {
+    // Uniform shadows go on lanes when every light is a quad (a point light's one ray
+    // would interleave with them, and keeps the scalar loop).
+    let any_probed = (0..scene.lights.len()).any(probed);
+    if !any_probed && scene.lights.iter().all(|l| matches!(l, Light::Quad { .. })) {
         quad_shadow_lanes(scene, surfaces, shadow);
         return counts;
     }
@@ -111,9 +142,7 @@ pub fn shade(
         // The point's rays carry its path's time.
         let time = sparse_opt(&surfaces.time, p);
         for li in 0..scene.lights.len() {
-            // An area light the adaptive test probes: its unoccluded contribution costs
-            // no rays; the shadow-corner stage decides whether it reaches the film. Count
-            // the rays uniform mode would have cast, for the stats.
+            // Count the rays uniform mode would have cast for a probed light, for the stats.
             match probed(li).then(|| unoccluded(scene, &surf, li)).flatten() {
                 Some((_, 0)) => {}
                 Some((sum, n)) => {

@@ -12,7 +12,7 @@ use glam::Vec3;
 
 use crate::accel::tracer::Tracer;
 use crate::light::{probe_count, probe_targets, SHADOW_TMAX_SCALE};
-use crate::queue::{sparse_opt, FilmQueue, IndexQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue};
+use crate::queue::{sparse_opt, FilmQueue, IndexQueue, ShadowPoints, ShadowQueue};
 use crate::sampling::hash;
 use crate::scene::{Scene, ShadowMode};
 
@@ -21,16 +21,15 @@ use crate::scene::{Scene, ShadowMode};
 /// (cleared first; slot: the point), traces them, and appends the lit points'
 /// unoccluded contributions to `film`; penumbra points go to `penumbra` (cleared first;
 /// indices into `points`). Returns the number of probe rays cast.
-#[allow(clippy::too_many_arguments)] // a stage names every queue it reads and writes
 pub fn shadow_corners(
     scene: &Scene,
     tracer: &mut Tracer,
-    surfaces: &SurfaceQueue,
-    points: &ShadowPointQueue,
+    shading: ShadowPoints,
     probes: &mut ShadowQueue,
     film: &mut FilmQueue,
     penumbra: &mut IndexQueue,
 ) -> usize {
+    let ShadowPoints { surfaces, points } = shading;
     penumbra.clear();
     probes.clear();
     let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode else { return 0 };
