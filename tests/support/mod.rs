@@ -1,12 +1,13 @@
 //! Shared fixtures for the integration tests: scene loading, renders, error metrics,
-//! single rays through the stages, a seeded generator, and the floor scene builder
-//! ([`FloorScene`]).
+//! single rays through the stages, a seeded generator, the floor scene builder
+//! ([`FloorScene`]), and scene text written table by table ([`toml`]).
 //!
 //! A single-file test reaches it with `mod support;`, a folder test crate with
 //! `#[path = "../support/mod.rs"] mod support;`.
 #![allow(dead_code)]
 
 mod floor;
+pub mod toml;
 
 // Not every test crate uses every part of the builder.
 #[allow(unused_imports)]
