@@ -4,7 +4,7 @@
 mod support;
 
 use glam::Vec3;
-use support::toml::{background, camera, diffuse, point_light, quad, quad_light, render_block, wall_light};
+use support::toml::{background, camera, diffuse, point_light, quad, quad_light, render_block, wall};
 use support::*;
 use wavetrace::film::Image;
 use wavetrace::{render, RenderOptions};
@@ -86,12 +86,7 @@ fn huge_eps_refines_nothing() {
 /// An emitter facing the camera whose right edge (x = 0.3) falls inside pixel column 19
 /// of 32.
 fn edge() -> String {
-    [
-        render_block(&["width=32", "height=8", "aa.mode=adaptive"]),
-        camera([0.0, 0.0, 5.0], [0.0; 3], &["fov_y=7.5"]),
-        wall_light(5.3),
-    ]
-    .concat()
+    render_block(&["width=32", "height=8", "aa.mode=adaptive"]) + &wall(5.3, &["fov_y=7.5"])
 }
 
 #[test]
@@ -114,13 +109,8 @@ fn a_vertical_edge_refines_only_the_pixels_on_it() {
 /// Occluders wider than the spread of the corner rays at their height, so the corner
 /// test is never fooled here (a small one is tested below).
 fn blocks() -> String {
-    let floor = FloorScene {
-        spheres: vec![
-            Sphere { center: [-1.0, 0.6, 0.3], radius: 0.6, material: "white" },
-            Sphere { center: [1.0, 0.5, -0.5], radius: 0.5, material: "white" },
-        ],
-        ..FloorScene::overhead()
-    };
+    let spheres = vec![Sphere::white([-1.0, 0.6, 0.3], 0.6), Sphere::white([1.0, 0.5, -0.5], 0.5)];
+    let floor = FloorScene { spheres, ..FloorScene::overhead() };
     render_block(&["width=48", "height=36", "aa.samples=2", "shadows.samples=64"]) + &floor.toml()
 }
 
@@ -208,7 +198,7 @@ fn fooled_scene() -> String {
         position: [0.0, 2.5, 3.0],
         look_at: [0.0, 0.0, 0.0],
         fov_y: Some(20.0),
-        spheres: vec![Sphere { center: [0.0, 1.5, 0.0], radius: 0.12, material: "white" }],
+        spheres: vec![Sphere::white([0.0, 1.5, 0.0], 0.12)],
         ..FloorScene::default()
     };
     render_block(&["width=40", "height=40", "aa.samples=1", "shadows.mode=adaptive", "shadows.samples=64"])

@@ -2,17 +2,12 @@
 
 mod support;
 
-use support::toml::{camera, render_block, wall_light};
+use support::toml::{render_block, wall};
 use support::*;
 
 /// An emitter facing the camera covering the left half of the view, 5 units away.
 fn edge() -> String {
-    [
-        render_block(&["width=32", "height=32", "aa.samples=16"]),
-        camera([0.0, 0.0, 5.0], [0.0; 3], &["fov_y=30.0"]),
-        wall_light(5.0),
-    ]
-    .concat()
+    render_block(&["width=32", "height=32", "aa.samples=16"]) + &wall(5.0, &["fov_y=30.0"])
 }
 
 #[test]

@@ -5,7 +5,7 @@
 
 mod support;
 
-use support::toml::{camera, diffuse, mirror, quad, quad_light, render_block, wall_light};
+use support::toml::{camera, diffuse, mirror, quad, quad_light, render_block, wall};
 use support::*;
 use wavetrace::film::Image;
 use wavetrace::stats::{Report, SceneReport};
@@ -21,8 +21,7 @@ fn bits(i: &Image) -> Vec<u32> {
 fn two_edges() -> String {
     [
         render_block(&["width=32", "height=16", "aa.mode=adaptive", "aa.eps=0.01", "aa.max_level=4", "dof.samples=8"]),
-        camera([0.0, 0.0, 5.0], [0.0; 3], &["fov_y=30.0", "aperture=0.5"]),
-        wall_light(4.2),
+        wall(4.2, &["fov_y=30.0", "aperture=0.5"]),
         quad_light([5.5, -20.0, -20.0], [20.0, 0.0, 0.0], [0.0, 40.0, 0.0], 0.8),
     ]
     .concat()
@@ -129,13 +128,8 @@ fn dof_aware_and_early_stopping_are_bit_identical_across_threads() {
 
 /// A floor under a quad light with two occluders: wide penumbrae.
 fn shadows() -> String {
-    let floor = FloorScene {
-        spheres: vec![
-            Sphere { center: [-0.8, 0.9, 0.3], radius: 0.5, material: "white" },
-            Sphere { center: [0.9, 0.5, -0.4], radius: 0.4, material: "white" },
-        ],
-        ..FloorScene::overhead()
-    };
+    let spheres = vec![Sphere::white([-0.8, 0.9, 0.3], 0.5), Sphere::white([0.9, 0.5, -0.4], 0.4)];
+    let floor = FloorScene { spheres, ..FloorScene::overhead() };
     render_block(&["width=40", "height=30", "aa.samples=2", "shadows.mode=adaptive", "shadows.samples=64"])
         + &floor.toml()
 }

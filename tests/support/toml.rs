@@ -91,11 +91,13 @@ pub fn quad_light(corner: V3, edge_u: V3, edge_v: V3, radiance: f64) -> String {
     )
 }
 
-/// The emitter that edge tests look at: a quad light of radiance 1 in the plane z = 0,
-/// facing a camera at (0, 0, 5), from x = -5 to x = -5 + `width` and y = -5 to 5; its
-/// right edge is the vertical edge under test.
-pub fn wall_light(width: f64) -> String {
-    quad_light([-5.0, -5.0, 0.0], [width, 0.0, 0.0], [0.0, 10.0, 0.0], 1.0)
+/// What the edge tests look at: a camera at (0, 0, 5) looking at the origin, with further
+/// keys (`fov_y=30.0`), and a quad light of radiance 1 facing it in the plane z = 0, from
+/// x = -5 to x = -5 + `width` and y = -5 to 5. Its right edge is the vertical edge under
+/// test.
+pub fn wall(width: f64, camera_sets: &[&str]) -> String {
+    camera([0.0, 0.0, 5.0], [0.0; 3], camera_sets)
+        + &quad_light([-5.0, -5.0, 0.0], [width, 0.0, 0.0], [0.0, 10.0, 0.0], 1.0)
 }
 
 /// A quad object.
