@@ -11,7 +11,8 @@
 pub type V3 = [f64; 3];
 
 /// A number as a TOML literal that reads back as `x`: whole numbers as integers, others
-/// in Rust's shortest round-trip form.
+/// in Rust's shortest round-trip form. Past 1e15 a whole number is written as a float
+/// (it need not fit a TOML integer), and so is -0 (an integer has no sign to keep).
 pub fn num(x: f64) -> String {
     assert!(x.is_finite(), "{x} has no TOML literal here");
     if x == x.trunc() && x.abs() < 1e15 && !(x == 0.0 && x.is_sign_negative()) {
