@@ -4,44 +4,26 @@
 mod support;
 
 use glam::Vec3;
+use support::toml::{background, camera, diffuse, point_light, quad, quad_light, render_block, wall};
 use support::*;
 use wavetrace::film::Image;
 use wavetrace::{render, RenderOptions};
 
 /// A plane under a small, distant quad light, seen at an angle: smooth, unoccluded.
-const FLAT: &str = r#"
-[render]
-width = 24
-height = 16
-[render.aa]
-mode = "adaptive"
-[render.shadows]
-mode = "adaptive"
-samples = 16
-[camera]
-position = [0, 2, 4]
-look_at = [0, 0, 0]
-fov_y = 30.0
-[materials.white]
-type = "diffuse"
-color = [0.5, 0.5, 0.5]
-[[lights]]
-type = "quad"
-corner = [-0.1, 20, -0.1]
-edge_u = [0.2, 0, 0]
-edge_v = [0, 0, 0.2]
-radiance = [2000, 2000, 2000]
-[[objects]]
-type = "quad"
-corner = [-50, 0, -50]
-edge_u = [0, 0, 100]
-edge_v = [100, 0, 0]
-material = "white"
-"#;
+fn flat() -> String {
+    [
+        render_block(&["width=24", "height=16", "aa.mode=adaptive", "shadows.mode=adaptive", "shadows.samples=16"]),
+        camera([0.0, 2.0, 4.0], [0.0; 3], &["fov_y=30.0"]),
+        diffuse("white", [0.5; 3]),
+        quad_light([-0.1, 20.0, -0.1], [0.2, 0.0, 0.0], [0.0, 0.0, 0.2], 2000.0),
+        quad([-50.0, 0.0, -50.0], [0.0, 0.0, 100.0], [100.0, 0.0, 0.0], "white"),
+    ]
+    .concat()
+}
 
 #[test]
 fn flat_lit_scene_casts_only_the_minimum() {
-    let out = render_text(FLAT, &[], 2);
+    let out = render_text(&flat(), &[], 2);
     let s = &out.stats;
     assert_eq!(s.aa_refined_pixels, 0, "no pixel of a flat scene needs refinement");
     assert_eq!(s.aa_refine_rays, 0);
@@ -56,44 +38,28 @@ fn flat_lit_scene_casts_only_the_minimum() {
 
 #[test]
 fn unshared_corners_cost_four_per_pixel_and_give_the_same_image() {
-    let shared = render_text(FLAT, &["render.aa.eps=0.001"], 2);
-    let own = render_text(FLAT, &["render.aa.eps=0.001", "render.aa.share_corners=false"], 2);
+    let shared = render_text(&flat(), &["render.aa.eps=0.001"], 2);
+    let own = render_text(&flat(), &["render.aa.eps=0.001", "render.aa.share_corners=false"], 2);
     assert_eq!(own.stats.aa_corner_rays, 4 * 24 * 16, "the paper's 5 rays per pixel");
     assert_eq!(shared.image, own.image, "a corner's radiance depends only on the corner");
 }
 
 /// A lit plane that ends mid-image: above it, the constant background.
-const HORIZON: &str = r#"
-[render]
-width = 20
-height = 20
-[render.aa]
-mode = "adaptive"
-max_level = 4
-[camera]
-position = [0, 1, 4]
-look_at = [0, 1, 0]
-fov_y = 40.0
-[background]
-color = [0.2, 0.3, 0.4]
-[materials.white]
-type = "diffuse"
-color = [0.7, 0.7, 0.7]
-[[lights]]
-type = "point"
-position = [0, 3, 1]
-intensity = [5, 5, 5]
-[[objects]]
-type = "quad"
-corner = [-3, 0, -3]
-edge_u = [0, 0, 6]
-edge_v = [6, 0, 0]
-material = "white"
-"#;
+fn horizon() -> String {
+    [
+        render_block(&["width=20", "height=20", "aa.mode=adaptive", "aa.max_level=4"]),
+        camera([0.0, 1.0, 4.0], [0.0, 1.0, 0.0], &["fov_y=40.0"]),
+        background([0.2, 0.3, 0.4]),
+        diffuse("white", [0.7; 3]),
+        point_light([0.0, 3.0, 1.0], 5.0),
+        quad([-3.0, 0.0, -3.0], [0.0, 0.0, 6.0], [6.0, 0.0, 0.0], "white"),
+    ]
+    .concat()
+}
 
 #[test]
 fn eps_zero_refines_every_varying_pixel_to_the_last_level() {
-    let out = render_text(HORIZON, &["render.aa.eps=0"], 2);
+    let out = render_text(&horizon(), &["render.aa.eps=0"], 2);
     let bg = Vec3::new(0.2, 0.3, 0.4);
     let (mut constant, mut refined) = (0, 0);
     for (i, &l) in out.heat.level.iter().enumerate() {
@@ -112,33 +78,20 @@ fn eps_zero_refines_every_varying_pixel_to_the_last_level() {
 
 #[test]
 fn huge_eps_refines_nothing() {
-    let out = render_text(HORIZON, &["render.aa.eps=1e9"], 2);
+    let out = render_text(&horizon(), &["render.aa.eps=1e9"], 2);
     assert_eq!(out.stats.aa_refined_pixels, 0);
     assert_eq!(out.stats.aa_refine_rays, 0);
 }
 
-/// An emitter facing the camera whose right edge falls inside pixel column 19 of 32.
-const EDGE: &str = r#"
-[render]
-width = 32
-height = 8
-[render.aa]
-mode = "adaptive"
-[camera]
-position = [0, 0, 5]
-look_at = [0, 0, 0]
-fov_y = 7.5
-[[lights]]
-type = "quad"
-corner = [-5, -5, 0]
-edge_u = [5.3, 0, 0]
-edge_v = [0, 10, 0]
-radiance = [1, 1, 1]
-"#;
+/// An emitter facing the camera whose right edge (x = 0.3) falls inside pixel column 19
+/// of 32.
+fn edge() -> String {
+    render_block(&["width=32", "height=8", "aa.mode=adaptive"]) + &wall(5.3, &["fov_y=7.5"])
+}
 
 #[test]
 fn a_vertical_edge_refines_only_the_pixels_on_it() {
-    let scene = scene(EDGE, &[]);
+    let scene = scene(&edge(), &[]);
     // Find the column the edge x = 0.3 projects into, from the camera itself.
     let cam = &scene.camera;
     let half_w = cam.tan_half_fov * cam.aspect * 5.0;
@@ -156,15 +109,9 @@ fn a_vertical_edge_refines_only_the_pixels_on_it() {
 /// Occluders wider than the spread of the corner rays at their height, so the corner
 /// test is never fooled here (a small one is tested below).
 fn blocks() -> String {
-    FloorScene {
-        render: "[render]\nwidth = 48\nheight = 36\n[render.aa]\nsamples = 2\n[render.shadows]\nsamples = 64\n",
-        spheres: vec![
-            Sphere { center: [-1.0, 0.6, 0.3], radius: 0.6, material: "white" },
-            Sphere { center: [1.0, 0.5, -0.5], radius: 0.5, material: "white" },
-        ],
-        ..FloorScene::overhead()
-    }
-    .toml()
+    let spheres = vec![Sphere::white([-1.0, 0.6, 0.3], 0.6), Sphere::white([1.0, 0.5, -0.5], 0.5)];
+    let floor = FloorScene { spheres, ..FloorScene::overhead() };
+    render_block(&["width=48", "height=36", "aa.samples=2", "shadows.samples=64"]) + &floor.toml()
 }
 
 fn penumbra_scene(sets: &[&str]) -> wavetrace::RenderOutput {
@@ -247,15 +194,15 @@ fn adaptive_modes_are_bit_identical_across_thread_counts() {
 /// The paper's §5 failure: a small occluder straight between the floor and the middle
 /// of a large light, that no ray to the light's corners passes near.
 fn fooled_scene() -> String {
-    FloorScene {
-        render: "[render]\nwidth = 40\nheight = 40\n[render.aa]\nsamples = 1\n[render.shadows]\nmode = \"adaptive\"\nsamples = 64\n",
+    let floor = FloorScene {
         position: [0.0, 2.5, 3.0],
         look_at: [0.0, 0.0, 0.0],
         fov_y: Some(20.0),
-        spheres: vec![Sphere { center: [0.0, 1.5, 0.0], radius: 0.12, material: "white" }],
+        spheres: vec![Sphere::white([0.0, 1.5, 0.0], 0.12)],
         ..FloorScene::default()
-    }
-    .toml()
+    };
+    render_block(&["width=40", "height=40", "aa.samples=1", "shadows.mode=adaptive", "shadows.samples=64"])
+        + &floor.toml()
 }
 
 #[test]
@@ -294,8 +241,8 @@ fn a_light_probed_with_as_many_rays_as_samples_renders_as_uniform_mode() {
     // mode does, so the two images are the same bits, the rays the same, and the stats
     // count every (point, light) pair as sampled uniformly.
     let sets = ["render.shadows.samples=4", "render.shadows.probe=\"corners\""];
-    let adaptive = render_text(FLAT, &sets, 2);
-    let uniform = render_text(FLAT, &[sets[0], sets[1], "render.shadows.mode=uniform"], 2);
+    let adaptive = render_text(&flat(), &sets, 2);
+    let uniform = render_text(&flat(), &[sets[0], sets[1], "render.shadows.mode=uniform"], 2);
     let bits =
         |o: &wavetrace::RenderOutput| o.image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
     assert_eq!(bits(&adaptive), bits(&uniform));
@@ -303,6 +250,6 @@ fn a_light_probed_with_as_many_rays_as_samples_renders_as_uniform_mode() {
     assert_eq!((adaptive.stats.shadow_points, adaptive.stats.shadow_corner_rays), (0, 0));
     assert!(adaptive.stats.shadow_uniform_fallback > 0);
     // Five samples: the light is probed again.
-    let probed = render_text(FLAT, &["render.shadows.samples=5", sets[1]], 2);
+    let probed = render_text(&flat(), &["render.shadows.samples=5", sets[1]], 2);
     assert!(probed.stats.shadow_points > 0 && probed.stats.shadow_uniform_fallback == 0);
 }

@@ -8,6 +8,7 @@ mod support;
 
 use std::path::Path;
 use std::process::Command;
+use support::toml::{mesh, quad, sphere};
 use support::*;
 use wavetrace::film::{Image, Tile};
 use wavetrace::tools::compare;
@@ -56,22 +57,22 @@ struct Case {
 }
 
 fn cases() -> Vec<Case> {
-    let sphere = "[[objects]]\ntype = \"sphere\"\ncenter = [0, 0.45, 0]\nradius = 0.4\nmaterial = \"r\"\n";
-    let quad = "[[objects]]\ntype = \"quad\"\ncorner = [-0.5, 0.2, -0.3]\nedge_u = [1, 0, 0]\nedge_v = [0, 0.8, 0.3]\nmaterial = \"r\"\n";
-    let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"octa.obj\"\nmaterial = \"r\"\ntranslate = [0, 0.5, 0]\n";
+    let ball = sphere([0.0, 0.45, 0.0], 0.4, "r");
+    let tile = quad([-0.5, 0.2, -0.3], [1.0, 0.0, 0.0], [0.0, 0.8, 0.3], "r");
+    let octa = mesh("octa.obj", "r", &["translate=[0, 0.5, 0]"]);
     let lookat = "transform = [{ lookat = { origin = [0, 1.2, 3.5], target = [0, 0.5, 0], up = [0, 1, 0] } }]";
     vec![
         Case {
             name: "sphere translated",
             camera: CAMERA.into(),
-            object: sphere.into(),
+            object: ball.clone(),
             moving: vec!["objects.2.transform_end=[{translate=[0.9,0.2,0]}]".into()],
             at: |t| format!("objects.2.transform=[{{translate=[{},{},0]}}]", 0.9 * t, 0.2 * t),
         },
         Case {
             name: "sphere scaled",
             camera: CAMERA.into(),
-            object: sphere.into(),
+            object: ball.clone(),
             moving: vec!["objects.2.transform_end=[{scale=[1.7,1.7,1.7]}]".into()],
             at: |t| {
                 let s = 1.0 + 0.7 * t;
@@ -81,14 +82,14 @@ fn cases() -> Vec<Case> {
         Case {
             name: "quad rotated",
             camera: CAMERA.into(),
-            object: quad.into(),
+            object: tile,
             moving: vec!["objects.2.transform_end=[{rotate={axis=[0,1,0],angle=70}}]".into()],
             at: |t| format!("objects.2.transform=[{{rotate={{axis=[0,1,0],angle={}}}}}]", 70.0 * t),
         },
         Case {
             name: "mesh rotated and translated",
             camera: CAMERA.into(),
-            object: mesh.into(),
+            object: octa,
             moving: vec!["objects.2.transform_end=[{rotate={axis=[0,0,1],angle=90}},{translate=[-0.6,0,0.3]}]".into()],
             at: |t| {
                 format!(
@@ -102,7 +103,7 @@ fn cases() -> Vec<Case> {
         Case {
             name: "camera translated",
             camera: lookat.into(),
-            object: sphere.into(),
+            object: ball,
             moving: vec![
                 "camera.transform_end=[{lookat={origin=[0,1.2,3.5],target=[0,0.5,0],up=[0,1,0]}},{translate=[0.5,0.1,0]}]"
                     .into(),
@@ -167,9 +168,8 @@ fn motion_equals_the_average_of_static_renders_at_stratified_times() {
 #[test]
 fn a_sphere_moving_over_a_mirror_is_within_flip_001_of_the_time_average() {
     let dir = octahedron_dir();
-    let sphere = "[[objects]]\ntype = \"sphere\"\ncenter = [-0.4, 0.5, 0]\nradius = 0.4\nmaterial = \"r\"\n";
     // The floor is the mirror, the wall diffuse.
-    let text = scene_text(CAMERA, sphere)
+    let text = scene_text(CAMERA, &sphere([-0.4, 0.5, 0.0], 0.4, "r"))
         .replacen("material = \"w\"", "material = \"m\"", 1)
         .replacen("edge_v = [0, 3, 0]\nmaterial = \"m\"", "edge_v = [0, 3, 0]\nmaterial = \"w\"", 1)
         .replace("width = 32\nheight = 24", "width = 48\nheight = 36");
@@ -189,10 +189,7 @@ fn a_sphere_moving_over_a_mirror_is_within_flip_001_of_the_time_average() {
 #[test]
 fn a_scene_still_over_the_shutter_renders_bit_for_bit_as_the_static_one() {
     let dir = octahedron_dir();
-    let text = scene_text(
-        CAMERA,
-        "[[objects]]\ntype = \"mesh\"\nfile = \"octa.obj\"\nmaterial = \"r\"\ntransform = [{translate=[0,0.5,0]}]\n",
-    );
+    let text = scene_text(CAMERA, &mesh("octa.obj", "r", &["transform=[{translate=[0,0.5,0]}]"]));
     let base = render_in(dir.path(), &text, &[], 2);
     let bits = |img: &Image| img.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect::<Vec<_>>();
     let end = "objects.2.transform_end=[{translate=[1,0.5,0]}]".to_string();
@@ -211,10 +208,7 @@ fn a_scene_still_over_the_shutter_renders_bit_for_bit_as_the_static_one() {
 #[test]
 fn motion_renders_are_the_same_bits_on_any_thread_count_and_crop() {
     let dir = octahedron_dir();
-    let text = scene_text(
-        CAMERA,
-        "[[objects]]\ntype = \"mesh\"\nfile = \"octa.obj\"\nmaterial = \"r\"\ntranslate = [0, 0.5, 0]\n",
-    );
+    let text = scene_text(CAMERA, &mesh("octa.obj", "r", &["translate=[0, 0.5, 0]"]));
     for mode in [
         vec!["render.aa.samples=4"],
         vec!["render.aa.mode=adaptive", "render.shadows.mode=adaptive", "camera.aperture=0.05", "render.dof.samples=2"],
@@ -240,8 +234,7 @@ fn motion_renders_are_the_same_bits_on_any_thread_count_and_crop() {
 #[test]
 fn bad_motion_input_names_the_field() {
     let dir = octahedron_dir();
-    let sphere = "[[objects]]\ntype = \"sphere\"\ncenter = [0, 0.45, 0]\nradius = 0.4\nmaterial = \"r\"\n";
-    let text = scene_text(CAMERA, sphere);
+    let text = scene_text(CAMERA, &sphere([0.0, 0.45, 0.0], 0.4, "r"));
     for (sets, field, says) in [
         (vec!["camera.shutter=[0.6,0.2]"], "camera.shutter", "reversed"),
         (vec!["camera.shutter=[0,1.5]"], "camera.shutter", "in [0, 1]"),

@@ -82,6 +82,7 @@ use glam::Vec3;
 use wavetrace::accel::packet::{PacketConfig, PacketWork};
 use wavetrace::accel::{Accel, Primitive, Ray, Shape, Traversal, NO_LIGHT};
 use wavetrace::simd::{Vector, LANES};
+use wavetrace::tools::bench_mesh::icosphere;
 use wavetrace::tools::kernels;
 use wide::{f32x16, f32x4, f32x8};
 
@@ -323,71 +324,11 @@ fn packet_kernels_equal_scalar_on_every_mesh_full() {
     );
 }
 
-/// A closed icosphere (subdivided `levels` times, vertices shared exactly between
-/// neighbouring triangles) of radius `r` around `c`.
-fn icosphere(levels: u32, c: Vec3, r: f32) -> (Vec<Vec3>, Vec<[usize; 3]>) {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3> = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
-    .collect();
-    let mut f: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::new();
-        for [a, b, cc] in f {
-            let mut m = |i: usize, j: usize| {
-                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
-                    v.push(((v[i] + v[j]) * 0.5).normalize());
-                    v.len() - 1
-                })
-            };
-            let (ab, bc, ca) = (m(a, b), m(b, cc), m(cc, a));
-            next.extend([[a, ab, ca], [b, bc, ab], [cc, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    (v.into_iter().map(|p| c + p * r).collect(), f)
-}
-
 #[test]
 fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_wide_or_interleaved_kernel() {
     let (c, r) = (Vec3::new(0.3, -0.2, 0.1), 1.7);
-    let (v, f) = icosphere(4, c, r);
+    let (unit, f) = icosphere(4);
+    let v: Vec<Vec3> = unit.into_iter().map(|p| c + p * r).collect();
     let accel = Accel::build_reference(
         f.iter()
             .map(|&[a, b, cc]| Primitive {

@@ -5,6 +5,7 @@
 
 mod support;
 
+use support::toml::{camera, diffuse, mirror, quad, quad_light, render_block, wall};
 use support::*;
 use wavetrace::film::Image;
 use wavetrace::stats::{Report, SceneReport};
@@ -17,34 +18,14 @@ fn bits(i: &Image) -> Vec<u32> {
 /// Two emitters facing the camera, both with a vertical edge: the left one on the focus
 /// plane (5 units away, sharp), the right one 25 units away (blurred over 2.4
 /// pixels with the aperture below). Pixel columns 0..16 see only the near one or black.
-const TWO_EDGES: &str = r#"
-[render]
-width = 32
-height = 16
-[render.aa]
-mode = "adaptive"
-eps = 0.01
-max_level = 4
-[render.dof]
-samples = 8
-[camera]
-position = [0, 0, 5]
-look_at = [0, 0, 0]
-fov_y = 30.0
-aperture = 0.5
-[[lights]]
-type = "quad"
-corner = [-5, -5, 0]
-edge_u = [4.2, 0, 0]
-edge_v = [0, 10, 0]
-radiance = [1, 1, 1]
-[[lights]]
-type = "quad"
-corner = [5.5, -20, -20]
-edge_u = [20, 0, 0]
-edge_v = [0, 40, 0]
-radiance = [0.8, 0.8, 0.8]
-"#;
+fn two_edges() -> String {
+    [
+        render_block(&["width=32", "height=16", "aa.mode=adaptive", "aa.eps=0.01", "aa.max_level=4", "dof.samples=8"]),
+        wall(4.2, &["fov_y=30.0", "aperture=0.5"]),
+        quad_light([5.5, -20.0, -20.0], [20.0, 0.0, 0.0], [0.0, 40.0, 0.0], 0.8),
+    ]
+    .concat()
+}
 
 /// Refined pixels in columns `cols` of a 32-wide image.
 fn refined(out: &wavetrace::RenderOutput, cols: std::ops::Range<usize>) -> usize {
@@ -53,8 +34,8 @@ fn refined(out: &wavetrace::RenderOutput, cols: std::ops::Range<usize>) -> usize
 
 #[test]
 fn dof_aware_changes_nothing_with_a_pinhole() {
-    let plain = render_text(TWO_EDGES, &["camera.aperture=0"], 2);
-    let aware = render_text(TWO_EDGES, &["camera.aperture=0", "render.aa.dof_aware=true"], 2);
+    let plain = render_text(&two_edges(), &["camera.aperture=0"], 2);
+    let aware = render_text(&two_edges(), &["camera.aperture=0", "render.aa.dof_aware=true"], 2);
     assert!(bits(&plain.image) == bits(&aware.image), "a pinhole has no blur: the image must not change");
     assert_eq!(plain.stats.kinds(), aware.stats.kinds(), "no depth probes, no other rays");
     assert_eq!(aware.stats.dof_probe_rays, 0);
@@ -63,8 +44,8 @@ fn dof_aware_changes_nothing_with_a_pinhole() {
 
 #[test]
 fn dof_aware_refines_the_sharp_edge_and_not_the_blurred_one() {
-    let plain = render_text(TWO_EDGES, &[], 2);
-    let aware = render_text(TWO_EDGES, &["render.aa.dof_aware=true"], 2);
+    let plain = render_text(&two_edges(), &[], 2);
+    let aware = render_text(&two_edges(), &["render.aa.dof_aware=true"], 2);
     // The sharp edge: every lens ray of an in-focus film point meets the same point of
     // the emitter, so one lens ray decides exactly as eight do.
     let (sharp_plain, sharp_aware) = (refined(&plain, 0..16), refined(&aware, 0..16));
@@ -88,10 +69,10 @@ fn dof_aware_refines_the_sharp_edge_and_not_the_blurred_one() {
 
 #[test]
 fn dof_aware_error_stays_close_to_plain_adaptive() {
-    let reference = render_text(TWO_EDGES, &["render.aa.mode=uniform", "render.aa.samples=256"], 2);
-    let plain = render_text(TWO_EDGES, &[], 2);
-    let aware = render_text(TWO_EDGES, &["render.aa.dof_aware=true"], 2);
-    let few = render_text(TWO_EDGES, &["render.aa.mode=uniform", "render.aa.samples=1"], 2);
+    let reference = render_text(&two_edges(), &["render.aa.mode=uniform", "render.aa.samples=256"], 2);
+    let plain = render_text(&two_edges(), &[], 2);
+    let aware = render_text(&two_edges(), &["render.aa.dof_aware=true"], 2);
+    let few = render_text(&two_edges(), &["render.aa.mode=uniform", "render.aa.samples=1"], 2);
     let (ep, ea, ef) = (
         rmse(&plain.image, &reference.image),
         rmse(&aware.image, &reference.image),
@@ -107,34 +88,18 @@ fn dof_aware_error_stays_close_to_plain_adaptive() {
 fn dof_aware_gives_mirrors_and_glass_every_lens_sample() {
     // A mirror in focus shows the blurred scene behind the camera's focus plane: its
     // first hit is sharp, what it reflects is not. It must keep all lens samples.
-    let mirror = r#"
-[render]
-width = 8
-height = 8
-[render.aa]
-mode = "adaptive"
-eps = 1e9
-[render.dof]
-samples = 6
-[camera]
-position = [0, 0, 5]
-look_at = [0, 0, 0]
-fov_y = 5.0
-aperture = 0.2
-[materials.m]
-type = "mirror"
-color = [1, 1, 1]
-[[objects]]
-type = "quad"
-corner = [-5, -5, 0]
-edge_u = [10, 0, 0]
-edge_v = [0, 10, 0]
-material = "m"
-"#;
-    let out = render_text(mirror, &["render.aa.dof_aware=true"], 1);
+    let wall = |material: String| {
+        [
+            render_block(&["width=8", "height=8", "aa.mode=adaptive", "aa.eps=1e9", "dof.samples=6"]),
+            camera([0.0, 0.0, 5.0], [0.0; 3], &["fov_y=5.0", "aperture=0.2"]),
+            material,
+            quad([-5.0, -5.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0], "m"),
+        ]
+        .concat()
+    };
+    let out = render_text(&wall(mirror("m", [1.0; 3])), &["render.aa.dof_aware=true"], 1);
     assert_eq!(out.stats.camera_rays, 64 * 6, "every centre on the mirror keeps its 6 lens rays");
-    let diffuse = mirror.replace("type = \"mirror\"", "type = \"diffuse\"");
-    let out = render_text(&diffuse, &["render.aa.dof_aware=true"], 1);
+    let out = render_text(&wall(diffuse("m", [1.0; 3])), &["render.aa.dof_aware=true"], 1);
     assert_eq!(out.stats.camera_rays, 64, "a diffuse surface in focus needs one lens ray per centre");
 }
 
@@ -163,15 +128,10 @@ fn dof_aware_and_early_stopping_are_bit_identical_across_threads() {
 
 /// A floor under a quad light with two occluders: wide penumbrae.
 fn shadows() -> String {
-    FloorScene {
-        render: "[render]\nwidth = 40\nheight = 30\n[render.aa]\nsamples = 2\n[render.shadows]\nmode = \"adaptive\"\nsamples = 64\n",
-        spheres: vec![
-            Sphere { center: [-0.8, 0.9, 0.3], radius: 0.5, material: "white" },
-            Sphere { center: [0.9, 0.5, -0.4], radius: 0.4, material: "white" },
-        ],
-        ..FloorScene::overhead()
-    }
-    .toml()
+    let spheres = vec![Sphere::white([-0.8, 0.9, 0.3], 0.5), Sphere::white([0.9, 0.5, -0.4], 0.4)];
+    let floor = FloorScene { spheres, ..FloorScene::overhead() };
+    render_block(&["width=40", "height=30", "aa.samples=2", "shadows.mode=adaptive", "shadows.samples=64"])
+        + &floor.toml()
 }
 
 #[test]
@@ -237,7 +197,7 @@ fn scene_report() -> SceneReport {
 
 #[test]
 fn options_only_take_effect_where_they_mean_something() {
-    let s = |sets: &[&str]| scene(TWO_EDGES, sets).settings;
+    let s = |sets: &[&str]| scene(&two_edges(), sets).settings;
     assert_eq!(s(&["render.aa.dof_aware=true"]).dof_radius, Some(2.0));
     assert_eq!(s(&["render.aa.dof_aware=true", "camera.aperture=0"]).dof_radius, None, "a pinhole");
     assert_eq!(s(&["render.aa.dof_aware=true", "render.aa.mode=uniform"]).dof_radius, None, "uniform AA");

@@ -8,6 +8,7 @@
 mod support;
 
 use glam::{DVec3, Vec3};
+use support::toml::{camera, material, quad, render_block, sphere};
 use support::{one_ray, render_text, scene, step, FloorScene, Lcg, QuadLight, Sphere};
 use wavetrace::queue::{RayQueue, MISS};
 use wavetrace::stages::scatter::{fresnel, interface, reflect, refract};
@@ -55,40 +56,27 @@ fn slab(ior: &str, ratio: &str) -> Scene {
 
 /// [`slab`] spanning `[-half, half]` in x and z. A narrower slab places its surface
 /// points, and so the ray offsets, more precisely.
-fn slab_of_width(ior: &str, ratio: &str, half: f32) -> Scene {
+fn slab_of_width(ior: &str, ratio: &str, half: f64) -> Scene {
     let w = 2.0 * half;
-    let text = format!(
-        r#"[camera]
-position = [0, 5, 5]
-look_at = [0, 0, 0]
-[materials.glass]
-type = "dielectric"
-ior = {ior}
-reflect_ratio = {ratio}
-[[objects]]
-type = "quad"
-corner = [-{half}, 0, -{half}]
-edge_u = [0, 0, {w}]
-edge_v = [{w}, 0, 0]
-material = "glass"
-[[objects]]
-type = "quad"
-corner = [-{half}, -1, -{half}]
-edge_u = [{w}, 0, 0]
-edge_v = [0, 0, {w}]
-material = "glass"
-"#
-    );
+    let text = [
+        camera([0.0, 5.0, 5.0], [0.0; 3], &[]),
+        glass(ior, ratio),
+        quad([-half, 0.0, -half], [0.0, 0.0, w], [w, 0.0, 0.0], "glass"),
+        quad([-half, -1.0, -half], [w, 0.0, 0.0], [0.0, 0.0, w], "glass"),
+    ]
+    .concat();
     scene(&text, &[])
 }
 
+/// A glass sphere of radius 1 at the origin.
 fn ball(ior: &str, ratio: &str) -> Scene {
-    let text = format!(
-        "[camera]\nposition = [0, 5, 5]\nlook_at = [0, 0, 0]\n[materials.glass]\ntype = \"dielectric\"\n\
-         ior = {ior}\nreflect_ratio = {ratio}\n[[objects]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n\
-         material = \"glass\"\n"
-    );
-    scene(&text, &[])
+    scene(&[camera([0.0, 5.0, 5.0], [0.0; 3], &[]), glass(ior, ratio), sphere([0.0; 3], 1.0, "glass")].concat(), &[])
+}
+
+/// `[materials.glass]`: a dielectric of index `ior` and reflect ratio `ratio`, both TOML
+/// literals (`"fresnel"` or C).
+fn glass(ior: &str, ratio: &str) -> String {
+    material("glass", "dielectric", &[&format!("ior={ior}"), &format!("reflect_ratio={ratio}")])
 }
 
 /// A spawned ray's direction and weight.
@@ -377,31 +365,17 @@ fn slab_exit_direction_is_the_entry_direction_at_extreme_angles() {
     }
 }
 
+/// A glass sphere of radius 1 (ior 1.5) around one of radius 0.5, both at the origin.
 fn nested(inner_ior: &str, ratio: &str) -> Scene {
-    let text = format!(
-        r#"[camera]
-position = [0, 0, 5]
-look_at = [0, 0, 0]
-[materials.outer]
-type = "dielectric"
-ior = 1.5
-reflect_ratio = {ratio}
-[materials.inner]
-type = "dielectric"
-ior = {inner_ior}
-reflect_ratio = {ratio}
-[[objects]]
-type = "sphere"
-center = [0, 0, 0]
-radius = 1
-material = "outer"
-[[objects]]
-type = "sphere"
-center = [0, 0, 0]
-radius = 0.5
-material = "inner"
-"#
-    );
+    let ratio = format!("reflect_ratio={ratio}");
+    let text = [
+        camera([0.0, 0.0, 5.0], [0.0; 3], &[]),
+        material("outer", "dielectric", &["ior=1.5", &ratio]),
+        material("inner", "dielectric", &[&format!("ior={inner_ior}"), &ratio]),
+        sphere([0.0; 3], 1.0, "outer"),
+        sphere([0.0; 3], 0.5, "inner"),
+    ]
+    .concat();
     scene(&text, &[])
 }
 
@@ -514,16 +488,15 @@ fn fixed_ratio_splits_weight_c_and_one_minus_c() {
 #[test]
 fn glass_with_c_one_renders_exactly_like_a_white_mirror() {
     let with = |material: &str| {
-        FloorScene {
-            render: "[render]\nwidth = 24\nheight = 24\n[render.aa]\nsamples = 2\n[render.shadows]\nsamples = 2\n",
+        let floor = FloorScene {
             look_at: [0.0, 0.5, 0.0],
             background: Some([0.1, 0.2, 0.3]),
             materials: vec![FloorScene::diffuse("white", [0.8; 3]), ("m", material.to_string())],
             light: QuadLight::square(3.0, 2.0, 4.0),
             spheres: vec![Sphere { center: [0.0, 0.6, 0.0], radius: 0.6, material: "m" }],
             ..FloorScene::default()
-        }
-        .toml()
+        };
+        render_block(&["width=24", "height=24", "aa.samples=2", "shadows.samples=2"]) + &floor.toml()
     };
     let glass = render_finite(&with("type = \"dielectric\"\nior = 1.5\nreflect_ratio = 1.0"));
     let mirror = render_finite(&with("type = \"mirror\"\ncolor = [1, 1, 1]"));

@@ -13,7 +13,9 @@ use support::{closest, polygon_irradiance, FloorScene};
 use wavetrace::accel::tracer::{Kernel, Tracer};
 use wavetrace::light::probe_targets;
 use wavetrace::light::SHADOW_TMAX_SCALE;
-use wavetrace::queue::{FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS};
+use wavetrace::queue::{
+    FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowPoints, ShadowQueue, SurfaceQueue, MISS,
+};
 use wavetrace::scene::{Light, Probe, ShadowMode};
 use wavetrace::stages::shade::ShadeCounts;
 use wavetrace::stages::{shade as shade_stage, shadow_corner};
@@ -39,8 +41,14 @@ fn shade(scene: &Scene, rays: &RayQueue, hits: &HitQueue) -> Shaded {
     let (mut shadow, mut points, mut specular, mut film) =
         (ShadowQueue::default(), ShadowPointQueue::default(), IndexQueue::default(), FilmQueue::default());
     let mut surfaces = SurfaceQueue::default();
-    let counts =
-        shade_stage::shade(scene, rays, hits, &mut shadow, &mut points, &mut surfaces, &mut specular, &mut film);
+    let out = shade_stage::Shaded {
+        shadow: &mut shadow,
+        points: &mut points,
+        surfaces: &mut surfaces,
+        specular: &mut specular,
+        film: &mut film,
+    };
+    let counts = shade_stage::shade(scene, rays, hits, out);
     Shaded { shadow, points, surfaces, specular: specular.index, film, counts }
 }
 
@@ -58,8 +66,8 @@ fn shadow_corners(scene: &mut Scene, probe: Probe, surfaces: &SurfaceQueue, poin
     scene.settings.shadow_mode = ShadowMode::Adaptive(probe);
     let (mut film, mut penumbra, mut probes) = (FilmQueue::default(), IndexQueue::default(), ShadowQueue::default());
     let mut tracer = Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false);
-    let cast =
-        shadow_corner::shadow_corners(scene, &mut tracer, surfaces, points, &mut probes, &mut film, &mut penumbra);
+    let shading = ShadowPoints { surfaces, points };
+    let cast = shadow_corner::shadow_corners(scene, &mut tracer, shading, &mut probes, &mut film, &mut penumbra);
     Cornered { film, penumbra: penumbra.index, cast }
 }
 

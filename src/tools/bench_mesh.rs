@@ -37,10 +37,10 @@ pub fn mesh_accel(tris: Vec<[Vec3; 3]>, max_leaf: u32, quality: BvhQuality) -> A
     )
 }
 
-/// A closed icosphere subdivided `levels` times (20·4^levels triangles; 8 gives
-/// 1,310,720), its radius displaced by a few sines so the surface is not a sphere (boxes
-/// then overlap as on a scanned mesh). Neighbouring triangles share vertices exactly.
-pub fn displaced_sphere(levels: u32) -> Vec<[Vec3; 3]> {
+/// A closed unit icosphere subdivided `levels` times (20·4^levels triangles): the
+/// vertices, shared exactly between neighbouring triangles, and the triangles as vertex
+/// indices. [`displaced_sphere`] and the packet tests' closed mesh build on it.
+pub fn icosphere(levels: u32) -> (Vec<Vec3>, Vec<[usize; 3]>) {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let mut v: Vec<Vec3> = [
         [-1.0, t, 0.0],
@@ -96,6 +96,14 @@ pub fn displaced_sphere(levels: u32) -> Vec<[Vec3; 3]> {
         }
         faces = next;
     }
+    (v, faces)
+}
+
+/// A closed icosphere subdivided `levels` times (20·4^levels triangles; 8 gives
+/// 1,310,720), its radius displaced by a few sines so the surface is not a sphere (boxes
+/// then overlap as on a scanned mesh). Neighbouring triangles share vertices exactly.
+pub fn displaced_sphere(levels: u32) -> Vec<[Vec3; 3]> {
+    let (v, faces) = icosphere(levels);
     let bump = |p: Vec3| p * (1.0 + 0.08 * (7.0 * p.x).sin() * (5.0 * p.y).cos() + 0.03 * (23.0 * p.z).sin());
     let v: Vec<Vec3> = v.into_iter().map(bump).collect();
     faces.into_iter().map(|[a, b, c]| [v[a], v[b], v[c]]).collect()

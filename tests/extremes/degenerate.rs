@@ -3,6 +3,10 @@
 //! objects.
 
 use super::{assert_finite, rel_rmse, render_in, render_scene};
+use crate::support::toml::{
+    background, camera, dielectric, diffuse, material, mesh, mirror, point_light, quad, quad_light, render_block,
+    sphere, V3,
+};
 use crate::support::{only_pixel, scene_in, try_scene_in, FloorScene, Sphere};
 use glam::Vec3;
 use std::path::Path;
@@ -19,41 +23,22 @@ f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n\
 f 1 2 7\n\
 f 1 1 2\nf 1 5 6\nf 3 3 3\nf 1 8 9\n";
     std::fs::write(dir.path().join("degen.obj"), obj).unwrap();
-    let text = r#"
-[render]
-width = 24
-height = 24
-[render.aa]
-samples = 2
-[render.shadows]
-samples = 2
-[camera]
-position = [1.5, 1.2, 2.5]
-look_at = [0.3, 0.3, 0.3]
-[background]
-color = [0.1, 0.1, 0.1]
-[materials.m]
-type = "MATTYPE"
-MATFIELDS
-[[lights]]
-type = "point"
-position = [2, 3, 2]
-intensity = [5, 5, 5]
-[[lights]]
-type = "quad"
-corner = [-1, 3, -1]
-edge_u = [2, 0, 0]
-edge_v = [0, 0, 2]
-radiance = [3, 3, 3]
-[[objects]]
-type = "mesh"
-file = "degen.obj"
-material = "m"
-"#;
-    for (ty, fields) in
-        [("diffuse", "color = [0.8, 0.8, 0.8]"), ("dielectric", "ior = 1.5"), ("mirror", "color = [0.9, 0.9, 0.9]")]
+    let scene_text = |material: String, mesh_keys: &[&str]| {
+        [
+            render_block(&["width=24", "height=24", "aa.samples=2", "shadows.samples=2"]),
+            camera([1.5, 1.2, 2.5], [0.3; 3], &[]),
+            background([0.1; 3]),
+            material,
+            point_light([2.0, 3.0, 2.0], 5.0),
+            quad_light([-1.0, 3.0, -1.0], [2.0, 0.0, 0.0], [0.0, 0.0, 2.0], 3.0),
+            mesh("degen.obj", "m", mesh_keys),
+        ]
+        .concat()
+    };
+    for (ty, material) in
+        [("diffuse", diffuse("m", [0.8; 3])), ("dielectric", dielectric("m", 1.5)), ("mirror", mirror("m", [0.9; 3]))]
     {
-        let text = text.replace("MATTYPE", ty).replace("MATFIELDS", fields);
+        let text = scene_text(material, &[]);
         let scene = scene_in(dir.path(), &text, &[]);
         // Exact counts.
         assert_eq!(scene.info.degenerate_triangles, 4, "{ty}");
@@ -65,7 +50,7 @@ material = "m"
         }
     }
     // Zero area only after the transform: a scale of 1e-30 underflows every triangle.
-    let text = text.replace("MATTYPE", "diffuse").replace("MATFIELDS", "color = [1, 1, 1]") + "scale = 1e-30\n";
+    let text = scene_text(diffuse("m", [1.0; 3]), &["scale=1e-30"]);
     let scene = scene_in(dir.path(), &text, &[]);
     assert_eq!(scene.info.triangles, 0);
     assert_eq!(scene.info.degenerate_triangles, 9);
@@ -74,60 +59,40 @@ material = "m"
 
 #[test]
 fn zero_area_quad_light_is_rejected_naming_the_field() {
-    let light = |u: &str, v: &str| {
-        format!(
-            "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n\n[[lights]]\ntype = \"quad\"\ncorner = [0, 1, 0]\n\
-             edge_u = {u}\nedge_v = {v}\nradiance = [1, 1, 1]\n"
-        )
-    };
+    let light = |u: V3, v: V3| camera([0.0, 0.0, 5.0], [0.0; 3], &[]) + &quad_light([0.0, 1.0, 0.0], u, v, 1.0);
     // Exact: load fails with an input error that names the file, line and field.
     for (u, v, field, why) in [
-        ("[1, 0, 0]", "[2, 0, 0]", "lights.0.edge_v", "zero area"),
-        ("[1, 2, 3]", "[-2, -4, -6]", "lights.0.edge_v", "zero area"),
-        ("[0, 0, 0]", "[0, 0, 1]", "lights.0.edge_u", "zero-length"),
-        ("[1, 0, 0]", "[0, 0, 0]", "lights.0.edge_v", "zero-length"),
+        ([1.0, 0.0, 0.0], [2.0, 0.0, 0.0], "lights.0.edge_v", "zero area"),
+        ([1.0, 2.0, 3.0], [-2.0, -4.0, -6.0], "lights.0.edge_v", "zero area"),
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], "lights.0.edge_u", "zero-length"),
+        ([1.0, 0.0, 0.0], [0.0, 0.0, 0.0], "lights.0.edge_v", "zero-length"),
     ] {
         let err = match try_scene_in(Path::new("."), &light(u, v), &[]) {
-            Ok(_) => panic!("a zero-area light {u} × {v} was accepted"),
+            Ok(_) => panic!("a zero-area light {u:?} × {v:?} was accepted"),
             Err(e) => e,
         };
         let msg = err.to_string();
         assert_eq!(err.exit_code(), 2, "{msg}");
-        assert!(msg.contains(&format!("field `{field}`")) && msg.contains(why), "{u} × {v}: {msg}");
+        assert!(msg.contains(&format!("field `{field}`")) && msg.contains(why), "{u:?} × {v:?}: {msg}");
         assert!(msg.starts_with("<test>:"), "{msg}");
     }
     // A small light is not a zero-area one: 1e-3 × 1e-3 loads.
-    assert!(try_scene_in(Path::new("."), &light("[1e-3, 0, 0]", "[0, 0, 1e-3]"), &[]).is_ok());
+    assert!(try_scene_in(Path::new("."), &light([1e-3, 0.0, 0.0], [0.0, 0.0, 1e-3]), &[]).is_ok());
 }
 
 #[test]
 fn pinhole_ignores_dof_samples() {
-    let text = r#"
-[render]
-width = 16
-height = 16
-[render.aa]
-samples = 3
-[camera]
-position = [0, 1, 4]
-look_at = [0, 0.5, 0]
-aperture = 0
-[materials.white]
-type = "diffuse"
-color = [0.8, 0.8, 0.8]
-[[lights]]
-type = "point"
-position = [1, 3, 2]
-intensity = [5, 5, 5]
-[[objects]]
-type = "sphere"
-center = [0, 0.5, 0]
-radius = 0.5
-material = "white"
-"#;
+    let text = [
+        render_block(&["width=16", "height=16", "aa.samples=3"]),
+        camera([0.0, 1.0, 4.0], [0.0, 0.5, 0.0], &["aperture=0"]),
+        diffuse("white", [0.8; 3]),
+        point_light([1.0, 3.0, 2.0], 5.0),
+        sphere([0.0, 0.5, 0.0], 0.5, "white"),
+    ]
+    .concat();
     for aa in ["render.aa.mode=uniform", "render.aa.mode=adaptive"] {
-        let one = render_in(Path::new("."), text, &[aa, "render.dof.samples=1"]);
-        let many = render_in(Path::new("."), text, &[aa, "render.dof.samples=16"]);
+        let one = render_in(Path::new("."), &text, &[aa, "render.dof.samples=1"]);
+        let many = render_in(Path::new("."), &text, &[aa, "render.dof.samples=16"]);
         // Exact: the same image bit for bit and the same number of camera rays.
         assert_eq!(one.image, many.image, "{aa}");
         assert_eq!(one.stats.camera_rays, many.stats.camera_rays, "{aa}");
@@ -143,59 +108,35 @@ material = "white"
 fn max_depth_zero_renders_mirrors_black_with_no_secondary_rays() {
     // A mirror filling the view and a glass sphere in front of it; the only light is
     // behind the camera, facing the mirror, so it is seen only by reflection.
-    let text = r#"
-[render]
-width = 16
-height = 16
-[render.aa]
-samples = 2
-[camera]
-position = [0, 0, 5]
-look_at = [0, 0, 0]
-[materials.mirror]
-type = "mirror"
-color = [0.9, 0.9, 0.9]
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-[[lights]]
-type = "quad"
-corner = [-3, -3, 6]
-edge_u = [0, 6, 0]
-edge_v = [6, 0, 0]
-radiance = [2, 2, 2]
-[[objects]]
-type = "quad"
-corner = [-10, -10, 0]
-edge_u = [20, 0, 0]
-edge_v = [0, 20, 0]
-material = "mirror"
-[[objects]]
-type = "sphere"
-center = [0.5, 0.3, 1]
-radius = 0.4
-material = "glass"
-"#;
-    let zero = render_in(Path::new("."), text, &["render.max_depth=0"]);
+    let text = [
+        render_block(&["width=16", "height=16", "aa.samples=2"]),
+        camera([0.0, 0.0, 5.0], [0.0; 3], &[]),
+        mirror("mirror", [0.9; 3]),
+        dielectric("glass", 1.5),
+        quad_light([-3.0, -3.0, 6.0], [0.0, 6.0, 0.0], [6.0, 0.0, 0.0], 2.0),
+        quad([-10.0, -10.0, 0.0], [20.0, 0.0, 0.0], [0.0, 20.0, 0.0], "mirror"),
+        sphere([0.5, 0.3, 1.0], 0.4, "glass"),
+    ]
+    .concat();
+    let zero = render_in(Path::new("."), &text, &["render.max_depth=0"]);
     // Exact: every pixel is 0 and no secondary ray is traced.
     assert!(zero.image.pixels.iter().all(|p| *p == Vec3::ZERO), "max_depth 0: mirrors must be black");
     assert_eq!(zero.stats.secondary_rays, 0);
     assert_eq!(zero.stats.camera_rays, 16 * 16 * 2);
     // The same scene with one bounce shows the light in the mirror (the test can fail).
-    let one = render_in(Path::new("."), text, &["render.max_depth=1"]);
+    let one = render_in(Path::new("."), &text, &["render.max_depth=1"]);
     assert!(one.image.pixels.iter().filter(|p| p.x > 0.5).count() > 100, "max_depth 1 sees the light");
     assert!(one.stats.secondary_rays > 0);
 }
 
 /// The canonical floor scene with a red sphere, adaptive AA levels 2 to 4.
 fn aa_scene() -> String {
-    FloorScene {
-        render: "[render]\nwidth = 24\nheight = 24\n[render.aa]\nmax_level = 4\nmin_level = 2\n[render.shadows]\nsamples = 4\n",
+    let floor = FloorScene {
         materials: vec![FloorScene::diffuse("white", [0.8; 3]), FloorScene::diffuse("red", [0.8, 0.1, 0.1])],
         spheres: vec![Sphere { center: [0.0, 0.5, 0.0], radius: 0.5, material: "red" }],
         ..FloorScene::default()
-    }
-    .toml()
+    };
+    render_block(&["width=24", "height=24", "aa.max_level=4", "aa.min_level=2", "shadows.samples=4"]) + &floor.toml()
 }
 
 #[test]
@@ -249,46 +190,20 @@ fn one_by_one_image_in_every_mode() {
 
 #[test]
 fn no_lights_gives_only_background_and_no_shadow_rays() {
-    let text = r#"
-[render]
-width = 24
-height = 24
-[render.aa]
-samples = 3
-[camera]
-position = [0, 1, 4]
-look_at = [0, 0.4, 0]
-[background]
-color = [0.2, 0.4, 0.8]
-[materials.white]
-type = "diffuse"
-color = [0.8, 0.8, 0.8]
-[materials.mirror]
-type = "mirror"
-color = [1, 1, 1]
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-reflect_ratio = 0.3
-[[objects]]
-type = "quad"
-corner = [-5, 0, -5]
-edge_u = [10, 0, 0]
-edge_v = [0, 0, 10]
-material = "white"
-[[objects]]
-type = "sphere"
-center = [-0.6, 0.5, 0]
-radius = 0.5
-material = "mirror"
-[[objects]]
-type = "sphere"
-center = [0.6, 0.5, 0]
-radius = 0.5
-material = "glass"
-"#;
+    let text = [
+        render_block(&["width=24", "height=24", "aa.samples=3"]),
+        camera([0.0, 1.0, 4.0], [0.0, 0.4, 0.0], &[]),
+        background([0.2, 0.4, 0.8]),
+        diffuse("white", [0.8; 3]),
+        mirror("mirror", [1.0; 3]),
+        material("glass", "dielectric", &["ior=1.5", "reflect_ratio=0.3"]),
+        quad([-5.0, 0.0, -5.0], [10.0, 0.0, 0.0], [0.0, 0.0, 10.0], "white"),
+        sphere([-0.6, 0.5, 0.0], 0.5, "mirror"),
+        sphere([0.6, 0.5, 0.0], 0.5, "glass"),
+    ]
+    .concat();
     for mode in ["render.shadows.mode=uniform", "render.shadows.mode=adaptive"] {
-        let out = render_in(Path::new("."), text, &[mode]);
+        let out = render_in(Path::new("."), &text, &[mode]);
         let s = &out.stats;
         // Exact: no shadow, probe or penumbra rays without lights.
         assert_eq!((s.shadow_rays, s.shadow_corner_rays, s.penumbra_rays), (0, 0, 0), "{mode}");
@@ -308,24 +223,15 @@ material = "glass"
 
 #[test]
 fn no_objects_gives_only_background() {
-    let text = r#"
-[render]
-width = 16
-height = 12
-[render.aa]
-samples = 3
-[camera]
-position = [0, 1, 4]
-look_at = [0, 0.4, 0]
-aperture = 0.1
-[render.dof]
-samples = 2
-[background]
-color = [0.1, 0.2, 0.3]
-"#;
+    let text = [
+        render_block(&["width=16", "height=12", "aa.samples=3", "dof.samples=2"]),
+        camera([0.0, 1.0, 4.0], [0.0, 0.4, 0.0], &["aperture=0.1"]),
+        background([0.1, 0.2, 0.3]),
+    ]
+    .concat();
     let bg = Vec3::new(0.1, 0.2, 0.3);
     for extra in [vec![], vec!["render.aa.mode=adaptive", "render.aa.eps=0"], vec!["render.shadows.mode=adaptive"]] {
-        let out = render_in(Path::new("."), text, &extra);
+        let out = render_in(Path::new("."), &text, &extra);
         let s = &out.stats;
         // Exact: nothing but camera rays.
         assert_eq!((s.shadow_rays, s.shadow_corner_rays, s.penumbra_rays, s.secondary_rays), (0, 0, 0, 0));
@@ -337,10 +243,6 @@ color = [0.1, 0.2, 0.3]
         }
     }
     // A point light alone adds nothing either (it is invisible and lights nothing).
-    let out = render_in(
-        Path::new("."),
-        &format!("{text}[[lights]]\ntype = \"point\"\nposition = [0, 2, 0]\nintensity = [9, 9, 9]\n"),
-        &[],
-    );
+    let out = render_in(Path::new("."), &(text + &point_light([0.0, 2.0, 0.0], 9.0)), &[]);
     assert!(out.image.pixels.iter().all(|p| (*p - bg).abs().max_element() <= 1e-6 * bg.max_element()));
 }

@@ -1,49 +1,32 @@
 //! Grazing rays: a ray at 89.9° to a plane and rays in a triangle's plane or along its
 //! edges hit or miss correctly and never produce NaN.
 
+use crate::support::toml::{camera, dielectric, diffuse, material, mesh, mirror, point_light, quad, quad_light};
 use crate::support::{closest, one_ray, scene_in, step_all};
 use glam::{DVec3, Vec3};
 use std::path::Path;
 use wavetrace::queue::MISS;
 
-const PLANE_SCENE: &str = r#"
-[camera]
-position = [0, 5, 5]
-look_at = [0, 0, 0]
-[materials.white]
-type = "diffuse"
-color = [0.8, 0.8, 0.8]
-specular = [0.5, 0.5, 0.5]
-shininess = 200
-[[lights]]
-type = "point"
-position = [3, 2, 0]
-intensity = [5, 5, 5]
-[[lights]]
-type = "quad"
-corner = [2, 3, -1]
-edge_u = [2, 0, 0]
-edge_v = [0, 0, 2]
-radiance = [3, 3, 3]
-[[objects]]
-type = "quad"
-corner = [-10, 0, -10]
-edge_u = [20, 0, 0]
-edge_v = [0, 0, 20]
-material = "MAT"
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-[materials.mirror]
-type = "mirror"
-color = [1, 1, 1]
-"#;
+/// A plane y = 0, 20 units wide, of material `mat` (`white`, diffuse with a sharp Phong
+/// highlight; `glass`; `mirror`), under a point light and a quad light.
+fn plane_scene(mat: &str) -> String {
+    [
+        camera([0.0, 5.0, 5.0], [0.0; 3], &[]),
+        material("white", "diffuse", &["color=[0.8, 0.8, 0.8]", "specular=[0.5, 0.5, 0.5]", "shininess=200"]),
+        dielectric("glass", 1.5),
+        mirror("mirror", [1.0; 3]),
+        point_light([3.0, 2.0, 0.0], 5.0),
+        quad_light([2.0, 3.0, -1.0], [2.0, 0.0, 0.0], [0.0, 0.0, 2.0], 3.0),
+        quad([-10.0, 0.0, -10.0], [20.0, 0.0, 0.0], [0.0, 0.0, 20.0], mat),
+    ]
+    .concat()
+}
 
 #[test]
 fn ray_at_89_9_degrees_to_a_plane_hits_and_misses_correctly() {
     let a = 0.1f64.to_radians(); // 89.9° from the normal
     for mat in ["white", "glass", "mirror"] {
-        let scene = scene_in(Path::new("."), &PLANE_SCENE.replace("MAT", mat), &["render.shadows.samples=16"]);
+        let scene = scene_in(Path::new("."), &plane_scene(mat), &["render.shadows.samples=16"]);
         for (h, dir_y, expect_hit) in [
             (0.01, -1.0, true),  // lands at x = 5.73, inside the quad
             (0.019, -1.0, true), // lands at x = 10.89: outside (the quad ends at 10)
@@ -96,9 +79,8 @@ fn rays_in_a_triangle_plane_and_along_its_edges_are_finite() {
     // One triangle (0,0,0), (1,0,0), (0,1,0), loaded as a mesh.
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
-    let text = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\n[materials.m]\ntype = \"diffuse\"\n\
-                color = [1, 1, 1]\n[[objects]]\ntype = \"mesh\"\nfile = \"tri.obj\"\nmaterial = \"m\"\n";
-    let scene = scene_in(dir.path(), text, &[]);
+    let text = [camera([0.0, 0.0, 5.0], [0.0; 3], &[]), diffuse("m", [1.0; 3]), mesh("tri.obj", "m", &[])].concat();
+    let scene = scene_in(dir.path(), &text, &[]);
     let tri = scene.accel.prim(0).shape;
     let inf = f32::INFINITY;
     // In the plane, along each edge and through the interior: no hit (the ray is parallel

@@ -23,15 +23,6 @@ use std::path::Path;
 use wavetrace::film::Image;
 use wavetrace::{render, RenderOptions, RenderOutput, Scene};
 
-/// A float as a TOML literal (`{:e}` is always valid TOML: `1e5`, `-3.5e-5`, `0e0`).
-fn num(x: f64) -> String {
-    format!("{x:e}")
-}
-
-fn vec_lit(v: [f64; 3]) -> String {
-    format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
-}
-
 fn render_scene(scene: &Scene) -> RenderOutput {
     render(scene, &RenderOptions { threads: Some(2), ..Default::default() }).expect("render")
 }

@@ -1,7 +1,7 @@
 //! Ray offsets: shadow rays from a plane never hit the plane itself (no acne), and
 //! secondary rays leave the surface they start on, near the origin and far from it.
 
-use super::{num, vec_lit};
+use crate::support::toml::{camera, diffuse, material, mirror, place, point_light, quad, sphere, V3};
 use crate::support::{closest, one_ray, scene_in, step, step_all, Lcg};
 use glam::{DVec3, Vec3};
 use std::path::Path;
@@ -14,19 +14,14 @@ use wavetrace::Scene;
 /// onto a plane y = t.y, lit by a point light straight above, at several scales and
 /// offsets. Counts self-shadowed shading points.
 fn self_shadowed(s: f64, t: [f64; 3]) -> (usize, usize) {
-    let p = |v: [f64; 3]| vec_lit([v[0] * s + t[0], v[1] * s + t[1], v[2] * s + t[2]]);
-    let e = |v: [f64; 3]| vec_lit([v[0] * s, v[1] * s, v[2] * s]);
-    let text = format!(
-        "[camera]\nposition = {}\nlook_at = {}\n[materials.white]\ntype = \"diffuse\"\ncolor = [1, 1, 1]\n\
-         [[lights]]\ntype = \"point\"\nposition = {}\nintensity = [1, 1, 1]\n\
-         [[objects]]\ntype = \"quad\"\ncorner = {}\nedge_u = {}\nedge_v = {}\nmaterial = \"white\"\n",
-        p([0.0, 1.0, 4.0]),
-        p([0.0, 0.0, 0.0]),
-        p([0.0, 100.0, 0.0]),
-        p([-1e3, 0.0, -1e3]),
-        e([2e3, 0.0, 0.0]),
-        e([0.0, 0.0, 2e3]),
-    );
+    let p = |v: V3| place(v, s, t);
+    let text = [
+        camera(p([0.0, 1.0, 4.0]), p([0.0; 3]), &[]),
+        diffuse("white", [1.0; 3]),
+        point_light(p([0.0, 100.0, 0.0]), 1.0),
+        quad(p([-1e3, 0.0, -1e3]), [2e3 * s, 0.0, 0.0], [0.0, 0.0, 2e3 * s], "white"),
+    ]
+    .concat();
     let scene = scene_in(Path::new("."), &text, &[]);
     let mut rays = RayQueue::default();
     let mut rng = Lcg(11);
@@ -76,44 +71,16 @@ fn no_shadow_acne_on_a_plane_through_the_origin_seen_from_far_away() {
 /// A mirror sphere, a glass sphere and a mirror quad at `c`, in a scene with nothing
 /// else: secondary rays must leave the surface they start on.
 fn far_specular(c: [f64; 3], r: f64) -> Scene {
-    let p = |v: [f64; 3]| vec_lit([v[0] * r + c[0], v[1] * r + c[1], v[2] * r + c[2]]);
-    let text = format!(
-        r#"[camera]
-position = {cam}
-look_at = {look}
-[materials.mirror]
-type = "mirror"
-color = [1, 1, 1]
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-reflect_ratio = 0.5
-[[objects]]
-type = "sphere"
-center = {c0}
-radius = {r}
-material = "mirror"
-[[objects]]
-type = "sphere"
-center = {c1}
-radius = {r}
-material = "glass"
-[[objects]]
-type = "quad"
-corner = {qc}
-edge_u = {qu}
-edge_v = {qv}
-material = "mirror"
-"#,
-        cam = p([0.0, 0.0, 10.0]),
-        look = p([0.0, 0.0, 0.0]),
-        c0 = p([0.0, 0.0, 0.0]),
-        c1 = p([5.0, 0.0, 0.0]),
-        r = num(r),
-        qc = p([-20.0, -3.0, -20.0]),
-        qu = vec_lit([40.0 * r, 0.0, 0.0]),
-        qv = vec_lit([0.0, 0.0, 40.0 * r]),
-    );
+    let p = |v: V3| place(v, r, c);
+    let text = [
+        camera(p([0.0, 0.0, 10.0]), p([0.0; 3]), &[]),
+        mirror("mirror", [1.0; 3]),
+        material("glass", "dielectric", &["ior=1.5", "reflect_ratio=0.5"]),
+        sphere(p([0.0; 3]), r, "mirror"),
+        sphere(p([5.0, 0.0, 0.0]), r, "glass"),
+        quad(p([-20.0, -3.0, -20.0]), [40.0 * r, 0.0, 0.0], [0.0, 0.0, 40.0 * r], "mirror"),
+    ]
+    .concat();
     scene_in(Path::new("."), &text, &[])
 }
 

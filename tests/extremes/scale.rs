@@ -1,7 +1,11 @@
 //! Scale and distance from the origin: the same world at 1e-4 … 1e6 times its size or
 //! translated by 1e5 renders the same image.
 
-use super::{mesh_dir, num, rel_rmse, render_in, vec_lit};
+use super::{mesh_dir, rel_rmse, render_in};
+use crate::support::toml::{
+    background, camera, dielectric, diffuse, material, mirror, place, placed_mesh, point_light, quad, quad_light,
+    render_block, sphere, V3,
+};
 
 /// The test world: floor and back wall quads, a diffuse, a mirror and a glass sphere, a
 /// Phong cube mesh, a quad light and a point light, and a camera. Every position is
@@ -9,111 +13,25 @@ use super::{mesh_dir, num, rel_rmse, render_in, vec_lit};
 /// irradiance is unchanged, and the quad light's radiance is unchanged, so the image is
 /// the same at every scale and offset. The floor lies in the plane y = t.y.
 fn world(s: f64, t: [f64; 3]) -> String {
-    let p = |v: [f64; 3]| vec_lit([v[0] * s + t[0], v[1] * s + t[1], v[2] * s + t[2]]);
-    let e = |v: [f64; 3]| vec_lit([v[0] * s, v[1] * s, v[2] * s]);
-    let l = |x: f64| num(x * s);
-    format!(
-        r#"
-[render]
-width = 32
-height = 32
-max_depth = 4
-[render.aa]
-samples = 4
-[render.shadows]
-samples = 4
-
-[camera]
-position = {cam}
-look_at = {look}
-fov_y = 45
-
-[background]
-color = [0.05, 0.07, 0.1]
-
-[materials.white]
-type = "diffuse"
-color = [0.7, 0.7, 0.7]
-[materials.red]
-type = "diffuse"
-color = [0.7, 0.2, 0.15]
-specular = [0.3, 0.3, 0.3]
-shininess = 20
-[materials.mirror]
-type = "mirror"
-color = [0.9, 0.9, 0.9]
-[materials.glass]
-type = "dielectric"
-ior = 1.5
-
-[[lights]]
-type = "quad"
-corner = {lc}
-edge_u = {lu}
-edge_v = {lv}
-radiance = [5, 5, 5]
-[[lights]]
-type = "point"
-position = {pl}
-intensity = {pi}
-
-[[objects]]
-type = "quad"
-corner = {fc}
-edge_u = {fu}
-edge_v = {fv}
-material = "white"
-[[objects]]
-type = "quad"
-corner = {wc}
-edge_u = {wu}
-edge_v = {wv}
-material = "white"
-[[objects]]
-type = "sphere"
-center = {s1}
-radius = {r1}
-material = "white"
-[[objects]]
-type = "sphere"
-center = {s2}
-radius = {r2}
-material = "mirror"
-[[objects]]
-type = "sphere"
-center = {s3}
-radius = {r3}
-material = "glass"
-[[objects]]
-type = "mesh"
-file = "cube.obj"
-material = "red"
-scale = {ms}
-rotate_y = 30
-translate = {mt}
-"#,
-        cam = p([0.0, 1.2, 4.0]),
-        look = p([0.0, 0.4, 0.0]),
-        lc = p([-0.5, 2.5, -0.5]),
-        lu = e([1.0, 0.0, 0.0]),
-        lv = e([0.0, 0.0, 1.0]),
-        pl = p([1.5, 2.0, 2.0]),
-        pi = vec_lit([2.0 * s * s; 3]),
-        fc = p([-3.0, 0.0, -3.0]),
-        fu = e([6.0, 0.0, 0.0]),
-        fv = e([0.0, 0.0, 6.0]),
-        wc = p([-3.0, 0.0, -2.0]),
-        wu = e([6.0, 0.0, 0.0]),
-        wv = e([0.0, 3.0, 0.0]),
-        s1 = p([-0.9, 0.5, -0.5]),
-        r1 = l(0.5),
-        s2 = p([0.9, 0.45, -0.4]),
-        r2 = l(0.45),
-        s3 = p([0.55, 0.25, 1.1]),
-        r3 = l(0.25),
-        ms = l(0.3),
-        mt = p([0.1, 0.35, 0.9]),
-    )
+    let p = |v: V3| place(v, s, t);
+    [
+        render_block(&["width=32", "height=32", "max_depth=4", "aa.samples=4", "shadows.samples=4"]),
+        camera(p([0.0, 1.2, 4.0]), p([0.0, 0.4, 0.0]), &["fov_y=45"]),
+        background([0.05, 0.07, 0.1]),
+        diffuse("white", [0.7; 3]),
+        material("red", "diffuse", &["color=[0.7, 0.2, 0.15]", "specular=[0.3, 0.3, 0.3]", "shininess=20"]),
+        mirror("mirror", [0.9; 3]),
+        dielectric("glass", 1.5),
+        quad_light(p([-0.5, 2.5, -0.5]), [s, 0.0, 0.0], [0.0, 0.0, s], 5.0),
+        point_light(p([1.5, 2.0, 2.0]), 2.0 * s * s),
+        quad(p([-3.0, 0.0, -3.0]), [6.0 * s, 0.0, 0.0], [0.0, 0.0, 6.0 * s], "white"),
+        quad(p([-3.0, 0.0, -2.0]), [6.0 * s, 0.0, 0.0], [0.0, 3.0 * s, 0.0], "white"),
+        sphere(p([-0.9, 0.5, -0.5]), 0.5 * s, "white"),
+        sphere(p([0.9, 0.45, -0.4]), 0.45 * s, "mirror"),
+        sphere(p([0.55, 0.25, 1.1]), 0.25 * s, "glass"),
+        placed_mesh("cube.obj", "red", 0.3 * s, 30.0, p([0.1, 0.35, 0.9])),
+    ]
+    .concat()
 }
 
 /// The world with its mirror and glass spheres made diffuse.
@@ -205,37 +123,15 @@ fn translated_by_1e5_renders_the_same_image() {
 /// (0.15° to 2.2° below the horizon): every pixel hits the plane, and each must match the
 /// untranslated image.
 fn lit_plane(t: [f64; 3]) -> String {
-    let p = |v: [f64; 3]| vec_lit([v[0] + t[0], v[1] + t[1], v[2] + t[2]]);
-    format!(
-        r#"
-[render]
-width = 24
-height = 24
-[render.aa]
-samples = 1
-[camera]
-position = {cam}
-look_at = {look}
-fov_y = 2
-[materials.white]
-type = "diffuse"
-color = [0.8, 0.8, 0.8]
-[[lights]]
-type = "point"
-position = {light}
-intensity = [4e6, 4e6, 4e6]
-[[objects]]
-type = "quad"
-corner = {corner}
-edge_u = [2e4, 0, 0]
-edge_v = [0, 0, 2e4]
-material = "white"
-"#,
-        cam = p([0.0, 0.2, 0.0]),
-        look = p([0.0, 0.0, -10.0]),
-        light = p([0.0, 1000.0, 0.0]),
-        corner = p([-1e4, 0.0, -1e4]),
-    )
+    let p = |v: V3| place(v, 1.0, t);
+    [
+        render_block(&["width=24", "height=24", "aa.samples=1"]),
+        camera(p([0.0, 0.2, 0.0]), p([0.0, 0.0, -10.0]), &["fov_y=2"]),
+        diffuse("white", [0.8; 3]),
+        point_light(p([0.0, 1000.0, 0.0]), 4e6),
+        quad(p([-1e4, 0.0, -1e4]), [2e4, 0.0, 0.0], [0.0, 0.0, 2e4], "white"),
+    ]
+    .concat()
 }
 
 #[test]

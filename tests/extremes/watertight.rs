@@ -1,7 +1,8 @@
 //! Watertight closed meshes: no ray from inside escapes through an edge or a vertex,
 //! near the origin or far from it, tested against the triangles and through the BVH.
 
-use super::{mesh_dir, num, vec_lit};
+use super::mesh_dir;
+use crate::support::toml::{camera, diffuse, placed_mesh};
 use crate::support::{closest, scene_in, Lcg};
 use glam::{DVec3, Vec3};
 
@@ -11,12 +12,8 @@ use glam::{DVec3, Vec3};
 /// triangle test lets none escape the direct test; a conservative BVH none escape at all.
 fn leaks(mesh: &str, translate: [f64; 3], scale: f64) -> (usize, usize, usize) {
     let dir = mesh_dir();
-    let text = format!(
-        "[camera]\nposition = [0, 0, 1e6]\nlook_at = [0, 0, 0]\n[materials.m]\ntype = \"diffuse\"\ncolor = [1, 1, 1]\n\
-         [[objects]]\ntype = \"mesh\"\nfile = \"{mesh}\"\nmaterial = \"m\"\nscale = {}\nrotate_y = 30\ntranslate = {}\n",
-        num(scale),
-        vec_lit(translate)
-    );
+    let object = placed_mesh(mesh, "m", scale, 30.0, translate);
+    let text = [camera([0.0, 0.0, 1e6], [0.0; 3], &[]), diffuse("m", [1.0; 3]), object].concat();
     let scene = scene_in(dir.path(), &text, &[]);
     let centre = DVec3::from_array(translate).as_vec3();
     // The triangles' vertices, transformed exactly as the loader does.

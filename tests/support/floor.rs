@@ -3,6 +3,8 @@
 //! a test changes the parts it needs (struct update syntax) and calls
 //! [`FloorScene::toml`].
 
+use super::toml::{self, V3};
+
 /// A one-sided quad light emitting towards `edge_u × edge_v`, with grey radiance.
 #[derive(Clone, Copy, Debug)]
 pub struct QuadLight {
@@ -48,6 +50,13 @@ pub struct Sphere {
     pub material: &'static str,
 }
 
+impl Sphere {
+    /// A sphere of the default `white` material: an occluder.
+    pub fn white(center: [f32; 3], radius: f32) -> Sphere {
+        Sphere { center, radius, material: "white" }
+    }
+}
+
 /// A floor under a quad light with spheres on it; see the module documentation.
 #[derive(Clone, Debug)]
 pub struct FloorScene {
@@ -86,15 +95,20 @@ impl Default for FloorScene {
     }
 }
 
-/// `[x, y, z]` with each number as Rust prints it (shortest round trip, TOML-valid).
-fn vec3(v: [f32; 3]) -> String {
-    format!("[{}, {}, {}]", v[0], v[1], v[2])
+/// The f64 of the decimal an f32 prints as, so the text shows `0.4`, not the f32's exact
+/// binary value `0.4000000059604645`, and still loads as the same f32.
+fn wide1(x: f32) -> f64 {
+    x.to_string().parse().expect("an f32 prints as a decimal")
+}
+
+fn wide(v: [f32; 3]) -> V3 {
+    v.map(wide1)
 }
 
 impl FloorScene {
     /// A diffuse material table.
     pub fn diffuse(name: &'static str, color: [f32; 3]) -> (&'static str, String) {
-        (name, format!("type = \"diffuse\"\ncolor = {}", vec3(color)))
+        (name, format!("type = \"diffuse\"\ncolor = {}", toml::vec3(wide(color))))
     }
 
     /// The shadow test bench of scenes/penumbra.toml: a 1×1 light of radiance 6 at height
@@ -113,40 +127,20 @@ impl FloorScene {
 
     /// The scene text.
     pub fn toml(&self) -> String {
+        let fov = self.fov_y.map(|f| format!("fov_y={f}"));
         let mut s = String::from(self.render);
-        s += &format!("[camera]\nposition = {}\nlook_at = {}\n", vec3(self.position), vec3(self.look_at));
-        if let Some(fov) = self.fov_y {
-            s += &format!("fov_y = {fov}\n");
-        }
+        s += &toml::camera(wide(self.position), wide(self.look_at), fov.as_deref().as_slice());
         if let Some(c) = self.background {
-            s += &format!("[background]\ncolor = {}\n", vec3(c));
+            s += &toml::background(wide(c));
         }
         for (name, body) in &self.materials {
             s += &format!("[materials.{name}]\n{body}\n");
         }
-        let l = &self.light;
-        s += &format!(
-            "[[lights]]\ntype = \"quad\"\ncorner = {}\nedge_u = {}\nedge_v = {}\nradiance = {}\n",
-            vec3(l.corner),
-            vec3(l.edge_u),
-            vec3(l.edge_v),
-            vec3([l.radiance; 3])
-        );
-        let f = &self.floor;
-        s += &format!(
-            "[[objects]]\ntype = \"quad\"\ncorner = {}\nedge_u = {}\nedge_v = {}\nmaterial = \"{}\"\n",
-            vec3(f.corner),
-            vec3(f.edge_u),
-            vec3(f.edge_v),
-            f.material
-        );
+        let (l, f) = (&self.light, &self.floor);
+        s += &toml::quad_light(wide(l.corner), wide(l.edge_u), wide(l.edge_v), wide1(l.radiance));
+        s += &toml::quad(wide(f.corner), wide(f.edge_u), wide(f.edge_v), f.material);
         for sp in &self.spheres {
-            s += &format!(
-                "[[objects]]\ntype = \"sphere\"\ncenter = {}\nradius = {}\nmaterial = \"{}\"\n",
-                vec3(sp.center),
-                sp.radius,
-                sp.material
-            );
+            s += &toml::sphere(wide(sp.center), wide1(sp.radius), sp.material);
         }
         s
     }

@@ -1,12 +1,13 @@
 //! Shared fixtures for the integration tests: scene loading, renders, error metrics,
-//! single rays through the stages, a seeded generator, and the floor scene builder
-//! ([`FloorScene`]).
+//! single rays through the stages, a seeded generator, the floor scene builder
+//! ([`FloorScene`]), and scene text written table by table ([`toml`]).
 //!
 //! A single-file test reaches it with `mod support;`, a folder test crate with
 //! `#[path = "../support/mod.rs"] mod support;`.
 #![allow(dead_code)]
 
 mod floor;
+pub mod toml;
 
 // Not every test crate uses every part of the builder.
 #[allow(unused_imports)]
@@ -118,7 +119,14 @@ pub fn step_all(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue, ShadowQu
     let mut tracer = Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false);
     intersect::intersect(&mut tracer, rays, Coherence::Camera, &mut hits);
     let (mut points, mut surfaces) = (ShadowPointQueue::default(), SurfaceQueue::default());
-    shade::shade(scene, rays, &hits, &mut shadow, &mut points, &mut surfaces, &mut spec, &mut film);
+    let out = shade::Shaded {
+        shadow: &mut shadow,
+        points: &mut points,
+        surfaces: &mut surfaces,
+        specular: &mut spec,
+        film: &mut film,
+    };
+    shade::shade(scene, rays, &hits, out);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next, &mut ShadowQueue::default());
     (next, hits, shadow, film)
