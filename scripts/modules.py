@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """The module map of src/ and the architecture rules it must keep.
 
-Prints which top-level modules each module uses (`crate::X` paths), then checks: no
-import cycle between top-level modules, nor between the modules of any folder (the
+Prints which top-level modules each module uses (`crate::X` paths), then checks: the core
+modules keep the layer order of LAYERS (each uses only those above it; hence no cycle
+between them), no import cycle between the modules of any folder (the
 sibling files and subfolders of `src/accel/`, `src/accel/wbvh/`, ...: a `crate::`,
 `super::` or `self::` path from anywhere below one sibling into another is an edge; a
 folder's own `mod.rs` is the parent, not a sibling), no stage (src/stages/*.rs) using another stage
@@ -22,6 +23,12 @@ SRC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "src")
 MAX_LINES = 800
 MAX_DRIVER_FN = 60
 MAX_PARAMS = 6
+# The renderer core, top to bottom (docs/architecture.md's module map): a module uses
+# only the modules above it. The tools (src/tools/, src/cli/) may use any of them.
+LAYERS = [
+    "error", "color", "simd", "sampling", "film", "system", "microfacet", "motion", "texture",
+    "queue", "accel", "scene", "surface", "light", "stages", "stats", "render",
+]
 
 
 def functions(text):
@@ -226,6 +233,14 @@ def main():
             print(f"{m:10} -> {', '.join(sorted(uses[m])) or '(nothing)'}")
 
     ok = True
+    for m in sorted(uses):
+        if m not in LAYERS and m not in ("tools", "cli"):
+            print(f"module `{m}` is in no layer of LAYERS (scripts/modules.py, docs/architecture.md)")
+            ok = False
+        for d in sorted(uses[m]):
+            if m in LAYERS and (d not in LAYERS or LAYERS.index(d) >= LAYERS.index(m)):
+                print(f"layer order: `{m}` uses `{d}`, which is not above it (LAYERS)")
+                ok = False
     for c in find_cycles(uses):
         print("import cycle: " + " -> ".join(c))
         ok = False
@@ -249,7 +264,7 @@ def main():
         ok = False
     if ok:
         print(
-            f"modules ok: {len(uses)} top-level modules, no cycle between them or inside a folder, no stage using another or tracing a single ray, "
+            f"modules ok: {len(uses)} top-level modules in layer order, no cycle inside a folder, no stage using another or tracing a single ray, "
             f"no queue column grown outside queue.rs, "
             f"no file over {MAX_LINES} "
             f"lines, no driver function over {MAX_DRIVER_FN} lines, no unexplained parameter list over {MAX_PARAMS}"

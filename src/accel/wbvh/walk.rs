@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{Block, LeafRef, Sheared, Tris, WideBvh, LEAF_FLAG};
+use super::{Block, LeafRef, Node, Sheared, Tris, WideBvh, LEAF_FLAG};
 use crate::accel::{cull_at, lanes_of, nearer, tie_limit, Ray, SlabRay, Traversal, WIDEN};
 use crate::simd::{Vector, LANES};
 
@@ -57,8 +57,9 @@ impl<S: Vector> Walker<S> {
 
     /// Visits the current node (tests its children's boxes, nearest first when `ORDER`,
     /// in slot order for any-hit) or leaf (`leaf(ray, block, lanes)` tests the leaf's
-    /// lanes of each of its blocks, may lower `ray.tmax`, and says whether to go on), then moves to the next; false when the walk
-    /// is over. `stack` is long enough for the tree's depth ([`WideBvh::stack_len`]).
+    /// lanes of each of its blocks, may lower `ray.tmax`, and says whether to go on), then
+    /// moves to the next; false when the walk is over. `stack` is long enough for the
+    /// tree's depth ([`WideBvh::stack_len`]).
     #[inline(always)]
     fn step<const COUNT: bool, const ORDER: bool>(
         &mut self,
@@ -67,113 +68,160 @@ impl<S: Vector> Walker<S> {
         c: &mut Traversal,
         leaf: &mut impl FnMut(&mut SlabRay, &Block, u32) -> Leaf,
     ) -> bool {
-        let (o, inv) = (&self.o, &self.inv);
         let current = self.current;
         if current & LEAF_FLAG != 0 {
-            let l = LeafRef::of(current);
-            for block in &tree.blocks[l.first..l.first + l.blocks] {
-                let lanes = l.lanes & block.lanes();
-                if COUNT {
-                    c.prims += lanes.count_ones() as u64;
-                }
-                if let Leaf::Stop = leaf(&mut self.ray, block, lanes) {
-                    return false;
-                }
+            if !self.visit_leaf::<COUNT>(tree, c, leaf) {
+                return false;
             }
-            self.cull = cull_at(self.ray.tmax, self.slack);
         } else {
             let node = &tree.nodes[current as usize];
-            // The scalar slab test's min(t1, t2) and max(t1, t2): `(bound − o) · inv`
-            // is monotone in the bound, so these are its values bit for bit.
-            let t1 = [0, 1, 2].map(|k| (node.bounds[0][k] - o[k]) * inv[k]);
-            let t2 = [0, 1, 2].map(|k| (node.bounds[1][k] - o[k]) * inv[k]);
-            let near = t1[0].fast_min(t2[0]).fast_max(t1[1].fast_min(t2[1])).fast_max(t1[2].fast_min(t2[2]));
-            let far =
-                t1[0].fast_max(t2[0]).fast_min(t1[1].fast_max(t2[1])).fast_min(t1[2].fast_max(t2[2])) * S::splat(WIDEN);
-            let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(S::splat(self.cull));
-            let mut bits = hit.bits() & node.valid;
-            if COUNT {
-                c.nodes += node.valid.count_ones() as u64;
-            }
-            let mut top = self.top;
+            let (bits, near) = self.hit_children::<COUNT>(node, c);
             if bits & (bits.wrapping_sub(1)) == 0 {
                 if bits != 0 {
                     self.current = node.child[bits.trailing_zeros() as usize];
                     return true;
                 }
-            } else if !ORDER {
-                // Any-hit: the order does not change the answer, so skip the sort
-                // (as Embree's occlusion traversal does).
-                // Every hit child is pushed in slot order without a branch per child
-                // (each slot is stored, and the top moves past it only if it was hit:
-                // where the hit children stop is data the branch predictor cannot
-                // learn), then the last is taken off again and visited straight from
-                // the node, not through a store and a load.
-                // Only the child is stored: an any-hit walk pops without the culling
-                // test (the box test was against the same cull). `j ≤ i < LANES`, so
-                // the mask changes no index; it only spares a bounds check per slot.
-                let slots = &mut stack[top..top + S::WIDTH];
-                let mut j = 0;
-                for (i, &child) in node.child.iter().enumerate().take(S::WIDTH) {
-                    slots[j & (S::WIDTH - 1)].0 = child;
-                    j += (bits >> i) as usize & 1;
-                }
-                top += j;
-                top -= 1;
-                // The new top of the stack is visited next after this subtree: start
-                // its loads now (one prefetch; every pushed child's was slower).
-                tree.prefetch(stack[top - 1].0);
-                self.top = top;
-                self.current = node.child[(31 - bits.leading_zeros()) as usize];
-                return true;
             } else {
-                let mut t = [0.0f32; LANES];
-                near.store(&mut t);
-                // The first two hit children: the nearer is visited next, the other
-                // pushed (a tie visits the later slot first, as the sort below does).
-                let i = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let k = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let (a, b) = ((node.child[i], t[i]), (node.child[k], t[k]));
-                let (near, far) = if a.1 < b.1 { (a, b) } else { (b, a) };
-                // The far children are visited later, if not culled by then: start
-                // their loads now (a walk waits on memory most of its time).
-                tree.prefetch(far.0);
-                if bits == 0 {
-                    // Two hits, the most common case past one: no sort.
-                    stack[top] = far;
-                    self.top = top + 1;
-                    self.current = near.0;
-                    return true;
+                if ORDER {
+                    self.push_nearest_first(tree, node, bits, near, stack);
+                } else {
+                    self.push_any_order(tree, node, bits, stack);
                 }
-                // More: push them all, insertion-sorting the pushed ones farthest
-                // first, so the nearest is on top (ties keep slot order: deterministic).
-                let base = top;
-                stack[top] = far;
-                stack[top + 1] = near;
-                top += 2;
-                while bits != 0 {
-                    let i = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    let e = (node.child[i], t[i]);
-                    tree.prefetch(e.0);
-                    let mut j = top;
-                    while j > base && stack[j - 1].1 < e.1 {
-                        stack[j] = stack[j - 1];
-                        j -= 1;
-                    }
-                    stack[j] = e;
-                    top += 1;
-                }
-                top -= 1;
-                self.top = top;
-                self.current = stack[top].0;
                 return true;
             }
         }
-        // Next: the most recently saved child that the ray, as it stands, still enters
-        // before its tmax (the same culling rule as the box test).
+        self.pop::<ORDER>(tree, stack)
+    }
+
+    /// Tests the current leaf's lanes of each of its blocks (`leaf`); false when it says
+    /// stop. The culling distance follows the ray's `tmax`.
+    #[inline(always)]
+    fn visit_leaf<const COUNT: bool>(
+        &mut self,
+        tree: &WideBvh<S>,
+        c: &mut Traversal,
+        leaf: &mut impl FnMut(&mut SlabRay, &Block, u32) -> Leaf,
+    ) -> bool {
+        let l = LeafRef::of(self.current);
+        for block in &tree.blocks[l.first..l.first + l.blocks] {
+            let lanes = l.lanes & block.lanes();
+            if COUNT {
+                c.prims += lanes.count_ones() as u64;
+            }
+            if let Leaf::Stop = leaf(&mut self.ray, block, lanes) {
+                return false;
+            }
+        }
+        self.cull = cull_at(self.ray.tmax, self.slack);
+        true
+    }
+
+    /// The children of `node` the ray enters before the culling distance (bit k: slot k),
+    /// and their entry distances.
+    #[inline(always)]
+    fn hit_children<const COUNT: bool>(&self, node: &Node<S>, c: &mut Traversal) -> (u32, S) {
+        let (o, inv) = (&self.o, &self.inv);
+        // The scalar slab test's min(t1, t2) and max(t1, t2): `(bound − o) · inv`
+        // is monotone in the bound, so these are its values bit for bit.
+        let t1 = [0, 1, 2].map(|k| (node.bounds[0][k] - o[k]) * inv[k]);
+        let t2 = [0, 1, 2].map(|k| (node.bounds[1][k] - o[k]) * inv[k]);
+        let near = t1[0].fast_min(t2[0]).fast_max(t1[1].fast_min(t2[1])).fast_max(t1[2].fast_min(t2[2]));
+        let far =
+            t1[0].fast_max(t2[0]).fast_min(t1[1].fast_max(t2[1])).fast_min(t1[2].fast_max(t2[2])) * S::splat(WIDEN);
+        let hit = far.ge(near) & far.ge(S::splat(0.0)) & near.lt(S::splat(self.cull));
+        if COUNT {
+            c.nodes += node.valid.count_ones() as u64;
+        }
+        (hit.bits() & node.valid, near)
+    }
+
+    /// Any-hit, two or more children hit (`bits`): the order does not change the answer,
+    /// so skip the sort (as Embree's occlusion traversal does). Every hit child is pushed
+    /// in slot order without a branch per child (each slot is stored, and the top moves
+    /// past it only if it was hit: where the hit children stop is data the branch
+    /// predictor cannot learn), then the last is taken off again and visited straight
+    /// from the node, not through a store and a load. Only the child is stored: an any-hit
+    /// walk pops without the culling test (the box test was against the same cull).
+    #[inline(always)]
+    fn push_any_order(&mut self, tree: &WideBvh<S>, node: &Node<S>, bits: u32, stack: &mut [(u32, f32)]) {
+        let mut top = self.top;
+        // `j ≤ i < LANES`, so the mask changes no index; it only spares a bounds check per
+        // slot.
+        let slots = &mut stack[top..top + S::WIDTH];
+        let mut j = 0;
+        for (i, &child) in node.child.iter().enumerate().take(S::WIDTH) {
+            slots[j & (S::WIDTH - 1)].0 = child;
+            j += (bits >> i) as usize & 1;
+        }
+        top += j;
+        top -= 1;
+        // The new top of the stack is visited next after this subtree: start its loads
+        // now (one prefetch; every pushed child's was slower).
+        tree.prefetch(stack[top - 1].0);
+        self.top = top;
+        self.current = node.child[(31 - bits.leading_zeros()) as usize];
+    }
+
+    /// Closest hit, two or more children hit (`bits`, entered at `near`): the nearest is
+    /// visited next, the others pushed farthest first.
+    #[inline(always)]
+    fn push_nearest_first(
+        &mut self,
+        tree: &WideBvh<S>,
+        node: &Node<S>,
+        mut bits: u32,
+        near: S,
+        stack: &mut [(u32, f32)],
+    ) {
+        let mut top = self.top;
+        let mut t = [0.0f32; LANES];
+        near.store(&mut t);
+        // The first two hit children: the nearer is visited next, the other pushed (a tie
+        // visits the later slot first, as the sort below does).
+        let i = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        let k = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        let (a, b) = ((node.child[i], t[i]), (node.child[k], t[k]));
+        let (near, far) = if a.1 < b.1 { (a, b) } else { (b, a) };
+        // The far children are visited later, if not culled by then: start their loads
+        // now (a walk waits on memory most of its time).
+        tree.prefetch(far.0);
+        if bits == 0 {
+            // Two hits, the most common case past one: no sort.
+            stack[top] = far;
+            self.top = top + 1;
+            self.current = near.0;
+            return;
+        }
+        // More: push them all, insertion-sorting the pushed ones farthest first, so the
+        // nearest is on top (ties keep slot order: deterministic).
+        let base = top;
+        stack[top] = far;
+        stack[top + 1] = near;
+        top += 2;
+        while bits != 0 {
+            let i = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let e = (node.child[i], t[i]);
+            tree.prefetch(e.0);
+            let mut j = top;
+            while j > base && stack[j - 1].1 < e.1 {
+                stack[j] = stack[j - 1];
+                j -= 1;
+            }
+            stack[j] = e;
+            top += 1;
+        }
+        top -= 1;
+        self.top = top;
+        self.current = stack[top].0;
+    }
+
+    /// Moves to the most recently saved child that the ray, as it stands, still enters
+    /// before its tmax (the same culling rule as the box test); false when none is left.
+    #[inline(always)]
+    fn pop<const ORDER: bool>(&mut self, tree: &WideBvh<S>, stack: &[(u32, f32)]) -> bool {
         let mut top = self.top;
         loop {
             if top == 0 {
