@@ -182,6 +182,12 @@ struct Labels<'a> {
     flip: &'a dyn Fn(f64) -> bool,
 }
 
+/// A point as drawn: x, y, whether it is on its series' Pareto front, and its label.
+type Dot<'a> = (f64, f64, bool, &'a str);
+
+/// The chart of one plot, with the axis kinds still open (linear or log).
+type Chart<'a, 'b, X, Y> = ChartContext<'a, BitMapBackend<'b>, Cartesian2d<X, Y>>;
+
 /// Draws the chart on `root`; generic over the axis kinds (linear or log).
 fn draw<X, Y>(
     root: &DrawingArea<BitMapBackend, Shift>,
@@ -197,27 +203,15 @@ where
     X::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
     Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
-    let err = |e: &dyn std::fmt::Display| e.to_string();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
     let mut chart = ChartBuilder::on(root)
         .caption(labels.title, ("sans-serif", 22))
         .margin(16)
         .x_label_area_size(48)
         .y_label_area_size(80)
         .build_cartesian_2d(x_spec, y_spec)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc(labels.x)
-        .y_desc(labels.y)
-        .x_label_formatter(&|v| tick(*v))
-        .y_label_formatter(&|v| tick(*v))
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .light_line_style(RGBColor(235, 235, 235))
-        .bold_line_style(RGBColor(205, 205, 205))
-        .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(|e| e.to_string())?;
+    draw_mesh(&mut chart, labels)?;
 
     // Pixel boxes of the labels drawn so far, over all series: a label that would overlap
     // one is left out (its point stays filled; the CSV has every value).
@@ -229,59 +223,9 @@ where
         if s.points.is_empty() {
             continue;
         }
-        let pts: Vec<(f64, f64, bool, &str)> = s
-            .points
-            .iter()
-            .enumerate()
-            .filter(|(_, &(x, y))| keep(x, y))
-            .map(|(k, &(x, y))| {
-                (x, y, s.pareto.get(k).copied().unwrap_or(false), s.labels.get(k).map_or("", String::as_str))
-            })
-            .collect();
-        let mut front: Vec<(f64, f64)> = pts.iter().filter(|p| p.2).map(|p| (p.0, p.1)).collect();
-        front.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.total_cmp(&a.1)));
-        chart.draw_series(LineSeries::new(front, color.stroke_width(2))).map_err(|e| err(&e))?;
-        chart
-            .draw_series(pts.iter().map(|&(x, y, on_front, _)| {
-                let style = if on_front { color.filled() } else { color.stroke_width(2) };
-                Circle::new((x, y), 5, style)
-            }))
-            .map_err(|e| err(&e))?
-            .label(s.name.as_str())
-            .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
-        // Front points are labelled. Points at the same place get one label; when their
-        // labels differ, it says how many others are hidden under it.
-        let mut labelled: Vec<(f64, f64, &str, usize)> = Vec::new();
-        for &(x, y, on_front, text) in &pts {
-            if !on_front || text.is_empty() {
-                continue;
-            }
-            match labelled.iter_mut().find(|l| l.0 == x && l.1 == y) {
-                Some(l) if l.2 != text => l.3 += 1,
-                Some(_) => {}
-                None => labelled.push((x, y, text, 0)),
-            }
-        }
-        let style = ("sans-serif", 12).into_font().color(&color);
-        let left = style.pos(Pos::new(HPos::Right, VPos::Center));
-        let right = style.pos(Pos::new(HPos::Left, VPos::Center));
-        let mut texts = Vec::new();
-        for &(x, y, text, more) in &labelled {
-            let text = if more > 0 { format!("{text} (+{more} more)") } else { text.to_string() };
-            let (tw, th) = root.estimate_text_size(&text, &style).map_err(|e| err(&e))?;
-            let (tw, th) = (tw as i32, th as i32);
-            let (px, py) = chart.backend_coord(&(x, y));
-            let flip = (labels.flip)(x);
-            let x0 = if flip { px - 9 - tw } else { px + 9 };
-            let b = (x0, py - th / 2, x0 + tw, py + th / 2);
-            if taken.iter().any(|t| b.0 < t.2 && t.0 < b.2 && b.1 < t.3 && t.1 < b.3) {
-                continue;
-            }
-            taken.push(b);
-            let (dx, style) = if flip { (-9, left.clone()) } else { (9, right.clone()) };
-            texts.push(EmptyElement::at((x, y)) + Text::new(text, (dx, 0), style));
-        }
-        chart.draw_series(texts).map_err(|e| err(&e))?;
+        let dots = kept_dots(s, keep);
+        draw_dots(&mut chart, &dots, color, &s.name)?;
+        draw_labels(&mut chart, root, labels.flip, &front_labels(&dots), color, &mut taken)?;
     }
     chart
         .configure_series_labels()
@@ -290,7 +234,120 @@ where
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// Draws the axes, their titles and tick labels, and the grid.
+fn draw_mesh<X, Y>(chart: &mut Chart<X, Y>, labels: &Labels) -> std::result::Result<(), String>
+where
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    chart
+        .configure_mesh()
+        .x_desc(labels.x)
+        .y_desc(labels.y)
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .light_line_style(RGBColor(235, 235, 235))
+        .bold_line_style(RGBColor(205, 205, 205))
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
+/// The series' points that have a place on the axes, with their front flag and label.
+fn kept_dots<'a>(s: &'a Series, keep: &dyn Fn(f64, f64) -> bool) -> Vec<Dot<'a>> {
+    s.points
+        .iter()
+        .enumerate()
+        .filter(|(_, &(x, y))| keep(x, y))
+        .map(|(k, &(x, y))| {
+            (x, y, s.pareto.get(k).copied().unwrap_or(false), s.labels.get(k).map_or("", String::as_str))
+        })
+        .collect()
+}
+
+/// Draws one series: its front joined in x order, front points filled and the others
+/// hollow, and its legend entry.
+fn draw_dots<X, Y>(
+    chart: &mut Chart<X, Y>,
+    dots: &[Dot],
+    color: RGBColor,
+    name: &str,
+) -> std::result::Result<(), String>
+where
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let mut front: Vec<(f64, f64)> = dots.iter().filter(|p| p.2).map(|p| (p.0, p.1)).collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.total_cmp(&a.1)));
+    chart.draw_series(LineSeries::new(front, color.stroke_width(2))).map_err(|e| e.to_string())?;
+    chart
+        .draw_series(dots.iter().map(|&(x, y, on_front, _)| {
+            let style = if on_front { color.filled() } else { color.stroke_width(2) };
+            Circle::new((x, y), 5, style)
+        }))
+        .map_err(|e| e.to_string())?
+        .label(name)
+        .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
+    Ok(())
+}
+
+/// The labels of the front points: points at the same place get one label; when their
+/// labels differ, the count of the others hidden under it comes with it.
+fn front_labels<'a>(dots: &[Dot<'a>]) -> Vec<(f64, f64, &'a str, usize)> {
+    let mut labelled: Vec<(f64, f64, &str, usize)> = Vec::new();
+    for &(x, y, on_front, text) in dots {
+        if !on_front || text.is_empty() {
+            continue;
+        }
+        match labelled.iter_mut().find(|l| l.0 == x && l.1 == y) {
+            Some(l) if l.2 != text => l.3 += 1,
+            Some(_) => {}
+            None => labelled.push((x, y, text, 0)),
+        }
+    }
+    labelled
+}
+
+/// Writes the front labels of one series beside their points (to the left where `flip`
+/// says so), leaving out each one that would overlap a box in `taken`, and adds the boxes
+/// of those written to `taken`.
+fn draw_labels<X, Y>(
+    chart: &mut Chart<X, Y>,
+    root: &DrawingArea<BitMapBackend, Shift>,
+    flip: &dyn Fn(f64) -> bool,
+    labelled: &[(f64, f64, &str, usize)],
+    color: RGBColor,
+    taken: &mut Vec<(i32, i32, i32, i32)>,
+) -> std::result::Result<(), String>
+where
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let style = ("sans-serif", 12).into_font().color(&color);
+    let left = style.pos(Pos::new(HPos::Right, VPos::Center));
+    let right = style.pos(Pos::new(HPos::Left, VPos::Center));
+    let mut texts = Vec::new();
+    for &(x, y, text, more) in labelled {
+        let text = if more > 0 { format!("{text} (+{more} more)") } else { text.to_string() };
+        let (tw, th) = root.estimate_text_size(&text, &style).map_err(|e| e.to_string())?;
+        let (tw, th) = (tw as i32, th as i32);
+        let (px, py) = chart.backend_coord(&(x, y));
+        let flip = flip(x);
+        let x0 = if flip { px - 9 - tw } else { px + 9 };
+        let b = (x0, py - th / 2, x0 + tw, py + th / 2);
+        if taken.iter().any(|t| b.0 < t.2 && t.0 < b.2 && b.1 < t.3 && t.1 < b.3) {
+            continue;
+        }
+        taken.push(b);
+        let (dx, style) = if flip { (-9, left.clone()) } else { (9, right.clone()) };
+        texts.push(EmptyElement::at((x, y)) + Text::new(text, (dx, 0), style));
+    }
+    chart.draw_series(texts).map_err(|e| e.to_string())?;
     Ok(())
 }
 

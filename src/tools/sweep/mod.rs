@@ -26,13 +26,14 @@ use serde::ser::{SerializeMap, Serializer};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-use crate::film::Image;
-use crate::scene::{load, AaMode, SceneSource, Settings, ShadowMode};
-use crate::tools::compare::{load_linear, metrics, Metrics};
-use crate::tools::output::{check_output, write_image, write_text};
+use crate::scene::{AaMode, Settings, ShadowMode};
+use crate::tools::compare::Metrics;
+use crate::tools::output::{check_output, write_text};
 #[cfg(feature = "plot")]
 use crate::tools::plot::{scatter_plot, Axis, Series};
-use crate::{render, Error, RenderOptions, Result};
+use crate::{Error, RenderOptions, Result};
+use measure::Progress;
+use plan::Plan;
 
 /// Default `--reference-spp`.
 pub const DEFAULT_REFERENCE_SPP: u32 = 1024;
@@ -383,188 +384,22 @@ fn ordered_map<S: Serializer, K: AsRef<str>, V: Serialize>(
 /// measures it, and writes `sweep.csv`, `sweep.json`, `error_vs_rays.png` and
 /// `error_vs_seconds.png` (the plots with the `plot` feature) into the output folder.
 pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
-    let mut seen = std::collections::HashSet::new();
-    for (key, values) in &opts.params {
-        if !seen.insert(key.as_str()) {
-            return Err(Error::input(format!("--param `{key}` is given twice")));
-        }
-        if values.is_empty() {
-            return Err(Error::input(format!("--param `{key}` has no values")));
-        }
-    }
-    let src = match &opts.scene {
-        Some(p) => SceneSource::from_file(p)?,
-        None => SceneSource::default_scene(),
-    };
-    let base = load(&src, &opts.sets)?.settings;
-
-    // Validate every point before rendering anything. A failing point is retried one
-    // assignment at a time so the message can name the value that is wrong by itself.
-    let points = cross_product(&opts.params);
-    let mut settings = Vec::with_capacity(points.len());
-    for point in &points {
-        match load(&src, &overrides(&opts.sets, point)) {
-            Ok(scene) => settings.push(scene.settings),
-            Err(e) => {
-                let culprit =
-                    point.iter().find(|a| load(&src, &overrides(&opts.sets, std::slice::from_ref(a))).is_err());
-                return Err(match culprit {
-                    Some((k, v)) => Error::input(format!("--param {k}={v}: {e}")),
-                    None => Error::input(format!("sweep point {}: {e}", describe(point))),
-                });
-            }
-        }
-    }
-
-    // The reference: a given file, or the cached or new render. Sizes are checked now.
-    let (ref_path, ref_image, spp, ref_overrides) = match &opts.reference {
-        Reference::File(p) => {
-            if !p.is_file() {
-                return Err(Error::input(format!("--reference `{}`: no such file", p.display())));
-            }
-            (p.clone(), Some(load_linear(p)?), None, Vec::new())
-        }
-        Reference::Spp(0) => return Err(Error::input("--reference-spp must be at least 1")),
-        Reference::Spp(_) if !cfg!(feature = "exr") => {
-            return Err(Error::input(format!(
-                "the sweep's rendered reference is cached as EXR: {}; or give a PNG --reference",
-                crate::tools::output::NEEDS_EXR
-            )))
-        }
-        Reference::Spp(spp) => {
-            let ov = reference_overrides(&base, &opts.params, *spp);
-            let mut key = format!("wavetrace sweep reference\0{}\0", env!("CARGO_PKG_VERSION")).into_bytes();
-            for part in [src.text.as_str(), &src.dir.display().to_string()]
-                .into_iter()
-                .chain(opts.sets.iter().map(String::as_str))
-                .chain(ov.iter().map(String::as_str))
-            {
-                key.extend_from_slice(part.as_bytes());
-                key.push(0);
-            }
-            let path = opts.out_dir.join(format!("reference-{:016x}.exr", fnv1a64(&key)));
-            (path, None, Some(*spp), ov)
-        }
-    };
-    let ref_size = match &ref_image {
-        Some(img) => (img.width, img.height),
-        None => {
-            let all: Vec<String> = opts.sets.iter().chain(&ref_overrides).cloned().collect();
-            let s = load(&src, &all)
-                .map_err(|e| Error::input(format!("reference ({}): {e}", ref_overrides.join(", "))))?
-                .settings;
-            (s.width, s.height)
-        }
-    };
-    for (point, s) in points.iter().zip(&settings) {
-        if (s.width, s.height) != ref_size {
-            return Err(Error::input(format!(
-                "reference `{}` is {}×{} but sweep point {} renders {}×{}",
-                ref_path.display(),
-                ref_size.0,
-                ref_size.1,
-                describe(point),
-                s.width,
-                s.height
-            )));
-        }
-    }
-
-    prepare_dir(&opts.out_dir)?;
-    let names: &[&str] =
-        if cfg!(feature = "plot") { &[CSV_FILE, JSON_FILE, RAYS_PLOT, SECONDS_PLOT] } else { &[CSV_FILE, JSON_FILE] };
-    let files: Vec<PathBuf> = names.iter().map(|f| opts.out_dir.join(f)).collect();
-    for f in &files {
-        check_output(f)?;
-    }
+    // Everything a user can get wrong is checked before the first render.
+    let plan = Plan::new(opts)?;
+    let mut source = plan.reference_source()?;
+    plan.check_sizes(&source)?;
+    let files = output_files(&opts.out_dir)?;
 
     let render_opts = RenderOptions { threads: opts.threads, ..Default::default() };
-    // A cached reference that cannot be read back, or has the wrong size, is rendered anew.
-    let cached = match (&ref_image, spp) {
-        (None, Some(_)) if ref_path.is_file() => {
-            load_linear(&ref_path).ok().filter(|i| (i.width, i.height) == ref_size)
-        }
-        _ => None,
-    };
-    let needs_render = ref_image.is_none() && cached.is_none();
-    let bar = opts.progress.then(|| {
-        let pb = indicatif::ProgressBar::new(points.len() as u64 + needs_render as u64);
-        pb.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} renders {msg}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        // A reference render can take minutes: keep the clock moving between renders.
-        pb.enable_steady_tick(std::time::Duration::from_millis(250));
-        pb
-    });
-    let say = |msg: String| {
-        if let Some(pb) = &bar {
-            pb.set_message(msg);
-        }
-    };
-    let step = || {
-        if let Some(pb) = &bar {
-            pb.inc(1);
-        }
-    };
-
-    let mut info = ReferenceInfo {
-        path: ref_path.clone(),
-        spp,
-        rendered: false,
-        overrides: ref_overrides.clone(),
-        seconds: None,
-        total_rays: None,
-    };
-    let reference: Image = match (ref_image, cached) {
-        (Some(img), _) | (None, Some(img)) => img,
-        (None, None) => {
-            say("reference".into());
-            let all: Vec<String> = opts.sets.iter().chain(&ref_overrides).cloned().collect();
-            let scene = load(&src, &all)?;
-            let out = render(&scene, &render_opts)?;
-            write_image(&ref_path, &out.image)?;
-            step();
-            info.rendered = true;
-            info.seconds = Some(out.seconds);
-            info.total_rays = Some(out.stats.total_rays());
-            out.image
-        }
-    };
-
-    let mut rows = Vec::with_capacity(points.len());
-    let mut threads = opts.threads.unwrap_or(0);
-    for point in &points {
-        say(describe(point));
-        let scene = load(&src, &overrides(&opts.sets, point))?;
-        let out = render(&scene, &render_opts)?;
-        threads = out.per_thread.len();
-        let m = metrics(&out.image, &reference).map_err(|e| {
-            Error::input(format!("sweep point {} against `{}`: {e}", describe(point), ref_path.display()))
-        })?;
-        let total = out.stats.total_rays();
-        rows.push(Point {
-            params: point.clone(),
-            mode: Mode::of(&scene.settings),
-            total_rays: total,
-            rays: out.stats.kinds().iter().map(|&(k, n)| (k.to_string(), n)).collect(),
-            seconds: out.seconds,
-            mrays_per_s: if out.seconds > 0.0 { total as f64 / out.seconds / 1e6 } else { 0.0 },
-            metrics: m,
-            pareto_rays: false,
-            pareto_seconds: false,
-        });
-        step();
-    }
-    if let Some(pb) = &bar {
-        pb.finish_and_clear();
-    }
+    source.load_cached();
+    let progress = Progress::new(opts.progress, plan.points.len() as u64 + source.image.is_none() as u64);
+    let (reference, info) = plan.reference(source, &render_opts, &progress)?;
+    let (mut rows, threads) = plan.measure(&reference, &info.path, &render_opts, &progress)?;
+    progress.finish();
     mark_pareto(&mut rows);
 
     let result = SweepResult {
-        scene: src.name.clone(),
+        scene: plan.src.name.clone(),
         sets: opts.sets.clone(),
         keys: opts.params.iter().map(|(k, _)| k.clone()).collect(),
         threads,
@@ -572,6 +407,25 @@ pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
         points: rows,
         files,
     };
+    write_outputs(&result)?;
+    Ok(result)
+}
+
+/// Creates the output folder and checks that each file the sweep writes can be written
+/// there: the CSV, the JSON and, with the `plot` feature, the two plots, in that order.
+fn output_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    prepare_dir(dir)?;
+    let names: &[&str] =
+        if cfg!(feature = "plot") { &[CSV_FILE, JSON_FILE, RAYS_PLOT, SECONDS_PLOT] } else { &[CSV_FILE, JSON_FILE] };
+    let files: Vec<PathBuf> = names.iter().map(|f| dir.join(f)).collect();
+    for f in &files {
+        check_output(f)?;
+    }
+    Ok(files)
+}
+
+/// Writes the result's files: the CSV, the JSON and (with `plot`) the two plots.
+fn write_outputs(result: &SweepResult) -> Result<()> {
     write_text(&result.files[0], &result.csv())?;
     write_text(&result.files[1], &(result.json()? + "\n"))?;
     #[cfg(feature = "plot")]
@@ -579,7 +433,7 @@ pub fn run(opts: &SweepOptions) -> Result<SweepResult> {
         result.plot(&result.files[2], |p| p.total_rays as f64, "rays traced (all kinds)")?;
         result.plot(&result.files[3], |p| p.seconds, "render seconds (wall clock)")?;
     }
-    Ok(result)
+    Ok(())
 }
 
 /// Marks the Pareto front of `points` when both coordinates are to be minimised: a point
@@ -608,6 +462,8 @@ fn mark_pareto(rows: &mut [Point]) {
     }
 }
 
+mod measure;
+mod plan;
 mod report;
 
 #[cfg(test)]
