@@ -31,7 +31,7 @@ pub struct SweepArgs {
     output: PathBuf,
     /// Worker threads per render (default: all cores); at most 4 per CPU (a limit of at
     /// least 64 and at most 1024).
-    #[arg(long, value_parser = super::thread_count)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::thread_count)]
     threads: Option<usize>,
     /// Print nothing but errors.
     #[arg(short, long)]
