@@ -353,13 +353,36 @@ fn white_color() -> ColorDesc {
 }
 
 /// A colour: an RGB triple, or a texture table looked up at the surface's UV.
-#[derive(Deserialize, Serialize, Debug, Clone, PartialEq)]
+#[derive(Serialize, Debug, Clone, PartialEq)]
 #[serde(untagged)]
 pub enum ColorDesc {
     /// `[r, g, b]`, linear.
-    Rgb(#[serde(deserialize_with = "exact::color")] [f32; 3]),
+    Rgb([f32; 3]),
     /// `{ type = "bitmap", ... }` or `{ type = "checkerboard", ... }`.
     Texture(TextureDesc),
+}
+
+impl<'de> Deserialize<'de> for ColorDesc {
+    /// Numbers of any count first, so a triple of the wrong length is refused as one
+    /// (`color` takes 3 numbers) rather than as "no variant matched".
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum ColorOrTexture {
+            Numbers(Vec<f32>),
+            Texture(TextureDesc),
+        }
+        match ColorOrTexture::deserialize(d)? {
+            ColorOrTexture::Numbers(v) => {
+                let n = v.len();
+                let rgb = v.try_into().map_err(|_| {
+                    serde::de::Error::custom(format!("`color` takes 3 numbers (or a texture table), not {n}"))
+                })?;
+                Ok(ColorDesc::Rgb(rgb))
+            }
+            ColorOrTexture::Texture(t) => Ok(ColorDesc::Texture(t)),
+        }
+    }
 }
 
 /// A texture in a colour's place.
