@@ -810,20 +810,37 @@ fn one_bound_for_translations_in_transform_and_transform_end() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 
-/// The smaller messages of issue 42, each as a user meets it.
+/// `--heatmap aa` with uniform anti-aliasing refines no pixel: a warning says the map
+/// will show nothing (it used to equal the render without a word).
 #[test]
-fn messages_name_what_the_user_typed() {
+fn a_heatmap_that_can_show_nothing_warns() {
     let case = Case::new();
-    // --heatmap aa with uniform anti-aliasing shows nothing: a warning says so.
-    let o = case.run(&["scene.toml", "-o", "out.png", "--heatmap", "aa=aa.png"]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert!(stderr(&o).contains("warning: --heatmap aa") && stderr(&o).contains("uniform"), "{}", stderr(&o));
+    let o = case.run(&["scene.toml", "-o", "out.png", "--heatmap", "aa=aa.png", "--heatmap", "penumbra=pen.png"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("warning: --heatmap aa") && err.contains("anti-aliasing is uniform"), "{err}");
+    assert!(err.contains("warning: --heatmap penumbra") && err.contains("shadows are uniform"), "{err}");
     let o = case.run(&["scene.toml", "-o", "out.png", "--heatmap", "aa=aa.png", "--set", "render.aa.mode=adaptive"]);
     assert!(!stderr(&o).contains("warning"), "adaptive: {}", stderr(&o));
-    // --seed -1: refused as a seed, with no advice to write `-- -1` (a scene name).
+}
+
+/// `--seed -1` is refused as a seed, without clap's advice to write `-- -1` (which
+/// would make `-1` the scene's name).
+#[test]
+fn a_negative_seed_is_refused_as_a_seed() {
+    let case = Case::new();
     let err = expect_refusal(&case, &["scene.toml", "-o", "bad.png", "--seed", "-1"], &["--seed", "not a seed"]);
     assert!(!err.contains("-- -1"), "{err}");
-    // --res too big names --res, not a --set the user never gave.
+    let err = expect_refusal(&case, &["scene.toml", "-o", "bad.png", "--threads", "-2"], &["--threads", "-2"]);
+    assert!(!err.contains("-- -2"), "{err}");
+    assert!(!case.path("bad.png").exists());
+}
+
+/// A size too big for memory given by `--res` names `--res`, not a `--set` the user
+/// never typed.
+#[test]
+fn res_too_big_names_res() {
+    let case = Case::new();
     let o = case
         .command(&["scene.toml", "-o", "bad.png", "--res", "100000x100000"])
         .env("WAVETRACE_MEMORY", "1073741824")
@@ -832,7 +849,19 @@ fn messages_name_what_the_user_typed() {
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("(--res 100000x100000)") && !err.contains("--set"), "{err}");
-    // A NaN vertex in an OBJ names its line.
+    // An explicit --set of the same key still names the --set.
+    let o = case
+        .command(&["scene.toml", "-o", "bad.png", "--res", "4x4", "--set", "render.height=100000000"])
+        .env("WAVETRACE_MEMORY", "1073741824")
+        .output()
+        .unwrap();
+    assert!(stderr(&o).contains("(--set render.height=100000000)"), "{}", stderr(&o));
+}
+
+/// A NaN vertex in an OBJ names its line.
+#[test]
+fn a_non_finite_obj_vertex_names_its_line() {
+    let case = Case::new();
     std::fs::write(case.path("nan.obj"), "v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n").unwrap();
     let mesh = SCENE.replacen(
         "type = \"sphere\"\ncenter = [1.2, -0.5, 0.5]\nradius = 0.6",
@@ -844,11 +873,10 @@ fn messages_name_what_the_user_typed() {
     assert!(!case.path("bad.png").exists());
 }
 
-/// Mitsuba scenes: a missing bitmap says where it looked (`.`, not an empty name), an
-/// error in an anonymous BSDF prints its place once, and an unset `$name` in a file
-/// made to be included says which files include it.
+/// A missing bitmap of a scene in the working folder says it looked in `.` (it used to
+/// say "looked in ``, ``").
 #[test]
-fn mitsuba_messages_say_where() {
+fn a_missing_bitmap_says_where_it_looked() {
     let case = Case::new();
     with_files(&case);
     let bitmap = MAIN_XML.replace(
@@ -859,6 +887,14 @@ fn mitsuba_messages_say_where() {
     std::fs::write(case.path("bitmap.xml"), bitmap).unwrap();
     let err = expect_refusal(&case, &["bitmap.xml", "-o", "out.png"], &["nope.png", "looked in `.`"]);
     assert!(!err.contains("``"), "{err}");
+}
+
+/// An error in an anonymous Mitsuba BSDF prints its place once (the BSDF used to be
+/// named by its place: `x.xml:4:1: field `materials.x.xml:4:1.alpha``).
+#[test]
+fn an_anonymous_bsdf_error_prints_its_place_once() {
+    let case = Case::new();
+    with_files(&case);
     let rough = MAIN_XML.replace(
         "<shape type=\"sphere\"><ref id=\"grey\"/></shape>",
         "<shape type=\"sphere\">\n<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"-1\"/></bsdf></shape>",
@@ -866,6 +902,14 @@ fn mitsuba_messages_say_where() {
     std::fs::write(case.path("rough.xml"), rough).unwrap();
     let err = expect_refusal(&case, &["rough.xml", "-o", "out.png"], &["rough.xml:", "alpha", "-1"]);
     assert_eq!(err.matches("rough.xml").count(), 1, "the place is printed once: {err}");
+}
+
+/// An unset `$name` in a file made to be included says which files include it; in an
+/// include, it names the file that includes it.
+#[test]
+fn an_unset_parameter_in_an_include_says_who_includes_it() {
+    let case = Case::new();
+    with_files(&case);
     // The sensor moved into an include that uses the main file's `$spp`.
     let sensor_start = MAIN_XML.find("    <sensor").unwrap();
     let sensor_end = MAIN_XML.find("</sensor>").unwrap() + "</sensor>\n".len();
@@ -876,7 +920,6 @@ fn mitsuba_messages_say_where() {
     let o = case.run(&["shot.xml", "-o", "out.png"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     expect_refusal(&case, &["camera.xml", "-o", "out.png"], &["$spp", "meant to be included", "`shot.xml`"]);
-    // Included from a scene that does not set it: the message names the includer.
     std::fs::write(case.path("unset.xml"), main.replace("<default name=\"spp\" value=\"1\"/>", "")).unwrap();
     expect_refusal(&case, &["unset.xml", "-o", "out.png"], &["camera.xml", "$spp", "included by `unset.xml`"]);
 }
