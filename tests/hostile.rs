@@ -1,9 +1,12 @@
-//! Outputs that never destroy, inputs that never fool (issue 26): where each kind of
-//! output path leads (regular file, symlink, character device, FIFO, `-`), outputs
-//! that name one file, the thread limit, the command-line shorthands, the warning for a
-//! scene that shows nothing, Ctrl-C in adaptive mode, and the cgroup memory reader on
-//! fake cgroup trees. Every node (device, FIFO, symlink) is made inside the test's own
-//! temporary folder.
+//! Outputs that never destroy, inputs that never fool (issues 26 and 42): where each
+//! kind of output path leads (regular file, symlink, character device, FIFO, `-`),
+//! outputs that name one file or a file the scene reads, read-only outputs and folders,
+//! all-or-nothing writes, SIGINT/SIGTERM/SIGHUP at any moment, fixed-length arrays, the
+//! translation bound of `transform_end`, the thread limit, the command-line shorthands
+//! and the messages that name what the user typed, the warning for a scene that shows
+//! nothing, Ctrl-C in adaptive mode, and the cgroup memory reader on fake cgroup trees.
+//! Every node (device, FIFO, symlink, read-only file or folder) is made inside the
+//! test's own temporary folder.
 
 use std::os::unix::fs::FileTypeExt;
 use std::path::{Path, PathBuf};
