@@ -241,7 +241,6 @@ fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
     Ok(())
 }
 
-/// The line holding byte `at` (1-based).
 /// The first line of a `keyword` (`v`, `vn`, `vt`) record with a number that is not
 /// finite in f32 (`nan`, `inf`, `1e39`): tobj reads them without a word, and its
 /// positions carry no line.
@@ -256,6 +255,7 @@ fn nonfinite_line(bytes: &[u8], keyword: &str) -> Option<usize> {
         .map(|i| i + 1)
 }
 
+/// The line holding byte `at` (1-based).
 fn line_of(bytes: &[u8], at: usize) -> usize {
     bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1
 }
