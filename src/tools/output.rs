@@ -400,9 +400,9 @@ enum Staged {
 }
 
 impl Batch {
-    /// An empty batch; from now on a signal removes its temporary files ([`watch_signals`]).
+    /// An empty batch. Its temporary files are registered for the signal handler, which
+    /// a command installs with [`watch_signals`] (a library caller keeps its own).
     pub fn new() -> Batch {
-        install_handler();
         Batch::default()
     }
 
@@ -615,7 +615,8 @@ fn plan(path: &Path) {
     }
 }
 
-/// Handles SIGINT, SIGTERM and SIGHUP from now on (once per process, through `ctrlc`):
+/// Handles SIGINT, SIGTERM and SIGHUP from now on (installed once per process, through
+/// `ctrlc`; the command line calls it, the library never does):
 /// while `cancel` is set, the first signal sets it (a render then stops after its tiles
 /// in progress and writes what is finished); otherwise, and at the second signal, the
 /// temporary files are removed, a line on stderr says which of `outputs` were written
