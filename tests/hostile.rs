@@ -1,9 +1,12 @@
-//! Outputs that never destroy, inputs that never fool (issue 26): where each kind of
-//! output path leads (regular file, symlink, character device, FIFO, `-`), outputs
-//! that name one file, the thread limit, the command-line shorthands, the warning for a
-//! scene that shows nothing, Ctrl-C in adaptive mode, and the cgroup memory reader on
-//! fake cgroup trees. Every node (device, FIFO, symlink) is made inside the test's own
-//! temporary folder.
+//! Outputs that never destroy, inputs that never fool (issues 26 and 42): where each
+//! kind of output path leads (regular file, symlink, character device, FIFO, `-`),
+//! outputs that name one file or a file the scene reads, read-only outputs and folders,
+//! all-or-nothing writes, SIGINT/SIGTERM/SIGHUP at any moment, fixed-length arrays, the
+//! translation bound of `transform_end`, the thread limit, the command-line shorthands
+//! and the messages that name what the user typed, the warning for a scene that shows
+//! nothing, Ctrl-C in adaptive mode, and the cgroup memory reader on fake cgroup trees.
+//! Every node (device, FIFO, symlink, read-only file or folder) is made inside the
+//! test's own temporary folder.
 
 use std::os::unix::fs::FileTypeExt;
 use std::path::{Path, PathBuf};
@@ -430,4 +433,497 @@ fn cgroup_v1_limits_are_read_and_unlimited_does_not_bind() {
     put(root, "proc/self/cgroup", "4:memory:/slurm/uid_0/job_9/step_batch\n0::/user.slice\n");
     put(root, "sys/fs/cgroup/user.slice/memory.max", "600000\n");
     assert_eq!(cgroup_memory(root), Some(600000));
+}
+
+/// A lit scene that reads a mesh and a texture beside it.
+const SCENE_WITH_FILES: &str = r#"
+[render]
+width = 8
+height = 6
+max_depth = 0
+[render.aa]
+samples = 1
+
+[camera]
+position = [0, 0, 6]
+look_at = [0, 0, 0]
+
+[background]
+color = [0.3, 0.4, 0.6]
+
+[materials.wood]
+type = "diffuse"
+color = { type = "bitmap", file = "tex.png" }
+
+[[lights]]
+type = "point"
+position = [0, 0, 6]
+intensity = [40, 40, 40]
+
+[[objects]]
+type = "mesh"
+file = "tri.obj"
+material = "wood"
+"#;
+
+/// A Mitsuba scene whose BSDF is in an included file.
+const MAIN_XML: &str = r#"<scene version="3.0.0">
+    <default name="spp" value="1"/>
+    <include filename="inc.xml"/>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+    </sensor>
+    <shape type="sphere"><ref id="grey"/></shape>
+    <emitter type="point"><point name="position" value="0, 0, -5"/><rgb name="intensity" value="10"/></emitter>
+</scene>
+"#;
+
+const INC_XML: &str = r#"<scene version="3.0.0">
+    <bsdf type="diffuse" id="grey"/>
+</scene>
+"#;
+
+/// Writes the files [`SCENE_WITH_FILES`] and [`MAIN_XML`] read.
+fn with_files(case: &Case) {
+    std::fs::write(case.path("files.toml"), SCENE_WITH_FILES).unwrap();
+    std::fs::write(case.path("tri.obj"), "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n")
+        .unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 120, 40])).save(case.path("tex.png")).unwrap();
+    std::fs::write(case.path("main.xml"), MAIN_XML).unwrap();
+    std::fs::write(case.path("inc.xml"), INC_XML).unwrap();
+}
+
+/// Every file a scene reads (meshes, textures, includes) is an input no output may
+/// overwrite, refused before the render with both uses named (issue 42).
+#[test]
+fn outputs_never_overwrite_the_files_the_scene_reads() {
+    let case = Case::new();
+    with_files(&case);
+    let before: Vec<(String, Vec<u8>)> =
+        case.names().into_iter().map(|n| (n.clone(), std::fs::read(case.path(&n)).unwrap())).collect();
+    let cases: [(&[&str], &str); 5] = [
+        (&["files.toml", "-o", "tex.png"], "the texture of `materials.wood.color`"),
+        (&["files.toml", "-o", "out.png", "--stats-json", "tri.obj"], "the mesh of `objects.0`"),
+        (&["files.toml", "-o", "out.png", "--heatmap", "rays=./tex.png"], "the texture"),
+        (&["main.xml", "-o", "out.png", "--trace", "inc.xml"], "a file the scene includes"),
+        (&["main.xml", "-o", "out.png", "--stats-json", "main.xml"], "the scene"),
+    ];
+    for (args, use_) in cases {
+        let o = case.run(args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        let output = args[args.len() - 1].rsplit('=').next().unwrap();
+        assert!(err.contains(use_) && err.contains(output.trim_start_matches("./")), "{args:?}: {err}");
+        assert!(err.contains("-o") || err.contains("--"), "the output's flag is named: {err}");
+    }
+    let after: Vec<(String, Vec<u8>)> =
+        case.names().into_iter().map(|n| (n.clone(), std::fs::read(case.path(&n)).unwrap())).collect();
+    assert_eq!(before, after, "nothing written, nothing changed");
+    // The same scenes render when the outputs go elsewhere.
+    for scene in ["files.toml", "main.xml"] {
+        let o = case.run(&[scene, "-o", "out.png"]);
+        assert_eq!(o.status.code(), Some(0), "{scene}: {}", stderr(&o));
+    }
+}
+
+/// The mode bits of a path, as `ls` shows them.
+fn mode(p: &Path) -> u32 {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::symlink_metadata(p).unwrap().permissions().mode() & 0o7777
+}
+
+fn set_mode(p: &Path, mode: u32) {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(p, std::fs::Permissions::from_mode(mode)).unwrap();
+}
+
+/// A read-only output, and an output in a folder that does not let it be replaced, are
+/// refused by their mode bits, so root (which may write anything) is refused too; a
+/// writable output that is replaced keeps its mode.
+#[test]
+fn read_only_outputs_and_folders_are_refused() {
+    let case = Case::new();
+    std::fs::write(case.path("ro.png"), "earlier").unwrap();
+    set_mode(&case.path("ro.png"), 0o444);
+    std::os::unix::fs::symlink("ro.png", case.path("link.png")).unwrap();
+    std::fs::create_dir(case.path("locked")).unwrap();
+    std::fs::write(case.path("locked/old.png"), "earlier").unwrap();
+    set_mode(&case.path("locked"), 0o555);
+    let cases: [(&[&str], &[&str]); 5] = [
+        (&["-o", "ro.png"], &["ro.png", "read-only", "444"]),
+        (&["-o", "out.png", "--stats-json", "ro.png"], &["ro.png", "444"]),
+        (&["-o", "link.png"], &["link.png", "444", "symlink"]),
+        (&["-o", "locked/old.png"], &["locked", "555"]),
+        (&["-o", "locked/new.png"], &["locked", "555"]),
+    ];
+    for (args, words) in cases {
+        let o = case.command(&["scene.toml"]).args(args).output().unwrap();
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(words.iter().all(|w| err.contains(w)), "{args:?} names {words:?}: {err}");
+    }
+    assert_eq!(std::fs::read_to_string(case.path("ro.png")).unwrap(), "earlier");
+    assert_eq!(mode(&case.path("ro.png")), 0o444, "the file keeps its mode");
+    assert_eq!(std::fs::read_to_string(case.path("locked/old.png")).unwrap(), "earlier");
+    assert!(!case.path("locked/new.png").exists());
+    assert_eq!(case.names(), ["link.png", "locked", "ro.png", "scene.toml"], "nothing written");
+    set_mode(&case.path("locked"), 0o755);
+
+    // A writable file is replaced, and keeps its mode (a private file stays private).
+    std::fs::write(case.path("private.png"), "earlier").unwrap();
+    set_mode(&case.path("private.png"), 0o600);
+    let o = case.run(&["scene.toml", "-o", "private.png"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(png_dims(&case.path("private.png")), (8, 6));
+    assert_eq!(mode(&case.path("private.png")), 0o600);
+}
+
+/// Runs wavetrace with a file size limit of `bytes` (RLIMIT_FSIZE, SIGXFSZ ignored, so
+/// a write past it fails with EFBIG as on a full disk).
+fn run_with_file_limit(case: &Case, args: &[&str], bytes: u64) -> Output {
+    use std::os::unix::process::CommandExt;
+    let mut c = case.command(args);
+    // SAFETY: setrlimit and signal are async-signal-safe; nothing else runs in the child.
+    unsafe {
+        c.pre_exec(move || {
+            let limit = libc::rlimit { rlim_cur: bytes, rlim_max: bytes };
+            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    c.output().unwrap()
+}
+
+/// All or nothing: an output that cannot be written (a file past the disk's room, here
+/// a file size limit) leaves every output as it was, the earlier ones too; a device,
+/// written in place after every file is in place, says what was written before it.
+#[test]
+fn a_failing_output_leaves_every_earlier_file_as_it_was() {
+    let case = Case::new();
+    for name in ["out.png", "trace.json", "stats.json"] {
+        std::fs::write(case.path(name), format!("earlier {name}")).unwrap();
+    }
+    // The image (about 200 bytes) and the trace (about 500) fit in 4 KiB; the stats
+    // (about 9 KiB) do not, and they are written last.
+    let args = ["scene.toml", "-o", "out.png", "--trace", "trace.json", "--stats-json", "stats.json"];
+    let o = run_with_file_limit(&case, &args, 4096);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("stats.json") && err.contains("cannot write"), "{err}");
+    for name in ["out.png", "trace.json", "stats.json"] {
+        assert_eq!(std::fs::read_to_string(case.path(name)).unwrap(), format!("earlier {name}"), "{name}: {err}");
+    }
+    assert_eq!(case.names(), ["out.png", "scene.toml", "stats.json", "trace.json"], "no temporary file left");
+    // Without the limit all three are written.
+    let o = case.run(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(png_dims(&case.path("out.png")), (8, 6));
+
+    // A device that refuses the bytes comes after every file: the message says which
+    // were written before it.
+    if case.mknod("full.json", 1, 7) {
+        let o = case.run(&["scene.toml", "-o", "new.png", "--stats-json", "full.json"]);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("full.json") && err.contains("already written: `new.png`"), "{err}");
+        assert_eq!(png_dims(&case.path("new.png")), (8, 6));
+    }
+}
+
+/// Temporary files in a folder: hidden names ending in `.tmp`.
+fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.') && n.ends_with(".tmp"))
+        .collect()
+}
+
+/// The outputs an interrupted command's message lists after `label` (`written: ` or
+/// `not written: `), up to the next `;`.
+fn listed(err: &str, label: &str) -> Vec<String> {
+    let line = err.lines().find(|l| l.starts_with("interrupted: written: ")).unwrap_or("");
+    let Some(rest) = line.split(&format!("; {label}")).nth(1).or_else(|| line.split(label).nth(1)) else {
+        return Vec::new();
+    };
+    rest.split(';').next().unwrap_or("").split(", ").map(|s| s.trim().trim_matches('`').to_string()).collect()
+}
+
+/// SIGINT, SIGTERM and SIGHUP at several moments: while a temporary file is being
+/// written (the final write, where a SLURM time limit's SIGTERM lands), twice (the
+/// second during the write of what the first left finished), and once during the
+/// render. Each time no temporary file is left, every output is either its earlier
+/// file or whole, and the message says which were written and which not.
+#[test]
+fn signals_remove_the_temporary_files_and_say_what_was_written() {
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let case = Case::new();
+    let args = ["scene.toml", "--res", "1000x1000", "--threads", "2", "-o", "out.png"];
+    let more = ["--heatmap", "rays=rays.png", "--stats-json", "stats.json"];
+    let start = Instant::now();
+    let o = case.command(&args).args(more).output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let full_seconds = start.elapsed().as_secs_f64();
+    let outputs = ["out.png", "rays.png", "stats.json"];
+    let whole = |name: &str| match name {
+        "out.png" => image::open(case.path(name)).is_ok_and(|i| (i.width(), i.height()) == (1000, 1000)),
+        "rays.png" => image::open(case.path(name)).is_ok(),
+        _ => serde_json::from_slice::<serde_json::Value>(&std::fs::read(case.path(name)).unwrap()).is_ok(),
+    };
+    let send = |pid: u32, sig: libc::c_int| {
+        // SAFETY: kill with the child's own pid, which it holds until it is waited for.
+        unsafe { libc::kill(pid as libc::pid_t, sig) };
+    };
+    let wait_for_temporary = |child: &mut std::process::Child| {
+        let deadline = Instant::now() + Duration::from_secs_f64(10.0 + 4.0 * full_seconds);
+        while temporaries(case.dir.path()).is_empty() && Instant::now() < deadline {
+            if child.try_wait().unwrap().is_some() {
+                return false;
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        true
+    };
+    let mut hit_the_write = 0;
+    for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
+        for moment in ["write", "twice", "render"] {
+            for name in outputs {
+                std::fs::write(case.path(name), "earlier").unwrap();
+            }
+            let mut child =
+                case.command(&args).args(more).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+            let mut during_write = false;
+            match moment {
+                "write" => during_write = wait_for_temporary(&mut child),
+                "twice" => {
+                    std::thread::sleep(Duration::from_secs_f64(full_seconds * 0.5));
+                    send(child.id(), sig);
+                    during_write = wait_for_temporary(&mut child);
+                }
+                _ => std::thread::sleep(Duration::from_secs_f64(full_seconds * 0.6)),
+            }
+            send(child.id(), sig);
+            let out = child.wait_with_output().unwrap();
+            let err = stderr(&out);
+            let what = format!("signal {sig} at {moment}: {err}");
+            assert!(temporaries(case.dir.path()).is_empty(), "{what}: {:?}", case.names());
+            for name in outputs {
+                let earlier = std::fs::read(case.path(name)).unwrap() == b"earlier";
+                assert!(earlier || whole(name), "{name} is neither the earlier file nor whole: {what}");
+                if listed(&err, "not written: ").contains(&name.to_string()) {
+                    assert!(earlier, "{name} is listed as not written: {what}");
+                }
+                if listed(&err, "written: ").contains(&name.to_string()) {
+                    assert!(whole(name), "{name} is listed as written: {what}");
+                }
+            }
+            match out.status.code() {
+                Some(130) => assert!(err.contains("interrupted"), "{what}"),
+                // The signal came as the process ended, after the last output was in place.
+                Some(0) => assert!(outputs.iter().all(|n| whole(n)), "exit 0 with an output unwritten: {what}"),
+                other => panic!("exit {other:?}: {what}"),
+            }
+            if during_write && out.status.code() == Some(130) {
+                assert_eq!(out.status.code(), Some(130), "{what}");
+                assert!(err.contains("not written: ") && err.contains("temporary file"), "{what}");
+                hit_the_write += 1;
+            }
+        }
+    }
+    // Six tries aim at the write; the process may finish first on a busy machine.
+    assert!(hit_the_write >= 2, "a signal landed during the write only {hit_the_write} times of 6");
+    eprintln!("signals landed during the write {hit_the_write} times of 6");
+}
+
+fn expect_refusal(case: &Case, args: &[&str], words: &[&str]) -> String {
+    let o = case.run(args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert!(words.iter().all(|w| err.contains(w)), "{args:?} should name {words:?}: {err}");
+    err
+}
+
+/// Every fixed-length array of the scene format refuses another length, naming the
+/// field, in a file and through `--set` alike (a file's extra numbers used to be
+/// dropped: `shutter = [0, 1, 0.5]` rendered as `[0, 1]`).
+#[test]
+fn fixed_length_arrays_refuse_other_lengths_in_files_and_sets() {
+    let case = Case::new();
+    let edits: [(&str, &str, &[&str]); 11] = [
+        ("fov_y = 40.0", "fov_y = 40.0\nshutter = [0, 1, 0.5]", &["camera.shutter", "2 numbers, not 3"]),
+        ("fov_y = 40.0", "fov_y = 40.0\nshutter = [0, 1, 0.5, 7, -3]", &["camera.shutter", "not 5"]),
+        ("position = [0, 0, 6]\nlook_at", "position = [0, 0, 6, 1]\nlook_at", &["camera.position", "not 4"]),
+        ("look_at = [0, 0, 0]", "look_at = [0, 0, 0, 0, 0]", &["camera.look_at", "not 5"]),
+        ("fov_y = 40.0", "fov_y = 40.0\nup = [0, 1]", &["camera.up", "not 2"]),
+        ("color = [0.3, 0.4, 0.6]", "color = [0.3, 0.4, 0.6, 1]", &["background.color", "not 4"]),
+        ("color = [0.8, 0.5, 0.3]", "color = [0.8, 0.5]", &["materials.orange", "`color` takes 3 numbers", "not 2"]),
+        ("intensity = [40, 40, 40]", "intensity = [40, 40]", &["`intensity` takes 3 numbers, not 2"]),
+        ("center = [-0.6, 0.2, 0]", "center = [-0.6, 0.2, 0, 9]", &["`center` takes 3 numbers, not 4"]),
+        ("radius = 0.6", "radius = 0.6\ntransform = [{ translate = [1, 2, 3, 4] }]", &["translate", "not 4"]),
+        ("fov_y = 40.0", "fov_y = 40.0\ntransform_end = [{ matrix = [1, 0, 0, 0] }]", &["camera.transform_end", "16"]),
+    ];
+    for (from, to, words) in edits {
+        assert!(SCENE.contains(from), "{from}");
+        std::fs::write(case.path("bad.toml"), SCENE.replacen(from, to, 1)).unwrap();
+        expect_refusal(&case, &["bad.toml", "-o", "out.png"], &[&["bad.toml"][..], words].concat());
+    }
+    let sets: [(&str, &[&str]); 4] = [
+        ("camera.shutter=[0, 1, 0.5]", &["camera.shutter", "2 numbers, not 3"]),
+        ("camera.look_at=[0, 0, 0, 1]", &["camera.look_at", "not 4"]),
+        ("objects.0.center=[0, 0, 0, 1]", &["objects.0.center", "not 4"]),
+        ("background.color=[1]", &["background.color", "not 1"]),
+    ];
+    for (set, words) in sets {
+        expect_refusal(&case, &["scene.toml", "-o", "out.png", "--set", set], words);
+    }
+    assert_eq!(case.names(), ["bad.toml", "scene.toml"], "nothing written");
+    // The right lengths are read whole.
+    std::fs::write(case.path("ok.toml"), SCENE.replacen("fov_y = 40.0", "fov_y = 40.0\nshutter = [0, 0.5]", 1))
+        .unwrap();
+    let o = case.run(&["ok.toml", "-o", "out.png", "--set", "objects.0.center=[0, 0, 0]"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// `transform_end` is held to the bound `transform` is (a translation of 1e30 used to
+/// pass at time 1), for objects and the camera.
+#[test]
+fn one_bound_for_translations_in_transform_and_transform_end() {
+    let case = Case::new();
+    let sphere = "radius = 0.6";
+    let cases: [(&str, &str, &str); 3] = [
+        (sphere, "radius = 0.6\ntransform = [{ translate = [1e30, 0, 0] }]", "objects.1.transform"),
+        (sphere, "radius = 0.6\ntransform_end = [{ translate = [1e30, 0, 0] }]", "objects.1.transform_end"),
+        ("fov_y = 40.0", "fov_y = 40.0\ntransform_end = [{ translate = [0, 0, 1e30] }]", "camera.transform_end"),
+    ];
+    for (from, to, field) in cases {
+        std::fs::write(case.path("far.toml"), SCENE.replacen(from, to, 1)).unwrap();
+        expect_refusal(&case, &["far.toml", "-o", "out.png"], &[field, "4e9"]);
+        let shutter = SCENE.replacen(from, to, 1).replacen("fov_y = 40.0", "fov_y = 40.0\nshutter = [0, 1]", 1);
+        std::fs::write(case.path("far.toml"), shutter).unwrap();
+        expect_refusal(&case, &["far.toml", "-o", "out.png"], &[field, "4e9"]);
+    }
+    let near = SCENE.replacen(sphere, "radius = 0.6\ntransform_end = [{ translate = [0.2, 0, 0] }]", 1);
+    std::fs::write(case.path("near.toml"), near.replacen("fov_y = 40.0", "fov_y = 40.0\nshutter = [0, 1]", 1)).unwrap();
+    let o = case.run(&["near.toml", "-o", "out.png"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// `--heatmap aa` with uniform anti-aliasing refines no pixel: a warning says the map
+/// will show nothing (it used to equal the render without a word).
+#[test]
+fn a_heatmap_that_can_show_nothing_warns() {
+    let case = Case::new();
+    let o = case.run(&["scene.toml", "-o", "out.png", "--heatmap", "aa=aa.png", "--heatmap", "penumbra=pen.png"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("warning: --heatmap aa") && err.contains("anti-aliasing is uniform"), "{err}");
+    assert!(err.contains("warning: --heatmap penumbra") && err.contains("shadows are uniform"), "{err}");
+    let o = case.run(&["scene.toml", "-o", "out.png", "--heatmap", "aa=aa.png", "--set", "render.aa.mode=adaptive"]);
+    assert!(!stderr(&o).contains("warning"), "adaptive: {}", stderr(&o));
+}
+
+/// `--seed -1` is refused as a seed, without clap's advice to write `-- -1` (which
+/// would make `-1` the scene's name).
+#[test]
+fn a_negative_seed_is_refused_as_a_seed() {
+    let case = Case::new();
+    let err = expect_refusal(&case, &["scene.toml", "-o", "bad.png", "--seed", "-1"], &["--seed", "not a seed"]);
+    assert!(!err.contains("-- -1"), "{err}");
+    let err = expect_refusal(&case, &["scene.toml", "-o", "bad.png", "--threads", "-2"], &["--threads", "-2"]);
+    assert!(!err.contains("-- -2"), "{err}");
+    assert!(!case.path("bad.png").exists());
+}
+
+/// A size too big for memory given by `--res` names `--res`, not a `--set` the user
+/// never typed.
+#[test]
+fn res_too_big_names_res() {
+    let case = Case::new();
+    let o = case
+        .command(&["scene.toml", "-o", "bad.png", "--res", "100000x100000"])
+        .env("WAVETRACE_MEMORY", "1073741824")
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("(--res 100000x100000)") && !err.contains("--set"), "{err}");
+    // An explicit --set of the same key still names the --set.
+    let o = case
+        .command(&["scene.toml", "-o", "bad.png", "--res", "4x4", "--set", "render.height=100000000"])
+        .env("WAVETRACE_MEMORY", "1073741824")
+        .output()
+        .unwrap();
+    assert!(stderr(&o).contains("(--set render.height=100000000)"), "{}", stderr(&o));
+}
+
+/// A NaN vertex in an OBJ names its line.
+#[test]
+fn a_non_finite_obj_vertex_names_its_line() {
+    let case = Case::new();
+    std::fs::write(case.path("nan.obj"), "v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n").unwrap();
+    let mesh = SCENE.replacen(
+        "type = \"sphere\"\ncenter = [1.2, -0.5, 0.5]\nradius = 0.6",
+        "type = \"mesh\"\nfile = \"nan.obj\"",
+        1,
+    );
+    std::fs::write(case.path("nan.toml"), mesh).unwrap();
+    expect_refusal(&case, &["nan.toml", "-o", "bad.png"], &["nan.obj", "line 3:", "non-finite"]);
+    assert!(!case.path("bad.png").exists());
+}
+
+/// A missing bitmap of a scene in the working folder says it looked in `.` (it used to
+/// say "looked in ``, ``").
+#[test]
+fn a_missing_bitmap_says_where_it_looked() {
+    let case = Case::new();
+    with_files(&case);
+    let bitmap = MAIN_XML.replace(
+        "<shape type=\"sphere\"><ref id=\"grey\"/></shape>",
+        "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\
+         <string name=\"filename\" value=\"nope.png\"/></texture></bsdf></shape>",
+    );
+    std::fs::write(case.path("bitmap.xml"), bitmap).unwrap();
+    let err = expect_refusal(&case, &["bitmap.xml", "-o", "out.png"], &["nope.png", "looked in `.`"]);
+    assert!(!err.contains("``"), "{err}");
+}
+
+/// An error in an anonymous Mitsuba BSDF prints its place once (the BSDF used to be
+/// named by its place: `x.xml:4:1: field `materials.x.xml:4:1.alpha``).
+#[test]
+fn an_anonymous_bsdf_error_prints_its_place_once() {
+    let case = Case::new();
+    with_files(&case);
+    let rough = MAIN_XML.replace(
+        "<shape type=\"sphere\"><ref id=\"grey\"/></shape>",
+        "<shape type=\"sphere\">\n<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"-1\"/></bsdf></shape>",
+    );
+    std::fs::write(case.path("rough.xml"), rough).unwrap();
+    let err = expect_refusal(&case, &["rough.xml", "-o", "out.png"], &["rough.xml:", "alpha", "-1"]);
+    assert_eq!(err.matches("rough.xml").count(), 1, "the place is printed once: {err}");
+}
+
+/// An unset `$name` in a file made to be included says which files include it; in an
+/// include, it names the file that includes it.
+#[test]
+fn an_unset_parameter_in_an_include_says_who_includes_it() {
+    let case = Case::new();
+    with_files(&case);
+    // The sensor moved into an include that uses the main file's `$spp`.
+    let sensor_start = MAIN_XML.find("    <sensor").unwrap();
+    let sensor_end = MAIN_XML.find("</sensor>").unwrap() + "</sensor>\n".len();
+    let sensor = &MAIN_XML[sensor_start..sensor_end];
+    std::fs::write(case.path("camera.xml"), format!("<scene version=\"3.0.0\">\n{sensor}</scene>\n")).unwrap();
+    let main = MAIN_XML.replace(sensor, "    <include filename=\"camera.xml\"/>\n");
+    std::fs::write(case.path("shot.xml"), &main).unwrap();
+    let o = case.run(&["shot.xml", "-o", "out.png"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    expect_refusal(&case, &["camera.xml", "-o", "out.png"], &["$spp", "meant to be included", "`shot.xml`"]);
+    std::fs::write(case.path("unset.xml"), main.replace("<default name=\"spp\" value=\"1\"/>", "")).unwrap();
+    expect_refusal(&case, &["unset.xml", "-o", "out.png"], &["camera.xml", "$spp", "included by `unset.xml`"]);
 }

@@ -42,7 +42,7 @@ pub struct BenchArgs {
     sets: Vec<String>,
     /// Worker threads (default: all cores); at most 4 per CPU (a limit of at
     /// least 64 and at most 1024).
-    #[arg(long, value_parser = super::thread_count)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::thread_count)]
     threads: Option<usize>,
     /// Timed repetitions per set and kernel; the median is reported.
     #[arg(long, default_value_t = 5, value_parser = at_least_one::<usize>())]

@@ -5,7 +5,7 @@ use clap::Args;
 use std::path::PathBuf;
 
 use wavetrace::tools::merge::{assemble, coverage, read_tiles, stats};
-use wavetrace::tools::output::{check_distinct, check_image_path, check_output, is_stdout, write_image, write_text};
+use wavetrace::tools::output::{check_distinct, check_image_path, check_output, is_stdout, watch_signals, Batch};
 use wavetrace::{Error, Result};
 
 use super::say;
@@ -67,12 +67,16 @@ pub fn run(args: MergeArgs) -> Result<i32> {
     }
     let out = args.output.as_ref().ok_or_else(|| Error::input("merge: no output (-o OUT)"))?;
     let image = assemble(&tiles);
-    write_image(out, &image)?;
     let merged = stats(&tiles, &cov);
+    // All or nothing: a stats file that cannot be written leaves the image unwritten too.
+    watch_signals(None, &outputs.iter().map(|(_, p)| *p).collect::<Vec<_>>());
+    let mut batch = Batch::new();
+    batch.image(out, &image)?;
     if let Some(p) = &args.stats_json {
         let json = serde_json::to_string_pretty(&merged).map_err(|e| Error::Internal(e.to_string()))?;
-        write_text(p, &(json + "\n"))?;
+        batch.text(p, &(json + "\n"))?;
     }
+    batch.commit()?;
     if cov.missing_pixels > 0 {
         eprintln!("warning: {} (written black)", cov.describe());
     }

@@ -5,7 +5,7 @@
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -15,10 +15,9 @@ use wavetrace::stats::{chrome_trace, Report, SceneReport};
 use wavetrace::tools::heatmap::{self, HeatmapKind};
 use wavetrace::tools::merge::{RenderId, TileHeader};
 use wavetrace::tools::output::{
-    check_distinct, check_image_path, check_output, check_png_path, is_stdout, write_crop, write_image, write_png,
-    write_text,
+    check_distinct, check_image_path, check_output, check_png_path, is_stdout, watch_signals, Batch, EXIT_INTERRUPTED,
 };
-use wavetrace::{render, Error, RenderOptions, Result};
+use wavetrace::{render, Error, RenderOptions, RenderOutput, Result};
 
 use super::{say, scene_source};
 
@@ -39,19 +38,19 @@ pub struct RenderArgs {
     sets: Vec<String>,
     /// Worker threads (default: all cores, or SLURM_CPUS_PER_TASK when set); at most 4 per
     /// CPU (a limit of at least 64 and at most 1024).
-    #[arg(long, value_parser = super::thread_count)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::thread_count)]
     threads: Option<usize>,
     /// Samples per pixel: the scene's `render.aa.samples` (uniform anti-aliasing; an
     /// imported scene's sampler count maps to it too). Adaptive mode takes its samples
     /// from its levels and ignores it. The same as --set render.aa.samples=N.
-    #[arg(long, value_name = "N", value_parser = super::at_least_one::<u32>())]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = super::at_least_one::<u32>())]
     spp: Option<u32>,
     /// Image size WxH in pixels, e.g. 640x480: the same as --set render.width=W --set
     /// render.height=H.
     #[arg(long, value_name = "WxH", value_parser = resolution)]
     res: Option<(u32, u32)>,
-    /// Seed of every random decision (overrides render.seed).
-    #[arg(long)]
+    /// Seed of every random decision, 0 to 4294967295 (overrides render.seed).
+    #[arg(long, allow_negative_numbers = true, value_parser = seed)]
     seed: Option<u32>,
     /// Print the per-stage statistics table.
     #[arg(long)]
@@ -97,6 +96,13 @@ fn resolution(s: &str) -> std::result::Result<(u32, u32), String> {
         return Err(format!("`{s}`: width and height must be at least 1"));
     }
     Ok((w, h))
+}
+
+/// `--seed S`: a whole number that fits the seed's 32 bits. A negative one reaches this
+/// parser (clap would otherwise take `-1` for a flag and suggest `-- -1`, which makes it
+/// the scene's name).
+fn seed(s: &str) -> std::result::Result<u32, String> {
+    s.trim().parse().map_err(|_| format!("`{s}` is not a seed: a whole number from 0 to {}", u32::MAX))
 }
 
 /// Four comma-separated numbers `x0,x1,y0,y1`.
@@ -160,6 +166,11 @@ fn heatmap_kinds() -> Vec<String> {
         .collect()
 }
 
+/// A heatmap kind's name on the command line.
+fn heatmap_name(kind: HeatmapKind) -> String {
+    kind.to_possible_value().map_or_else(String::new, |v| v.get_name().to_string())
+}
+
 /// Parses `KIND=PATH`, the kind by [`HeatmapKind`]'s value names.
 fn heatmap_spec(spec: &str) -> std::result::Result<HeatmapSpec, String> {
     let kinds = heatmap_kinds();
@@ -172,28 +183,10 @@ fn heatmap_spec(spec: &str) -> std::result::Result<HeatmapSpec, String> {
     Ok(HeatmapSpec { kind, path: PathBuf::from(path) })
 }
 
-/// The exit status of a render stopped by Ctrl-C (128 + SIGINT), as shells report it.
-const EXIT_INTERRUPTED: i32 = 130;
-
-/// Installs the Ctrl-C handler: the first press asks the render to stop after the tiles
-/// in progress (what is finished is then written), a second press exits at once.
-fn cancel_on_ctrl_c() -> Arc<AtomicBool> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let seen = flag.clone();
-    // Without a handler (already installed in this process) Ctrl-C keeps its default.
-    let _ = ctrlc::set_handler(move || {
-        if seen.swap(true, Ordering::SeqCst) {
-            std::process::exit(EXIT_INTERRUPTED);
-        }
-    });
-    flag
-}
-
 /// The flags and paths of every output of a render, for [`check_distinct`].
 fn outputs(args: &RenderArgs) -> Vec<(String, &Path)> {
     let mut v = vec![("-o".to_string(), args.output.as_path())];
-    let kind = |k: HeatmapKind| k.to_possible_value().map_or_else(String::new, |v| v.get_name().to_string());
-    v.extend(args.heatmaps.iter().map(|h| (format!("--heatmap {}", kind(h.kind)), h.path.as_path())));
+    v.extend(args.heatmaps.iter().map(|h| (format!("--heatmap {}", heatmap_name(h.kind)), h.path.as_path())));
     v.extend(args.stats_json.iter().map(|p| ("--stats-json".to_string(), p.as_path())));
     v.extend(args.trace.iter().map(|p| ("--trace".to_string(), p.as_path())));
     v
@@ -220,9 +213,28 @@ fn shows_nothing(scene: &wavetrace::Scene) -> bool {
     !lit && scene.background.max_element() <= 0.0
 }
 
-/// Renders; returns the exit status (0, or 130 when Ctrl-C cut the render short).
+/// Renders; returns the exit status (0, or 130 when a signal cut the render short).
 pub fn run(args: RenderArgs) -> Result<i32> {
-    // Every output is checked before any work, so bad paths cost nothing.
+    check_outputs(&args)?;
+    let load_start = Instant::now();
+    let scene = load_scene(&args)?;
+    let load_seconds = load_start.elapsed().as_secs_f64();
+    let crop_spec = args.crop.or(args.crop_window).or(args.tile);
+    let (w, h) = (scene.settings.width, scene.settings.height);
+    let crop = crop_spec.map(|c| c.resolve(w, h)).transpose().map_err(Error::input)?;
+    let out = render_scene(&args, &scene, crop)?;
+    let report = report(&scene, &out, load_seconds);
+    let task = match crop_spec {
+        Some(Crop::Task { k, n }) => Some((k, n)),
+        _ => None,
+    };
+    let has_pixels = write_outputs(&args, &scene, &out, crop.map(|c| (c, task)), &report)?;
+    Ok(summarise(&args, &report, &out, has_pixels))
+}
+
+/// Checks every output before any work, so bad paths cost nothing: formats, what each
+/// path names, and that no two name one file or the scene.
+fn check_outputs(args: &RenderArgs) -> Result<()> {
     check_image_path(&args.output)?;
     for p in args.stats_json.iter().chain(args.trace.iter()) {
         check_output(p)?;
@@ -230,12 +242,58 @@ pub fn run(args: RenderArgs) -> Result<i32> {
     for h in &args.heatmaps {
         check_png_path(&h.path)?;
     }
-    let named = outputs(&args);
+    let named = outputs(args);
     let named: Vec<(&str, &Path)> = named.iter().map(|(f, p)| (f.as_str(), *p)).collect();
     let inputs: Vec<(&str, &Path)> = args.scene.iter().map(|p| ("the scene", p.as_path())).collect();
-    check_distinct(&named, &inputs)?;
-    let json_on_stdout = args.stats_json.iter().chain(args.trace.iter()).any(|p| is_stdout(p));
-    let load_start = Instant::now();
+    check_distinct(&named, &inputs)
+}
+
+/// The `--set` overrides of the command line: the shorthand flags first (each only when
+/// no explicit `--set` gives its key, which then wins), the `--set`s, then `--seed`.
+fn overrides(args: &RenderArgs) -> Vec<String> {
+    let explicit = |key: &str| args.sets.iter().any(|s| s.split_once('=').is_some_and(|(k, _)| k.trim() == key));
+    let mut sets = Vec::new();
+    if let Some(n) = args.spp.filter(|_| !explicit("render.aa.samples")) {
+        sets.push(format!("render.aa.samples={n}"));
+    }
+    if let Some((w, h)) = args.res {
+        sets.extend((!explicit("render.width")).then(|| format!("render.width={w}")));
+        sets.extend((!explicit("render.height")).then(|| format!("render.height={h}")));
+    }
+    sets.extend(args.sets.iter().cloned());
+    if let Some(seed) = args.seed {
+        sets.push(format!("render.seed={seed}"));
+    }
+    sets
+}
+
+/// A load error about an override that a shorthand flag made names that flag, as typed
+/// (`(--res 100000x100000): field `render.height``), not a `--set` the user never gave.
+fn name_the_shorthand(e: Error, args: &RenderArgs) -> Error {
+    let Error::Input(mut msg) = e else { return e };
+    let mut made: Vec<(String, String)> = Vec::new();
+    if let Some(n) = args.spp {
+        made.push((format!("render.aa.samples={n}"), format!("--spp {n}")));
+    }
+    if let Some((w, h)) = args.res {
+        for key in [format!("render.width={w}"), format!("render.height={h}")] {
+            made.push((key, format!("--res {w}x{h}")));
+        }
+    }
+    if let Some(seed) = args.seed {
+        made.push((format!("render.seed={seed}"), format!("--seed {seed}")));
+    }
+    for (set, flag) in made.iter().filter(|(set, _)| !args.sets.contains(set)) {
+        for given in [format!("(--set {set})"), format!("(--set `{set}`)")] {
+            msg = msg.replace(&given, &format!("({flag})"));
+        }
+    }
+    Error::Input(msg)
+}
+
+/// Reads the scene with its `-D` parameters and overrides, checks that no output names
+/// a file it reads, and prints its notes and warnings.
+fn load_scene(args: &RenderArgs) -> Result<wavetrace::Scene> {
     let mut source = scene_source(args.scene.as_ref())?;
     for d in &args.defines {
         let (name, value) = d
@@ -249,20 +307,14 @@ pub fn run(args: RenderArgs) -> Result<i32> {
         }
         source.defines.push((name.trim().to_string(), value.to_string()));
     }
-    let mut sets = Vec::new();
-    // The shorthand flags go first, so an explicit --set of the same key wins.
-    if let Some(n) = args.spp {
-        sets.push(format!("render.aa.samples={n}"));
-    }
-    if let Some((w, h)) = args.res {
-        sets.push(format!("render.width={w}"));
-        sets.push(format!("render.height={h}"));
-    }
-    sets.extend(args.sets.iter().cloned());
-    if let Some(seed) = args.seed {
-        sets.push(format!("render.seed={seed}"));
-    }
-    let scene = load(&source, &sets)?;
+    let scene = load(&source, &overrides(args)).map_err(|e| name_the_shorthand(e, args))?;
+    // Only now are the files it reads known (includes, meshes, textures): none may be
+    // an output, checked before the render.
+    let named = outputs(args);
+    let named: Vec<(&str, &Path)> = named.iter().map(|(f, p)| (f.as_str(), *p)).collect();
+    let mut inputs: Vec<(&str, &Path)> = args.scene.iter().map(|p| ("the scene", p.as_path())).collect();
+    inputs.extend(scene.info.inputs.iter().map(|(what, p)| (what.as_str(), p.as_path())));
+    check_distinct(&named, &inputs)?;
     if !args.quiet {
         for note in &scene.info.notes {
             eprintln!("note: {note}");
@@ -274,11 +326,36 @@ pub fn run(args: RenderArgs) -> Result<i32> {
              (add a light, an emissive mesh or a background colour)"
         );
     }
-    let load_seconds = load_start.elapsed().as_secs_f64();
-    let (w, h) = (scene.settings.width, scene.settings.height);
-    let crop_spec = args.crop.or(args.crop_window).or(args.tile);
-    let crop = crop_spec.map(|c| c.resolve(w, h)).transpose().map_err(Error::input)?;
+    warn_plain_heatmaps(args, &scene);
+    Ok(scene)
+}
 
+/// Warns of a heatmap that can only repeat the render: `aa` with uniform anti-aliasing
+/// (no pixel is refined) and `penumbra` with uniform shadows (no penumbra test).
+fn warn_plain_heatmaps(args: &RenderArgs, scene: &wavetrace::Scene) {
+    use wavetrace::scene::{AaMode, ShadowMode};
+    for h in &args.heatmaps {
+        let why = match h.kind {
+            HeatmapKind::Aa if scene.settings.aa_mode == AaMode::Uniform => {
+                "anti-aliasing is uniform (render.aa.mode), which refines no pixel"
+            }
+            HeatmapKind::Penumbra if scene.settings.shadow_mode == ShadowMode::Uniform => {
+                "shadows are uniform (render.shadows.mode), which test no penumbra"
+            }
+            _ => continue,
+        };
+        eprintln!(
+            "warning: --heatmap {}: {why}: `{}` will show the render with nothing marked",
+            heatmap_name(h.kind),
+            h.path.display()
+        );
+    }
+}
+
+/// Renders with the progress bar and the signal handler: the first SIGINT, SIGTERM or
+/// SIGHUP stops the render after the tiles in progress (what is finished is then
+/// written), a second ends the process at once ([`watch_signals`]).
+fn render_scene(args: &RenderArgs, scene: &wavetrace::Scene, crop: Option<Tile>) -> Result<RenderOutput> {
     let progress = (!args.quiet && std::io::stderr().is_terminal()).then(|| {
         let pb = indicatif::ProgressBar::new(0);
         pb.set_style(
@@ -289,40 +366,28 @@ pub fn run(args: RenderArgs) -> Result<i32> {
         );
         pb
     });
+    let cancel = Arc::new(AtomicBool::new(false));
+    let named = outputs(args);
+    watch_signals(Some(cancel.clone()), &named.iter().map(|(_, p)| *p).collect::<Vec<_>>());
     let opts = RenderOptions {
         threads: threads(args.threads)?,
         crop,
         progress: progress.clone(),
         no_counters: args.no_counters,
         trace: args.trace.is_some(),
-        cancel: Some(cancel_on_ctrl_c()),
+        cancel: Some(cancel),
     };
-    let out = render(&scene, &opts)?;
+    let out = render(scene, &opts);
+    // From here on any signal ends the process, removing what is half written.
+    watch_signals(None, &[]);
     if let Some(pb) = progress {
         pb.finish_and_clear();
     }
-    // A render stopped before any pixel tile finished has no pixel to show: an earlier
-    // file of that name is worth more than a black image.
-    let has_pixels = out.finished_pixels > 0;
-    if has_pixels {
-        match crop {
-            None => write_image(&args.output, &out.image)?,
-            Some(c) => {
-                let task = match crop_spec {
-                    Some(Crop::Task { k, n }) => Some((k, n)),
-                    _ => None,
-                };
-                let (rays, seconds) = (out.stats.total_rays(), out.seconds);
-                let header = TileHeader { id: RenderId::of(&scene), width: w, height: h, crop: c, task, rays, seconds };
-                write_crop(&args.output, &out.image, (w, h), &c, &header.attributes())?
-            }
-        }
-        for h in &args.heatmaps {
-            let pic = heatmap::draw(h.kind, &out.image, &out.heat);
-            write_png(&h.path, pic.width, pic.height, &pic.rgb)?;
-        }
-    }
+    out
+}
 
+/// The stats report of a render.
+fn report(scene: &wavetrace::Scene, out: &RenderOutput, load_seconds: f64) -> Report {
     let info = &scene.info;
     let report = Report::new(
         &scene.settings,
@@ -339,14 +404,52 @@ pub fn run(args: RenderArgs) -> Result<i32> {
             notes: info.notes.clone(),
         },
     );
-    let report = Report { partial: out.partial, ..report };
+    Report { partial: out.partial, ..report }
+}
+
+/// Writes every output all or nothing ([`Batch`]): the image and heatmaps (unless the
+/// render stopped before any pixel tile finished: an earlier file of that name is worth
+/// more than a black image), the trace and the stats. Returns whether the image was
+/// written. `crop` is the rendered part with its `--tile` task.
+fn write_outputs(
+    args: &RenderArgs,
+    scene: &wavetrace::Scene,
+    out: &RenderOutput,
+    crop: Option<(Tile, Option<(u32, u32)>)>,
+    report: &Report,
+) -> Result<bool> {
+    let mut batch = Batch::new();
+    let has_pixels = out.finished_pixels > 0;
+    if has_pixels {
+        match crop {
+            None => batch.image(&args.output, &out.image)?,
+            Some((c, task)) => {
+                let (w, h) = (scene.settings.width, scene.settings.height);
+                let (rays, seconds) = (out.stats.total_rays(), out.seconds);
+                let header = TileHeader { id: RenderId::of(scene), width: w, height: h, crop: c, task, rays, seconds };
+                batch.crop(&args.output, &out.image, (w, h), &c, &header.attributes())?
+            }
+        }
+        for h in &args.heatmaps {
+            let pic = heatmap::draw(h.kind, &out.image, &out.heat);
+            batch.png(&h.path, pic.width, pic.height, &pic.rgb)?;
+        }
+    }
     if let Some(p) = &args.trace {
-        write_text(p, &chrome_trace(&out.spans))?;
+        batch.text(p, &chrome_trace(&out.spans))?;
     }
     if let Some(p) = &args.stats_json {
-        let json = serde_json::to_string_pretty(&report).map_err(|e| Error::Internal(e.to_string()))?;
-        write_text(p, &(json + "\n"))?;
+        let json = serde_json::to_string_pretty(report).map_err(|e| Error::Internal(e.to_string()))?;
+        batch.text(p, &(json + "\n"))?;
     }
+    batch.commit()?;
+    Ok(has_pixels)
+}
+
+/// Prints the table, the summary line and what an interrupted render wrote; returns
+/// the exit status.
+fn summarise(args: &RenderArgs, report: &Report, out: &RenderOutput, has_pixels: bool) -> i32 {
+    let json_on_stdout = args.stats_json.iter().chain(args.trace.iter()).any(|p| is_stdout(p));
     if !args.quiet {
         if args.stats {
             report_line(&report.table(), json_on_stdout);
@@ -355,22 +458,22 @@ pub fn run(args: RenderArgs) -> Result<i32> {
             report_line(&format!("{} -> {}", report.summary(), args.output.display()), json_on_stdout);
         }
     }
-    if out.partial {
-        let total = out.image.pixels.len() as u64;
-        if has_pixels {
-            eprintln!(
-                "interrupted: wrote the finished tiles, {} of {total} pixels ({:.1}%), to {}; the rest is black",
-                out.finished_pixels,
-                100.0 * out.finished_pixels as f64 / total.max(1) as f64,
-                args.output.display()
-            );
-        } else {
-            eprintln!(
-                "interrupted before any pixel tile finished (0 of {total} pixels): {} not written",
-                args.output.display()
-            );
-        }
-        return Ok(EXIT_INTERRUPTED);
+    if !out.partial {
+        return 0;
     }
-    Ok(0)
+    let total = out.image.pixels.len() as u64;
+    if has_pixels {
+        eprintln!(
+            "interrupted: wrote the finished tiles, {} of {total} pixels ({:.1}%), to {}; the rest is black",
+            out.finished_pixels,
+            100.0 * out.finished_pixels as f64 / total.max(1) as f64,
+            args.output.display()
+        );
+    } else {
+        eprintln!(
+            "interrupted before any pixel tile finished (0 of {total} pixels): {} not written",
+            args.output.display()
+        );
+    }
+    EXIT_INTERRUPTED
 }

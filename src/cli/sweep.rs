@@ -5,6 +5,7 @@ use clap::Args;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
+use wavetrace::tools::output::watch_signals;
 use wavetrace::tools::sweep::{self, Reference, SweepOptions};
 use wavetrace::Result;
 
@@ -31,7 +32,7 @@ pub struct SweepArgs {
     output: PathBuf,
     /// Worker threads per render (default: all cores); at most 4 per CPU (a limit of at
     /// least 64 and at most 1024).
-    #[arg(long, value_parser = super::thread_count)]
+    #[arg(long, allow_negative_numbers = true, value_parser = super::thread_count)]
     threads: Option<usize>,
     /// Print nothing but errors.
     #[arg(short, long)]
@@ -41,6 +42,8 @@ pub struct SweepArgs {
 /// Runs the sweep and prints where its files went. Built without the `plot` feature the
 /// sweep writes the CSV and the JSON only, and a note on stderr says why.
 pub fn run(args: SweepArgs) -> Result<()> {
+    // A signal ends the sweep, removing the temporary file of what was being written.
+    watch_signals(None, &[]);
     let params = args.params.iter().map(|p| sweep::parse_param(p)).collect::<Result<Vec<_>>>()?;
     let reference = match (&args.reference, args.reference_spp) {
         (Some(path), _) => Reference::File(path.clone()),

@@ -215,13 +215,13 @@ impl Default for GlossDesc {
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
     /// Eye position (required unless `transform` is given).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "exact::opt::position")]
     pub position: Option<[f32; 3]>,
     /// Point the camera looks at (required unless `transform` is given).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "exact::opt::look_at")]
     pub look_at: Option<[f32; 3]>,
     /// Up hint (default [0, 1, 0]).
-    #[serde(default = "default_up")]
+    #[serde(default = "default_up", deserialize_with = "exact::up")]
     pub up: [f32; 3],
     /// Camera-to-world transform instead of position/look_at/up, with Mitsuba's camera
     /// frame: the camera sits at the origin looking along +z with +y up (+x is to the
@@ -241,7 +241,7 @@ pub struct CameraDesc {
     /// Motion blur: the times in [0, 1] the shutter opens and closes; a camera ray's
     /// time is uniform over them, stratified over the pixel (default [0, 0]: no motion
     /// blur, everything where it is at time 0).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::shutter")]
     pub shutter: [f32; 2],
     /// The camera-to-world transform at time 1 (the same syntax as `transform`, with
     /// the same camera frame); the camera at time 0 is `transform`, or
@@ -263,6 +263,7 @@ fn default_fov() -> f32 {
 #[serde(deny_unknown_fields, default)]
 pub struct BackgroundDesc {
     /// Radiance of rays that hit nothing (default black).
+    #[serde(deserialize_with = "exact::color")]
     pub color: [f32; 3],
 }
 
@@ -275,7 +276,7 @@ pub enum MaterialDesc {
         /// Albedo: an RGB triple or a texture.
         color: ColorDesc,
         /// Phong specular reflectance (default 0).
-        #[serde(default)]
+        #[serde(default, deserialize_with = "exact::specular")]
         specular: [f32; 3],
         /// Phong exponent (default 0; only used when `specular` is non-zero).
         #[serde(default)]
@@ -284,6 +285,7 @@ pub enum MaterialDesc {
     /// Perfect mirror.
     Mirror {
         /// Reflectance.
+        #[serde(deserialize_with = "exact::color")]
         color: [f32; 3],
     },
     /// Smooth glass.
@@ -294,7 +296,7 @@ pub enum MaterialDesc {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         reflect_ratio: Option<RatioDesc>,
         /// Transmission tint (default white).
-        #[serde(default = "white")]
+        #[serde(default = "white", deserialize_with = "exact::color")]
         color: [f32; 3],
         // The four roughness fields repeat in `Conductor`: serde's `flatten` does not
         // combine with `deny_unknown_fields`, which keeps a misspelt key an error.
@@ -321,10 +323,10 @@ pub enum MaterialDesc {
         material: Option<String>,
         /// Real part of the index of refraction per RGB channel (with `k`, instead of
         /// `material`).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "exact::opt::eta")]
         eta: Option<[f32; 3]>,
         /// Imaginary part (absorption) per channel.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "exact::opt::k")]
         k: Option<[f32; 3]>,
         /// Multiplies the Fresnel reflectance (Mitsuba's `specular_reflectance`): an RGB
         /// triple or a texture (default white).
@@ -351,13 +353,36 @@ fn white_color() -> ColorDesc {
 }
 
 /// A colour: an RGB triple, or a texture table looked up at the surface's UV.
-#[derive(Deserialize, Serialize, Debug, Clone, PartialEq)]
+#[derive(Serialize, Debug, Clone, PartialEq)]
 #[serde(untagged)]
 pub enum ColorDesc {
     /// `[r, g, b]`, linear.
     Rgb([f32; 3]),
     /// `{ type = "bitmap", ... }` or `{ type = "checkerboard", ... }`.
     Texture(TextureDesc),
+}
+
+impl<'de> Deserialize<'de> for ColorDesc {
+    /// Numbers of any count first, so a triple of the wrong length is refused as one
+    /// (`color` takes 3 numbers) rather than as "no variant matched".
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum ColorOrTexture {
+            Numbers(Vec<f32>),
+            Texture(TextureDesc),
+        }
+        match ColorOrTexture::deserialize(d)? {
+            ColorOrTexture::Numbers(v) => {
+                let n = v.len();
+                let rgb = v.try_into().map_err(|_| {
+                    serde::de::Error::custom(format!("`color` takes 3 numbers (or a texture table), not {n}"))
+                })?;
+                Ok(ColorDesc::Rgb(rgb))
+            }
+            ColorOrTexture::Texture(t) => Ok(ColorDesc::Texture(t)),
+        }
+    }
 }
 
 /// A texture in a colour's place.
@@ -386,10 +411,10 @@ pub enum TextureDesc {
     /// Two colours in checks of the unit UV square, as Mitsuba's `checkerboard`.
     Checkerboard {
         /// First colour (default 0.4, as Mitsuba).
-        #[serde(default = "checker0")]
+        #[serde(default = "checker0", deserialize_with = "exact::color0")]
         color0: [f32; 3],
         /// Second colour (default 0.2).
-        #[serde(default = "checker1")]
+        #[serde(default = "checker1", deserialize_with = "exact::color1")]
         color1: [f32; 3],
         /// Applied to the UV before the lookup (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -431,12 +456,16 @@ pub enum LightDesc {
     /// One-sided parallelogram emitter.
     Quad {
         /// One corner.
+        #[serde(deserialize_with = "exact::corner")]
         corner: [f32; 3],
         /// First edge.
+        #[serde(deserialize_with = "exact::edge_u")]
         edge_u: [f32; 3],
         /// Second edge; emits towards `edge_u × edge_v` (after `transform`).
+        #[serde(deserialize_with = "exact::edge_v")]
         edge_v: [f32; 3],
         /// Emitted radiance.
+        #[serde(deserialize_with = "exact::radiance")]
         radiance: [f32; 3],
         /// Applied to the corner and the edges (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -449,12 +478,16 @@ pub enum LightDesc {
     /// front).
     Triangle {
         /// First vertex.
+        #[serde(deserialize_with = "exact::v0")]
         v0: [f32; 3],
         /// Second vertex.
+        #[serde(deserialize_with = "exact::v1")]
         v1: [f32; 3],
         /// Third vertex.
+        #[serde(deserialize_with = "exact::v2")]
         v2: [f32; 3],
         /// Emitted radiance.
+        #[serde(deserialize_with = "exact::radiance")]
         radiance: [f32; 3],
         /// Applied to the vertices (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -466,8 +499,10 @@ pub enum LightDesc {
     /// Isotropic point light.
     Point {
         /// Position.
+        #[serde(deserialize_with = "exact::position")]
         position: [f32; 3],
         /// Radiant intensity, W/sr.
+        #[serde(deserialize_with = "exact::intensity")]
         intensity: [f32; 3],
         /// Refused: lights stay still (a key here is an error that says so).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -482,6 +517,7 @@ pub enum ObjectDesc {
     /// A sphere.
     Sphere {
         /// Centre.
+        #[serde(deserialize_with = "exact::center")]
         center: [f32; 3],
         /// Radius.
         radius: f32,
@@ -501,10 +537,13 @@ pub enum ObjectDesc {
     /// A two-sided parallelogram.
     Quad {
         /// One corner.
+        #[serde(deserialize_with = "exact::corner")]
         corner: [f32; 3],
         /// First edge.
+        #[serde(deserialize_with = "exact::edge_u")]
         edge_u: [f32; 3],
         /// Second edge.
+        #[serde(deserialize_with = "exact::edge_v")]
         edge_v: [f32; 3],
         /// Material name.
         material: String,
@@ -519,7 +558,7 @@ pub enum ObjectDesc {
         transform_end: Option<Vec<TransformOp>>,
         /// Texture coordinates at the corner, at corner + edge_u and at corner + edge_v
         /// (default `[[0, 0], [1, 0], [0, 1]]`: the point's (a, b)).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "exact::opt::uv")]
         uv: Option<[[f32; 2]; 3]>,
     },
     /// A triangle mesh from an OBJ or PLY file (by extension).
@@ -536,7 +575,7 @@ pub enum ObjectDesc {
         #[serde(default)]
         rotate_y: f32,
         /// Translation, applied after `rotate_y` (default 0).
-        #[serde(default)]
+        #[serde(default, deserialize_with = "exact::translate")]
         translate: [f32; 3],
         /// Applied after scale, rotate_y and translate (default: none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -553,7 +592,7 @@ pub enum ObjectDesc {
         smooth: bool,
         /// Makes every triangle a one-sided emitter of this radiance (counter-clockwise
         /// front); `material` is then not needed (default: none).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
+        #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "exact::opt::emission")]
         emission: Option<[f32; 3]>,
         /// Flip the winding (which side emits, and the file's normals) (default false).
         #[serde(default)]
@@ -571,12 +610,13 @@ fn one() -> f32 {
 #[serde(rename_all = "lowercase", deny_unknown_fields)]
 pub enum TransformOp {
     /// `{ translate = [x, y, z] }`.
-    Translate([f32; 3]),
+    Translate(#[serde(deserialize_with = "exact::translate")] [f32; 3]),
     /// `{ scale = [x, y, z] }` (a uniform scale repeats one number).
-    Scale([f32; 3]),
+    Scale(#[serde(deserialize_with = "exact::scale")] [f32; 3]),
     /// `{ rotate = { axis = [x, y, z], angle = DEGREES } }`: right-handed about `axis`.
     Rotate {
         /// Axis (normalised here).
+        #[serde(deserialize_with = "exact::axis")]
         axis: [f32; 3],
         /// Angle in degrees.
         angle: f32,
@@ -587,10 +627,77 @@ pub enum TransformOp {
     /// target, +y up, +x = up × z).
     Lookat {
         /// Where the frame sits.
+        #[serde(deserialize_with = "exact::origin")]
         origin: [f32; 3],
         /// Where +z points to.
+        #[serde(deserialize_with = "exact::target")]
         target: [f32; 3],
         /// Up hint.
+        #[serde(deserialize_with = "exact::up")]
         up: [f32; 3],
     },
+}
+
+/// `deserialize_with` functions that read a fixed-length array of numbers whole and
+/// refuse any other length, naming the field. serde reads `[f32; N]` by taking N
+/// elements and stopping, and the `toml` crate's array deserializer does not check that
+/// the array ended (toml_edit's `ArraySeqAccess`), so a file's `shutter = [0, 1, 0.5]`
+/// used to be read as `[0, 1]` while the same value through `--set` (serde's own
+/// sequence deserializer) was refused. One function per field name, because a tagged
+/// table (`[[objects]]`) is buffered before it is read and its errors carry no position
+/// inside it: the message has to name the field itself.
+mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    /// Exactly `N` numbers; the message names `field`.
+    fn numbers<'de, D: Deserializer<'de>, const N: usize>(d: D, field: &str) -> Result<[f32; N], D::Error> {
+        let v = Vec::<f32>::deserialize(d)?;
+        let n = v.len();
+        v.try_into().map_err(|_| D::Error::custom(format!("`{field}` takes {N} numbers, not {n}")))
+    }
+
+    macro_rules! fields {
+        ($($name:ident: $n:literal),* $(,)?) => {$(
+            #[doc = concat!("`", stringify!($name), "`: exactly ", stringify!($n), " numbers.")]
+            pub(super) fn $name<'de, D: Deserializer<'de>>(d: D) -> Result<[f32; $n], D::Error> {
+                numbers(d, stringify!($name))
+            }
+        )*};
+    }
+
+    fields!(
+        up: 3, shutter: 2, color: 3, specular: 3, color0: 3, color1: 3, corner: 3, edge_u: 3, edge_v: 3,
+        radiance: 3, v0: 3, v1: 3, v2: 3, position: 3, intensity: 3, center: 3, translate: 3, scale: 3,
+        axis: 3, origin: 3, target: 3,
+    );
+
+    /// The optional fields: present, they are read as the others are.
+    pub(super) mod opt {
+        use serde::de::{Deserialize, Deserializer, Error};
+
+        macro_rules! optional {
+            ($($name:ident),* $(,)?) => {$(
+                #[doc = concat!("`", stringify!($name), "`: exactly 3 numbers when given.")]
+                pub(in super::super) fn $name<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f32; 3]>, D::Error> {
+                    super::numbers(d, stringify!($name)).map(Some)
+                }
+            )*};
+        }
+
+        optional!(position, look_at, eta, k, emission);
+
+        /// `uv`: exactly three pairs of numbers when given.
+        pub(in super::super) fn uv<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[[f32; 2]; 3]>, D::Error> {
+            let v = Vec::<Vec<f32>>::deserialize(d)?;
+            let n = v.len();
+            let pairs: [Vec<f32>; 3] =
+                v.try_into().map_err(|_| D::Error::custom(format!("`uv` takes 3 pairs of numbers, not {n}")))?;
+            let mut out = [[0.0; 2]; 3];
+            for (i, (pair, o)) in pairs.into_iter().zip(&mut out).enumerate() {
+                let n = pair.len();
+                *o = pair.try_into().map_err(|_| D::Error::custom(format!("`uv.{i}` takes 2 numbers, not {n}")))?;
+            }
+            Ok(Some(out))
+        }
+    }
 }

@@ -115,11 +115,12 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
         let m = &model.mesh;
         let p = &m.positions;
         if let Some(bad) = p.iter().chain(&m.normals).position(|x| !x.is_finite()) {
-            let what = if bad < p.len() { "vertex" } else { "normal" };
+            let (what, keyword) = if bad < p.len() { ("vertex", "v") } else { ("normal", "vn") };
             let k = if bad < p.len() { bad } else { bad - p.len() };
             return Err(format!(
-                "malformed OBJ `{}`: {what} {} of object `{}` has a non-finite coordinate",
+                "malformed OBJ `{}`: {}{what} {} of object `{}` has a non-finite coordinate",
                 path.display(),
+                nonfinite_line(&bytes, keyword).map_or_else(String::new, |l| format!("line {l}: ")),
                 k / 3 + 1,
                 model.name
             ));
@@ -127,8 +128,9 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
         with_normals &= !m.normal_indices.is_empty() && m.normal_indices.len() == m.indices.len();
         if let Some(bad) = m.texcoords.iter().position(|x| !x.is_finite()) {
             return Err(format!(
-                "malformed OBJ `{}`: texture coordinate {} of object `{}` is not finite",
+                "malformed OBJ `{}`: {}texture coordinate {} of object `{}` is not finite",
                 path.display(),
+                nonfinite_line(&bytes, "vt").map_or_else(String::new, |l| format!("line {l}: ")),
                 bad / 2 + 1,
                 model.name
             ));
@@ -237,6 +239,20 @@ fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
         }
     }
     Ok(())
+}
+
+/// The first line of a `keyword` (`v`, `vn`, `vt`) record with a number that is not
+/// finite in f32 (`nan`, `inf`, `1e39`): tobj reads them without a word, and its
+/// positions carry no line.
+fn nonfinite_line(bytes: &[u8], keyword: &str) -> Option<usize> {
+    bytes
+        .split(|&b| b == b'\n')
+        .position(|line| {
+            let text = String::from_utf8_lossy(line);
+            let mut words = text.split_whitespace();
+            words.next() == Some(keyword) && words.any(|w| w.parse::<f32>().is_ok_and(|x| !x.is_finite()))
+        })
+        .map(|i| i + 1)
 }
 
 /// The line holding byte `at` (1-based).

@@ -330,6 +330,9 @@ pub struct SceneInfo {
     pub outside_paths: Vec<String>,
     /// What an imported (Mitsuba XML) scene reads differently from Mitsuba, or ignores.
     pub notes: Vec<String>,
+    /// Every file the scene reads besides itself (includes, meshes, textures), each with
+    /// what it is for, as a message names it: no output may overwrite one.
+    pub inputs: Vec<(String, std::path::PathBuf)>,
 }
 
 impl Scene {

@@ -5,12 +5,20 @@
 //! symlink is followed and its target written that way (the link stays); a character
 //! device or a FIFO is written in place (renaming would replace the node with a plain
 //! file); `-` is standard output, for text. Anything else (a folder, a socket, a block
-//! device) is refused before any work, as are two outputs naming one file
+//! device), a read-only file or a folder that does not let it be replaced, is refused
+//! before any work, as are two outputs naming one file and an output naming an input
 //! ([`check_distinct`]). Without the `exr` feature an `.exr` path is refused before any
 //! work, with a message that names the feature.
+//!
+//! The outputs of one command are written all or nothing ([`Batch`]): every file to its
+//! temporary file first, then all renamed into place, then the devices and FIFOs and
+//! stdout, which cannot be taken back. SIGINT, SIGTERM and SIGHUP remove the temporary
+//! files at any moment and say what was and was not written ([`watch_signals`]).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, Once, PoisonError};
 
 use crate::color::to_display8;
 use crate::film::{Image, Tile};
@@ -55,6 +63,7 @@ pub fn check_output(path: &Path) -> Result<Target> {
                 if !dir.is_dir() {
                     return Err(Error::output(path, format!("folder `{}` does not exist", dir.display())));
                 }
+                check_folder(path, &p, None)?;
                 return Ok(Target::File(p));
             }
             Err(e) => return Err(Error::output(path, format!("cannot look at it: {e}"))),
@@ -67,6 +76,7 @@ pub fn check_output(path: &Path) -> Result<Target> {
             continue;
         }
         let what = if kind.is_file() {
+            check_replaceable(path, &p, &meta)?;
             return Ok(Target::File(p));
         } else if kind.is_char_device() || kind.is_fifo() {
             return Ok(Target::Stream(p));
@@ -79,13 +89,96 @@ pub fn check_output(path: &Path) -> Result<Target> {
         } else {
             "not a regular file"
         };
-        let through = if p != path { format!(" (through a symlink, `{}`)", p.display()) } else { String::new() };
         return Err(Error::output(
             path,
-            format!("is {what}{through}; outputs go to regular files, new names, character devices, FIFOs or `-`"),
+            format!(
+                "is {what}{}; outputs go to regular files, new names, character devices, FIFOs or `-`",
+                through(path, &p)
+            ),
         ));
     }
     Err(Error::output(path, format!("more than {MAX_LINKS} symlinks in a row")))
+}
+
+/// ` (through a symlink, `FILE`)` when the output path led elsewhere.
+fn through(shown: &Path, file: &Path) -> String {
+    if file != shown {
+        format!(" (through a symlink, `{}`)", file.display())
+    } else {
+        String::new()
+    }
+}
+
+/// The effective user id of this process.
+fn euid() -> u32 {
+    // SAFETY: geteuid has no preconditions and cannot fail.
+    unsafe { libc::geteuid() }
+}
+
+/// True when the mode bits let this process `want` (`libc::W_OK`, `X_OK`) on `path`. For
+/// root, which the kernel lets write anything, a bit of that kind must be set for someone:
+/// the refusal follows the mode the file's owner gave it, as `cp` and `tar` do, not the
+/// superuser's power to override it.
+fn permits(path: &Path, meta: &std::fs::Metadata, want: libc::c_int) -> bool {
+    use std::os::unix::ffi::OsStrExt;
+    use std::os::unix::fs::MetadataExt;
+    if euid() == 0 {
+        let mode = meta.mode();
+        return (want & libc::W_OK == 0 || mode & 0o222 != 0) && (want & libc::X_OK == 0 || mode & 0o111 != 0);
+    }
+    let Ok(c) = std::ffi::CString::new(path.as_os_str().as_bytes()) else { return true };
+    // SAFETY: `c` is a NUL-terminated path that outlives the call; faccessat reads only it.
+    unsafe { libc::faccessat(libc::AT_FDCWD, c.as_ptr(), want, libc::AT_EACCESS) == 0 }
+}
+
+/// Refuses an existing regular file that its mode keeps from being written ([`permits`]):
+/// renaming a new file over it would succeed in a writable folder, and leave a file of
+/// another owner and mode where a read-only one was.
+fn check_replaceable(shown: &Path, file: &Path, meta: &std::fs::Metadata) -> Result<()> {
+    use std::os::unix::fs::MetadataExt;
+    if !permits(file, meta, libc::W_OK) {
+        return Err(Error::output(
+            shown,
+            format!(
+                "is read-only (mode {:o}){}: it is not replaced (make it writable, or write to another name). Nothing written",
+                meta.mode() & 0o7777,
+                through(shown, file)
+            ),
+        ));
+    }
+    check_folder(shown, file, Some(meta))
+}
+
+/// Refuses an output whose folder does not let the temporary file be made and renamed
+/// into place: no write or search permission by its mode bits ([`permits`]), or a sticky
+/// folder (`/tmp`) where the existing file (`existing`) belongs to another user.
+fn check_folder(shown: &Path, file: &Path, existing: Option<&std::fs::Metadata>) -> Result<()> {
+    use std::os::unix::fs::MetadataExt;
+    let dir = parent(file);
+    let Ok(meta) = std::fs::metadata(&dir) else { return Ok(()) };
+    let mode = meta.mode() & 0o7777;
+    if !permits(&dir, &meta, libc::W_OK | libc::X_OK) {
+        return Err(Error::output(
+            shown,
+            format!(
+                "its folder `{}` does not allow writing in it (mode {mode:o}){}: the output cannot be put in place. Nothing written",
+                dir.display(),
+                through(shown, file)
+            ),
+        ));
+    }
+    let me = euid();
+    if let Some(f) = existing.filter(|f| mode & 0o1000 != 0 && f.uid() != me && meta.uid() != me) {
+        return Err(Error::output(
+            shown,
+            format!(
+                "belongs to user {} in the sticky folder `{}` (mode {mode:o}), which lets only its owner replace it. Nothing written",
+                f.uid(),
+                dir.display()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// What identifies the file an output path ends at: the device and inode of an existing
@@ -141,7 +234,7 @@ pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Re
             if identity(input).as_ref() == Some(id) {
                 return Err(Error::output(
                     path,
-                    format!("{flag} names {what} `{}`, which it would overwrite. Nothing written", input.display()),
+                    format!("{flag} names `{}`, {what}, which it would overwrite. Nothing written", input.display()),
                 ));
             }
         }
@@ -191,11 +284,9 @@ pub fn to_srgb8(image: &Image) -> Vec<u8> {
 
 /// Writes `image` to `path` in the format its extension names ([`Target`] says how).
 pub fn write_image(path: &Path, image: &Image) -> Result<()> {
-    let bytes = match check_image_path(path)? {
-        Format::Png => encode_png(image.width, image.height, &to_srgb8(image)),
-        Format::Exr => encode_exr(image),
-    };
-    put(path, bytes)
+    let mut batch = Batch::new();
+    batch.image(path, image)?;
+    batch.commit()
 }
 
 #[cfg(feature = "exr")]
@@ -212,23 +303,6 @@ fn encode_exr(image: &Image) -> std::result::Result<Vec<u8>, String> {
         .to_buffered(&mut out)
         .map_err(|e| e.to_string())?;
     Ok(out.into_inner())
-}
-
-/// Writes a crop of a `width`×`height` frame: an EXR stores `image` (the pixels of
-/// `crop`) as its data window inside the full display window, with `attributes` as
-/// text header attributes; a PNG (a preview) is just the crop.
-pub fn write_crop(
-    path: &Path,
-    image: &Image,
-    (width, height): (u32, u32),
-    crop: &Tile,
-    attributes: &[(String, String)],
-) -> Result<()> {
-    let bytes = match check_image_path(path)? {
-        Format::Png => encode_png(image.width, image.height, &to_srgb8(image)),
-        Format::Exr => encode_exr_crop(image, (width, height), crop, attributes),
-    };
-    put(path, bytes)
 }
 
 #[cfg(feature = "exr")]
@@ -262,7 +336,7 @@ fn encode_exr_crop(_: &Image, _: (u32, u32), _: &Tile, _: &[(String, String)]) -
 }
 
 /// Without the `exr` feature: the error that says so ([`check_image_path`] refuses
-/// `.exr` first, so this is not reached from [`write_image`]).
+/// `.exr` first, so this is not reached from [`Batch::image`]).
 #[cfg(not(feature = "exr"))]
 fn encode_exr(_: &Image) -> std::result::Result<Vec<u8>, String> {
     Err(NEEDS_EXR.into())
@@ -287,52 +361,298 @@ pub fn check_png_path(path: &Path) -> Result<()> {
 
 /// Writes 8-bit RGB bytes to a PNG.
 pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
-    check_png_path(path)?;
-    put(path, encode_png(width, height, rgb))
+    let mut batch = Batch::new();
+    batch.png(path, width, height, rgb)?;
+    batch.commit()
 }
 
 /// Writes text to `path` (`-`: standard output).
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
-    put(path, Ok(text.as_bytes().to_vec()))
+    let mut batch = Batch::new();
+    batch.text(path, text)?;
+    batch.commit()
 }
 
-/// Writes encoded bytes where `path` leads ([`check_output`]): a file through a
-/// temporary file and a rename, a device or FIFO in place, `-` to standard output. An
-/// encoding error is reported as a write error of `path`, and nothing is written.
-fn put(path: &Path, bytes: std::result::Result<Vec<u8>, String>) -> Result<()> {
-    let fail = |e: String| Error::output(path, format!("cannot write: {e}"));
-    let target = check_output(path)?;
-    let bytes = bytes.map_err(fail)?;
-    match target {
-        Target::File(file) => atomic_write(&file, &bytes).map_err(fail),
-        Target::Stream(node) => {
-            // No create, no truncate: the node is written as it is, never replaced.
-            let mut f = std::fs::OpenOptions::new().write(true).open(&node).map_err(|e| fail(e.to_string()))?;
-            f.write_all(&bytes).and_then(|_| f.flush()).map_err(|e| fail(e.to_string()))
+/// The exit status of a command stopped by a signal (128 + SIGINT, as shells report
+/// Ctrl-C; SIGTERM and SIGHUP end the same way, since the handler cannot tell them apart).
+pub const EXIT_INTERRUPTED: i32 = 130;
+
+/// The outputs of one command, written all or nothing. [`Batch::image`],
+/// [`Batch::crop`], [`Batch::png`] and [`Batch::text`] each write a regular file's bytes
+/// to its temporary file beside it (a device's, a FIFO's or stdout's are kept);
+/// [`Batch::commit`] then renames the temporary files into place one after another, and
+/// only then writes the devices, FIFOs and stdout, which cannot be taken back. An error
+/// before the first rename, or a batch dropped uncommitted, removes its temporary files
+/// and leaves every earlier file as it was.
+#[derive(Default)]
+pub struct Batch {
+    staged: Vec<Staged>,
+}
+
+/// One output of a [`Batch`], ready to go in place.
+enum Staged {
+    /// A written and synced temporary file, to be renamed over `dest`.
+    File { shown: PathBuf, tmp: PathBuf, dest: PathBuf },
+    /// The bytes of a character device or FIFO, written in place.
+    Stream { shown: PathBuf, node: PathBuf, bytes: Vec<u8> },
+    /// The bytes of standard output.
+    Stdout { bytes: Vec<u8> },
+}
+
+impl Batch {
+    /// An empty batch. Its temporary files are registered for the signal handler, which
+    /// a command installs with [`watch_signals`] (a library caller keeps its own).
+    pub fn new() -> Batch {
+        Batch::default()
+    }
+
+    /// Stages `image` in the format `path`'s extension names.
+    pub fn image(&mut self, path: &Path, image: &Image) -> Result<()> {
+        let bytes = match check_image_path(path)? {
+            Format::Png => encode_png(image.width, image.height, &to_srgb8(image)),
+            Format::Exr => encode_exr(image),
+        };
+        self.put(path, bytes)
+    }
+
+    /// Stages a crop of a `width`×`height` frame: an EXR stores `image` (the pixels of
+    /// `crop`) as its data window inside the full display window, with `attributes` as
+    /// text header attributes; a PNG (a preview) is just the crop.
+    pub fn crop(
+        &mut self,
+        path: &Path,
+        image: &Image,
+        (width, height): (u32, u32),
+        crop: &Tile,
+        attributes: &[(String, String)],
+    ) -> Result<()> {
+        let bytes = match check_image_path(path)? {
+            Format::Png => encode_png(image.width, image.height, &to_srgb8(image)),
+            Format::Exr => encode_exr_crop(image, (width, height), crop, attributes),
+        };
+        self.put(path, bytes)
+    }
+
+    /// Stages 8-bit RGB bytes as a PNG.
+    pub fn png(&mut self, path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+        check_png_path(path)?;
+        self.put(path, encode_png(width, height, rgb))
+    }
+
+    /// Stages text (`-`: standard output).
+    pub fn text(&mut self, path: &Path, text: &str) -> Result<()> {
+        self.put(path, Ok(text.as_bytes().to_vec()))
+    }
+
+    /// Stages encoded bytes where `path` leads ([`check_output`]). An encoding error is
+    /// reported as a write error of `path`.
+    fn put(&mut self, path: &Path, bytes: std::result::Result<Vec<u8>, String>) -> Result<()> {
+        let fail = |e: String| Error::output(path, format!("cannot write: {e}"));
+        let target = check_output(path)?;
+        let bytes = bytes.map_err(fail)?;
+        plan(path);
+        self.staged.push(match target {
+            Target::File(dest) => {
+                let tmp = write_temporary(&dest, &bytes, path).map_err(|e| fail(e.to_string()))?;
+                Staged::File { shown: path.to_path_buf(), tmp, dest }
+            }
+            Target::Stream(node) => Staged::Stream { shown: path.to_path_buf(), node, bytes },
+            Target::Stdout => Staged::Stdout { bytes },
+        });
+        Ok(())
+    }
+
+    /// Puts every staged output in place: the files by renames, then the devices and
+    /// FIFOs, then stdout. An error after the first rename says which were written.
+    pub fn commit(mut self) -> Result<()> {
+        // Files first (a stable sort keeps the command's order among them).
+        self.staged.sort_by_key(|s| match s {
+            Staged::File { .. } => 0,
+            Staged::Stream { .. } => 1,
+            Staged::Stdout { .. } => 2,
+        });
+        let mut done: Vec<PathBuf> = Vec::new();
+        while !self.staged.is_empty() {
+            let next = self.staged.remove(0);
+            let (shown, result) = match &next {
+                Staged::File { shown, tmp, dest } => {
+                    let mut reg = registry();
+                    let r = std::fs::rename(tmp, dest);
+                    if r.is_ok() {
+                        reg.temps.retain(|(t, _)| t != tmp);
+                        reg.written.push(shown.clone());
+                    }
+                    (shown.clone(), r)
+                }
+                Staged::Stream { shown, node, bytes } => {
+                    // No create, no truncate: the node is written as it is, never replaced.
+                    let r = std::fs::OpenOptions::new()
+                        .write(true)
+                        .open(node)
+                        .and_then(|mut f| f.write_all(bytes).and_then(|_| f.flush()));
+                    (shown.clone(), r)
+                }
+                Staged::Stdout { bytes } => {
+                    let mut out = std::io::stdout().lock();
+                    (PathBuf::from("-"), out.write_all(bytes).and_then(|_| out.flush()))
+                }
+            };
+            if let Err(e) = result {
+                if let Staged::File { tmp, .. } = &next {
+                    remove_temporary(tmp);
+                }
+                let mut msg = format!("cannot write: {e}");
+                if !done.is_empty() {
+                    let list: Vec<String> = done.iter().map(|p| format!("`{}`", p.display())).collect();
+                    msg += &format!(" (already written: {}; the rest not written)", list.join(", "));
+                }
+                return Err(Error::output(&shown, msg));
+            }
+            registry().mark_written(&shown);
+            done.push(shown);
         }
-        Target::Stdout => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(&bytes).and_then(|_| out.flush()).map_err(|e| fail(e.to_string()))
+        Ok(())
+    }
+}
+
+impl Drop for Batch {
+    /// An uncommitted batch leaves nothing behind.
+    fn drop(&mut self) {
+        for s in &self.staged {
+            if let Staged::File { tmp, .. } = s {
+                remove_temporary(tmp);
+            }
         }
     }
 }
 
-/// Writes `bytes` to a temporary file beside `path`, then renames it into place; on any
-/// failure the temporary file is removed and `path` is left as it was.
-fn atomic_write(path: &Path, bytes: &[u8]) -> std::result::Result<(), String> {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = parent(path).join(format!(".{name}.{}.tmp", std::process::id()));
+/// Writes `bytes` to a temporary file beside `dest` (`.NAME.PID.tmp`), with `dest`'s
+/// permissions when it exists (a private file stays private), and syncs it. The file is
+/// registered for the signal handler before it exists, so a signal at any moment
+/// removes it; on failure it is removed at once.
+fn write_temporary(dest: &Path, bytes: &[u8], shown: &Path) -> std::io::Result<PathBuf> {
+    use std::os::unix::fs::PermissionsExt;
+    let name = dest.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = parent(dest).join(format!(".{name}.{}.tmp", std::process::id()));
+    let mut f = {
+        // Created under the lock: the handler either removes it or runs before it exists.
+        let mut reg = registry();
+        let f = std::fs::File::create(&tmp)?;
+        reg.temps.push((tmp.clone(), shown.to_path_buf()));
+        f
+    };
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        if let Ok(m) = std::fs::metadata(dest) {
+            f.set_permissions(std::fs::Permissions::from_mode(m.permissions().mode() & 0o777))?;
+        }
+        f.sync_all()
     })();
     if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e.to_string());
+        remove_temporary(&tmp);
+        return Err(e);
     }
-    Ok(())
+    Ok(tmp)
+}
+
+/// Removes a temporary file and forgets it.
+fn remove_temporary(tmp: &Path) {
+    let mut reg = registry();
+    reg.temps.retain(|(t, _)| t != tmp);
+    let _ = std::fs::remove_file(tmp);
+}
+
+/// What the signal handler needs to know, kept by the outputs as they go.
+struct Registry {
+    /// Temporary files that exist now, each with the output it is for.
+    temps: Vec<(PathBuf, PathBuf)>,
+    /// The command's outputs, as named, in order.
+    planned: Vec<PathBuf>,
+    /// The outputs in place.
+    written: Vec<PathBuf>,
+    /// While a render runs: its stop flag (the first signal stops it, the second ends
+    /// the process).
+    cancel: Option<Arc<AtomicBool>>,
+}
+
+static REGISTRY: Mutex<Registry> =
+    Mutex::new(Registry { temps: Vec::new(), planned: Vec::new(), written: Vec::new(), cancel: None });
+
+fn registry() -> MutexGuard<'static, Registry> {
+    REGISTRY.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+impl Registry {
+    fn mark_written(&mut self, shown: &Path) {
+        if !self.written.iter().any(|w| w == shown) {
+            self.written.push(shown.to_path_buf());
+        }
+    }
+
+    /// What an interrupted command says: the outputs written, those not, and the
+    /// temporary files removed.
+    fn report(&self, removed: usize) -> String {
+        let list = |v: Vec<&PathBuf>| match v.is_empty() {
+            true => "nothing".to_string(),
+            false => v.iter().map(|p| format!("`{}`", p.display())).collect::<Vec<_>>().join(", "),
+        };
+        let written: Vec<&PathBuf> = self.written.iter().collect();
+        let missing: Vec<&PathBuf> = self.planned.iter().filter(|p| !self.written.contains(p)).collect();
+        format!(
+            "interrupted: written: {}; not written: {}; {removed} temporary file{} removed",
+            list(written),
+            list(missing),
+            if removed == 1 { "" } else { "s" }
+        )
+    }
+}
+
+/// Adds an output to those an interrupted command reports.
+fn plan(path: &Path) {
+    let mut reg = registry();
+    if !reg.planned.iter().any(|p| p == path) {
+        reg.planned.push(path.to_path_buf());
+    }
+}
+
+/// Handles SIGINT, SIGTERM and SIGHUP from now on (installed once per process, through
+/// `ctrlc`; the command line calls it, the library never does):
+/// while `cancel` is set, the first signal sets it (a render then stops after its tiles
+/// in progress and writes what is finished); otherwise, and at the second signal, the
+/// temporary files are removed, a line on stderr says which of `outputs` were written
+/// and which not, and the process exits with [`EXIT_INTERRUPTED`]. Called again, it
+/// replaces the flag (`None` once the render is over) and adds to the outputs.
+pub fn watch_signals(cancel: Option<Arc<AtomicBool>>, outputs: &[&Path]) {
+    registry().cancel = cancel;
+    for p in outputs {
+        plan(p);
+    }
+    install_handler();
+}
+
+static INSTALL: Once = Once::new();
+
+fn install_handler() {
+    // Without a handler (another one installed in this process) the signals keep their
+    // default, which ends the process.
+    INSTALL.call_once(|| {
+        let _ = ctrlc::set_handler(on_signal);
+    });
+}
+
+/// The signal handler (ctrlc runs it on its own thread, not in the signal's context).
+fn on_signal() {
+    // Held until the exit: no temporary file is created or renamed after this point.
+    let mut reg = registry();
+    if let Some(flag) = &reg.cancel {
+        if !flag.swap(true, Ordering::SeqCst) {
+            return;
+        }
+    }
+    let temps = std::mem::take(&mut reg.temps);
+    let removed = temps.iter().filter(|(tmp, _)| std::fs::remove_file(tmp).is_ok()).count();
+    eprintln!("{}", reg.report(removed));
+    std::process::exit(EXIT_INTERRUPTED);
 }
 
 #[cfg(test)]

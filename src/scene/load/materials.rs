@@ -2,7 +2,7 @@
 //! loaded (each distinct texture once) and their roughness checked.
 
 use glam::{Affine2, Vec2, Vec3};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::microfacet::MIN_ALPHA;
 use crate::microfacet::{named_conductor, Distribution, Microfacet, CONDUCTORS};
@@ -22,6 +22,8 @@ pub(super) struct Textures {
     /// Loaded textures, indexed by [`Color::Texture`].
     pub(super) list: Vec<Texture>,
     descs: Vec<TextureDesc>,
+    /// The image files read, each with the field that names it.
+    pub(super) files: Vec<(String, PathBuf)>,
 }
 
 /// Material `name` validated; its textures are added to `textures`.
@@ -152,6 +154,9 @@ fn color_or_texture(ctx: &Ctx, path: &str, c: &ColorDesc, textures: &mut Texture
         return Ok(Color::Texture(i as u32));
     }
     let texture = texture(ctx, path, desc)?;
+    if let TextureDesc::Bitmap { file, .. } = desc {
+        textures.files.push((format!("the texture of `{path}`"), ctx.src.dir.join(file)));
+    }
     textures.list.push(texture);
     textures.descs.push(desc.clone());
     Ok(Color::Texture(textures.list.len() as u32 - 1))

@@ -85,6 +85,7 @@ fn load_xml(src: &SceneSource, path: &Path, sets: &[String]) -> Result<Scene> {
     }
     let mut scene = build(&file, &ctx)?;
     scene.info.notes = imported.notes;
+    scene.info.inputs.extend(imported.includes.into_iter().map(|p| ("a file the scene includes".to_string(), p)));
     Ok(scene)
 }
 
@@ -374,6 +375,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         names.insert(name.as_str(), materials.len() as u32);
         materials.push(materials::material(name, m, ctx, &mut textures)?);
     }
+    info.inputs.append(&mut textures.files);
     let built = objects::objects(f, ctx, &names, &materials, &mut info)?;
     // Only specular materials that some object uses give the scatter stage work.
     let has_specular = built

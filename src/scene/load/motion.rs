@@ -39,6 +39,20 @@ pub(super) fn shutter(c: &CameraDesc, ctx: &Ctx) -> Result<[f32; 2]> {
     Ok(c.shutter)
 }
 
+/// One bound for where `transform` and `transform_end` move things: a still object's
+/// `transform` is refused when its shape lands beyond ±MAX_COORD, and a moving object
+/// is built in its own space, so both ends of its motion are held to the same bound
+/// here, by their translation (a `transform_end` of 1e30 used to pass).
+fn check_translation(ctx: &Ctx, field: &str, m: DMat4, time: u32) -> Result<()> {
+    let t = m.w_axis.truncate().as_vec3();
+    if !super::in_range(t) {
+        return Err(
+            ctx.fail(field, format!("translates by {t} at time {time}: beyond ±{:e} scene units", super::MAX_COORD))
+        );
+    }
+    Ok(())
+}
+
 /// The matrix of an affine transform as a `matrix` step (row by row).
 fn matrix_op(m: DAffine3) -> TransformOp {
     let m = DMat4::from(m).transpose().to_cols_array();
@@ -74,6 +88,8 @@ fn motion(
         None => Transform::IDENTITY,
     };
     let t1 = transform(ctx, &field, end)?;
+    check_translation(ctx, &format!("{path}.transform"), t0.m, 0)?;
+    check_translation(ctx, &field, t1.m, 1)?;
     let m = Motion::new(t0.m, t1.m).map_err(|e| ctx.fail(&field, e))?;
     m.check_invertible(shutter).map_err(|e| ctx.fail(&field, e))?;
     Ok(m)
@@ -130,8 +146,9 @@ pub(super) fn camera(c: &CameraDesc, camera: &mut Camera, shutter: [f32; 2], ctx
         }
         _ => return Ok(()), // the camera's own checks have refused it already
     };
-    let m = Motion::new(start, transform(ctx, "camera.transform_end", end)?.m)
-        .map_err(|e| ctx.fail("camera.transform_end", e))?;
+    let end = transform(ctx, "camera.transform_end", end)?.m;
+    check_translation(ctx, "camera.transform_end", end, 1)?;
+    let m = Motion::new(start, end).map_err(|e| ctx.fail("camera.transform_end", e))?;
     m.check_invertible(shutter).map_err(|e| ctx.fail("camera.transform_end", e))?;
     if m.is_static() {
         return Ok(());

@@ -241,6 +241,7 @@ fn mesh_object(
         return Err(ctx.fail(&format!("{path}.scale"), format!("{scale} must be > 0")));
     }
     let mesh_path = ctx.src.dir.join(file);
+    info.inputs.push((format!("the mesh of `{path}`"), mesh_path.clone()));
     let fail = |e: String| ctx.fail(&format!("{path}.file"), e);
     check_mesh_size(&mesh_path).map_err(fail)?;
     if outside_folder(&ctx.src.dir, &mesh_path) {

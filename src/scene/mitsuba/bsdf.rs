@@ -60,9 +60,16 @@ impl<'a> Converter<'a> {
         if let Some(name) = id.and_then(|id| self.named.get(id)) {
             return Ok(name.clone());
         }
+        // An anonymous one is named by its line and column, without the file (whose name
+        // has dots, and which messages print before the field already), and numbered on
+        // from there should another file have one at the same place.
         let name = match id {
             Some(id) => id.to_string(),
-            None => format!("{}:{}:{}", el.loc.file, el.loc.line, el.loc.col),
+            None => {
+                let at = format!("bsdf@{}:{}", el.loc.line, el.loc.col);
+                let taken = |n: &String| self.out.file.materials.contains_key(n);
+                std::iter::once(at.clone()).chain((2..).map(|k| format!("{at}~{k}"))).find(|n| !taken(n)).unwrap_or(at)
+            }
         };
         // Named before converting: a BSDF that fails still answers its references, so they
         // add no second, misleading error.

@@ -44,12 +44,15 @@ pub struct Imported {
     pub places: Vec<(String, Loc)>,
     /// What was read but differs from Mitsuba, or was ignored (printed as notes).
     pub notes: Vec<String>,
+    /// The files `<include>`d, as read: inputs that no output may overwrite.
+    pub includes: Vec<std::path::PathBuf>,
 }
 
 /// Reads a Mitsuba XML scene with `-D name=value` parameters.
 pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported> {
-    let xml::Tree { root, search } = xml::read(path, defines)?;
+    let xml::Tree { root, search, includes } = xml::read(path, defines)?;
     let mut c = Converter::new(search, &root);
+    c.out.includes = includes;
     // Every top-level element is converted even after one fails, and the failures are
     // reported together: a scene with five unsupported plugins takes one run to list
     // them, not five edit-and-rerun rounds. Each element reports its first problem.
@@ -157,6 +160,7 @@ impl<'a> Converter<'a> {
                 },
                 places: Vec::new(),
                 notes: Vec::new(),
+                includes: Vec::new(),
             },
             decls,
             used: BTreeSet::new(),

@@ -79,6 +79,8 @@ pub struct Tree {
     pub root: El,
     /// Folders from `<path value>` (in order), then the main file's folder.
     pub search: Vec<PathBuf>,
+    /// The files `<include>`d, as read.
+    pub includes: Vec<PathBuf>,
 }
 
 struct Reader {
@@ -92,6 +94,7 @@ struct Reader {
     /// Canonical paths of the files being read, outermost first (include cycles).
     stack: Vec<PathBuf>,
     search: Vec<PathBuf>,
+    includes: Vec<PathBuf>,
     elements: usize,
 }
 
@@ -109,6 +112,7 @@ pub fn read(path: &Path, defines: &[(String, String)]) -> Result<Tree> {
         ids: BTreeMap::new(),
         stack: Vec::new(),
         search: Vec::new(),
+        includes: Vec::new(),
         elements: 0,
     };
     let root = r.file(path, None)?;
@@ -125,7 +129,7 @@ pub fn read(path: &Path, defines: &[(String, String)]) -> Result<Tree> {
     }
     let mut search = r.search;
     search.push(path.parent().map(Path::to_path_buf).unwrap_or_default());
-    Ok(Tree { root, search })
+    Ok(Tree { root, search, includes: r.includes })
 }
 
 /// Finds a file named in the scene: absolute, or relative to the folder of the file
@@ -143,7 +147,14 @@ pub fn resolve(name: &str, from: &Path, search: &[PathBuf], loc: &Loc) -> Result
             return Ok(c);
         }
     }
-    let dirs: Vec<String> = tried.iter().map(|d| format!("`{}`", d.display())).collect();
+    // A scene in the working folder has the empty folder: shown as `.`, each folder once.
+    let mut dirs: Vec<String> = Vec::new();
+    for d in &tried {
+        let shown = if d.as_os_str().is_empty() { "`.`".to_string() } else { format!("`{}`", d.display()) };
+        if !dirs.contains(&shown) {
+            dirs.push(shown);
+        }
+    }
     Err(loc.err(format!("file `{name}` not found (looked in {})", dirs.join(", "))))
 }
 
@@ -267,6 +278,7 @@ impl Reader {
                     let mut search = self.search.clone();
                     search.extend(self.stack.first().and_then(|p| p.parent()).map(Path::to_path_buf));
                     let path = resolve(name, dir, &search, &kid.loc)?;
+                    self.includes.push(path.clone());
                     let inc = self.file(&path, Some(&kid.loc))?;
                     el.kids.extend(inc.kids);
                 }
@@ -274,6 +286,33 @@ impl Reader {
             }
         }
         Ok(el)
+    }
+
+    /// Where an unset `$name` is in an include, or in a file made to be included: which
+    /// file includes it, or which files in its folder do (one of those is the scene to
+    /// render, and it sets the parameter).
+    fn include_hint(&self, name: &str) -> String {
+        let file_name = |p: &Path| p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let Some(here) = self.stack.last() else { return String::new() };
+        if let [.., outer, _] = self.stack.as_slice() {
+            return format!(
+                "; `{}` is included by `{}`, which sets no `${name}` before it",
+                file_name(here),
+                file_name(outer)
+            );
+        }
+        let includers = includers(here);
+        if includers.is_empty() {
+            return String::new();
+        }
+        let list: Vec<String> = includers.iter().map(|n| format!("`{n}`")).collect();
+        format!(
+            "; `{}` is meant to be included: {} include{} it and set its parameters, render {}",
+            file_name(here),
+            list.join(", "),
+            if list.len() == 1 { "s" } else { "" },
+            if list.len() == 1 { "that scene" } else { "one of those" }
+        )
     }
 
     /// Replaces `$name` with the parameter's value; an unknown name is an error.
@@ -291,8 +330,9 @@ impl Reader {
             let value = self.params.get(name).cloned().ok_or_else(|| {
                 let known: Vec<&str> = self.params.keys().map(String::as_str).collect();
                 loc.err(format!(
-                    "`${name}` has no value: no <default name=\"{name}\"> before it and no -D {name}=... (known: {})",
-                    if known.is_empty() { "none".to_string() } else { known.join(", ") }
+                    "`${name}` has no value: no <default name=\"{name}\"> before it and no -D {name}=... (known: {}){}",
+                    if known.is_empty() { "none".to_string() } else { known.join(", ") },
+                    self.include_hint(name)
                 ))
             })?;
             out.push_str(&value);
@@ -302,6 +342,29 @@ impl Reader {
         out.push_str(rest);
         Ok(out)
     }
+}
+
+/// The names of the XML files beside `file` that `<include>` it by its name (the first
+/// 100 files of the folder looked at, each up to [`MAX_XML_BYTES`]).
+fn includers(file: &Path) -> Vec<String> {
+    let (Some(dir), Some(name)) = (file.parent(), file.file_name().and_then(|n| n.to_str())) else {
+        return Vec::new();
+    };
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut found: Vec<String> = entries
+        .flatten()
+        .take(100)
+        .map(|e| e.path())
+        .filter(|p| p != file && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")))
+        .filter(|p| std::fs::metadata(p).is_ok_and(|m| m.is_file() && m.len() <= MAX_XML_BYTES))
+        .filter(|p| {
+            std::fs::read_to_string(p)
+                .is_ok_and(|t| t.contains(&format!("filename=\"{name}\"")) || t.contains(&format!("filename='{name}'")))
+        })
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    found.sort();
+    found
 }
 
 /// A typed parameter value.
