@@ -435,36 +435,14 @@ fn cgroup_v1_limits_are_read_and_unlimited_does_not_bind() {
     assert_eq!(cgroup_memory(root), Some(600000));
 }
 
-/// A lit scene that reads a mesh and a texture beside it.
-const SCENE_WITH_FILES: &str = r#"
-[render]
-width = 8
-height = 6
-max_depth = 0
-[render.aa]
-samples = 1
-
-[camera]
-position = [0, 0, 6]
-look_at = [0, 0, 0]
-
-[background]
-color = [0.3, 0.4, 0.6]
-
-[materials.wood]
-type = "diffuse"
-color = { type = "bitmap", file = "tex.png" }
-
-[[lights]]
-type = "point"
-position = [0, 0, 6]
-intensity = [40, 40, 40]
-
-[[objects]]
-type = "mesh"
-file = "tri.obj"
-material = "wood"
-"#;
+/// [`SCENE`] reading files beside it: its material's colour is a texture (`tex.png`) and
+/// its first sphere a mesh (`tri.obj`).
+fn scene_with_files() -> String {
+    let textured = SCENE.replacen("color = [0.8, 0.5, 0.3]", r#"color = { type = "bitmap", file = "tex.png" }"#, 1);
+    let sphere = "type = \"sphere\"\ncenter = [-0.6, 0.2, 0]\nradius = 1.1\n";
+    assert!(textured.contains(sphere) && textured != SCENE, "SCENE changed: update scene_with_files");
+    textured.replacen(sphere, "type = \"mesh\"\nfile = \"tri.obj\"\n", 1)
+}
 
 /// A Mitsuba scene whose BSDF is in an included file.
 const MAIN_XML: &str = r#"<scene version="3.0.0">
@@ -485,9 +463,9 @@ const INC_XML: &str = r#"<scene version="3.0.0">
 </scene>
 "#;
 
-/// Writes the files [`SCENE_WITH_FILES`] and [`MAIN_XML`] read.
+/// Writes the files [`scene_with_files`] and [`MAIN_XML`] read.
 fn with_files(case: &Case) {
-    std::fs::write(case.path("files.toml"), SCENE_WITH_FILES).unwrap();
+    std::fs::write(case.path("files.toml"), scene_with_files()).unwrap();
     std::fs::write(case.path("tri.obj"), "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n")
         .unwrap();
     image::RgbImage::from_pixel(2, 2, image::Rgb([200, 120, 40])).save(case.path("tex.png")).unwrap();
@@ -504,7 +482,7 @@ fn outputs_never_overwrite_the_files_the_scene_reads() {
     let before: Vec<(String, Vec<u8>)> =
         case.names().into_iter().map(|n| (n.clone(), std::fs::read(case.path(&n)).unwrap())).collect();
     let cases: [(&[&str], &str); 5] = [
-        (&["files.toml", "-o", "tex.png"], "the texture of `materials.wood.color`"),
+        (&["files.toml", "-o", "tex.png"], "the texture of `materials.orange.color`"),
         (&["files.toml", "-o", "out.png", "--stats-json", "tri.obj"], "the mesh of `objects.0`"),
         (&["files.toml", "-o", "out.png", "--heatmap", "rays=./tex.png"], "the texture"),
         (&["main.xml", "-o", "out.png", "--trace", "inc.xml"], "a file the scene includes"),
