@@ -218,9 +218,11 @@ soa! {
         /// names the path, and it indexes the point's stratified sequences (the light
         /// samples of all the point's paths are stratified together).
         sample: u32,
-        /// Density (solid angle) with which a rough surface's BSDF sampled this ray's
+        /// Density (solid angle) with which a surface's BSDF sampled this ray's
         /// direction, when the surface also sampled the lights (multiple importance
-        /// sampling: weights the emitter the ray hits); 0 for every other ray.
+        /// sampling: weights the emitter the ray hits), divided by the surface's light
+        /// samples; negative when the surface's light samples took the emitters' whole
+        /// weight (the emitter the ray hits counts 0); 0 for every other ray.
         pdf: f32,
     }
     push(o: Vec3 => ox, oy, oz; d: Vec3 => dx, dy, dz; slot: u32 => slot; w: Vec3 => wr, wg, wb;

@@ -39,6 +39,10 @@ pub mod dim {
     pub const GLOSS_LIGHT_PICK: u32 = 13;
     /// Motion blur: a camera path's time in the shutter.
     pub const TIME: u32 = 14;
+    /// Path transport: the direction a diffuse surface scatters a path's ray in.
+    pub const BOUNCE: u32 = 15;
+    /// Path transport: Russian roulette's decision for a path's ray.
+    pub const ROULETTE: u32 = 16;
     /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
     /// renderer's dimensions, which grow from 1).
     pub const BENCH: u32 = 100;
@@ -388,6 +392,14 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
         (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
     };
     r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// A direction of the hemisphere about +z drawn with density cos θ / π from `u` in
+/// [0,1)² (Malley's method: the concentric disk lifted onto the hemisphere).
+#[inline]
+pub fn cosine_hemisphere(u: Vec2) -> glam::Vec3 {
+    let d = concentric_disk(u);
+    glam::Vec3::new(d.x, d.y, (1.0 - d.length_squared()).max(0.0).sqrt())
 }
 
 /// [`concentric_disk`] of 16 points `(x, y)` on lanes, with its bits: the branches become

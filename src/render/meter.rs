@@ -153,6 +153,13 @@ impl Meter {
         self.lap(Stage::Scatter, q.specular.len(), q.next.len(), Traversal::default(), since)
     }
 
+    /// Russian roulette (timed with the scatter stage that spawned the rays): `kept`
+    /// rays go on, `ended` were ended and are never traced.
+    pub fn roulette(&mut self, kept: usize, ended: u64, since: Instant) -> Instant {
+        self.stats.secondary_rays -= ended;
+        self.lap(Stage::Scatter, kept + ended as usize, kept, Traversal::default(), since)
+    }
+
     /// Film accumulation; `dropped` non-finite contributions.
     pub fn film(&mut self, q: &WaveQueues, dropped: usize, since: Instant) -> Instant {
         self.stats.peak.film = self.stats.peak.film.max(q.film.len() as u64);

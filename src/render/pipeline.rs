@@ -11,9 +11,11 @@ use super::meter::{Kind, Meter};
 use crate::accel::tracer::{Coherence, Tracer};
 use crate::film::Accumulator;
 use crate::queue::{RayQueue, ShadowPoints, WaveQueues};
-use crate::scene::{Scene, ShadowMode};
+use crate::scene::{Scene, ShadowMode, Transport};
 use crate::stages::shade::Shaded;
-use crate::stages::{camera, film, focus, intersect, penumbra, scatter, shade, shadow, shadow_corner};
+use crate::stages::{
+    bounce, camera, film, focus, intersect, penumbra, roulette, scatter, shade, shadow, shadow_corner,
+};
 use crate::stats::Stage;
 
 /// A worker's wavefront: its queues, tracer, meter and the pass being accumulated.
@@ -30,6 +32,9 @@ pub(super) struct Pipeline<'a> {
     pub meter: Meter,
     /// The pass being accumulated.
     pub acc: Accumulator,
+    /// The path transport: the weight of each slot's camera rays in this pass, against
+    /// which Russian roulette measures a path's throughput.
+    camera_weight: Vec<f32>,
     /// Camera rays per wave for this scene.
     wave: u64,
     /// The render's cancel flag, and whether this worker saw it mid-tile.
@@ -47,6 +52,7 @@ impl<'a> Pipeline<'a> {
             tracer,
             meter,
             acc: Accumulator::default(),
+            camera_weight: Vec::new(),
             wave,
             cancel,
             aborted: false,
@@ -71,9 +77,24 @@ impl<'a> Pipeline<'a> {
             let t = Instant::now();
             generate(k0..k1, &mut self.q.rays);
             camera::shutter_times(scene, &mut self.q.rays);
+            if scene.settings.path() {
+                self.camera_weights();
+            }
             self.meter.camera(kind, self.q.rays.len(), t);
             self.drain(scene);
             k0 = k1;
+        }
+    }
+
+    /// Records the weight of the camera rays in `q.rays` per slot (every ray of a slot
+    /// has the same, the same in each channel).
+    fn camera_weights(&mut self) {
+        let (rays, weights) = (&self.q.rays, &mut self.camera_weight);
+        if weights.len() < self.acc.sums.len() {
+            weights.resize(self.acc.sums.len(), 0.0);
+        }
+        for (&slot, &w) in rays.slot.iter().zip(&rays.wr) {
+            weights[slot as usize] = w;
         }
     }
 
@@ -101,6 +122,15 @@ impl<'a> Pipeline<'a> {
                 if end == self.levels[d].len() {
                     self.levels[d].clear();
                     self.cursors[d] = 0;
+                }
+            }
+            if let Transport::Path { rr_depth, .. } = scene.settings.transport {
+                if d as u32 >= rr_depth {
+                    let t = Instant::now();
+                    let ended = roulette::roulette(&self.q.rays, &self.camera_weight, &mut self.q.next);
+                    std::mem::swap(&mut self.q.rays, &mut self.q.next);
+                    self.q.next.clear();
+                    self.meter.roulette(self.q.rays.len(), ended, t);
                 }
             }
             self.wave(scene, if d == 0 { Coherence::Camera } else { Coherence::Bounce });
@@ -151,9 +181,13 @@ impl<'a> Pipeline<'a> {
         }
 
         // A scene without used mirrors or dielectrics never enters the scatter stage
-        // (and its next level stays empty).
-        if scene.has_specular {
+        // (and its next level stays empty) unless its diffuse surfaces scatter too.
+        let path = scene.settings.path();
+        if scene.has_specular || path {
             scatter::scatter(scene, &q.rays, &q.hits, &q.specular, &mut q.next, &mut q.shadow);
+            if path {
+                bounce::bounce(scene, &q.rays, &q.surfaces, &mut q.next);
+            }
             t = m.scatter(q, t);
 
             // Rough surfaces' light samples (multiple importance sampling).
@@ -202,6 +236,10 @@ impl<'a> Pipeline<'a> {
 
     /// Bytes held by the queues, levels, pass buffers and tracer scratch (capacities).
     pub fn bytes(&self) -> usize {
-        self.q.bytes() + self.levels.iter().map(RayQueue::bytes).sum::<usize>() + self.acc.bytes() + self.tracer.bytes()
+        self.q.bytes()
+            + self.camera_weight.capacity() * 4
+            + self.levels.iter().map(RayQueue::bytes).sum::<usize>()
+            + self.acc.bytes()
+            + self.tracer.bytes()
     }
 }

@@ -52,6 +52,11 @@ pub struct RenderDesc {
     pub dof: DofDesc,
     /// Glossy surfaces.
     pub gloss: GlossDesc,
+    /// Light transport: "whitted" (the paper's), "direct" or "path" (default "whitted";
+    /// docs/transport.md).
+    pub transport: TransportDesc,
+    /// Path transport's Russian roulette and emitter visibility.
+    pub path: PathDesc,
 }
 
 impl Default for RenderDesc {
@@ -67,6 +72,8 @@ impl Default for RenderDesc {
             shadows: ShadowsDesc::default(),
             dof: DofDesc::default(),
             gloss: GlossDesc::default(),
+            transport: TransportDesc::Whitted,
+            path: PathDesc::default(),
         }
     }
 }
@@ -207,6 +214,38 @@ pub struct GlossDesc {
 impl Default for GlossDesc {
     fn default() -> Self {
         GlossDesc { mis: true }
+    }
+}
+
+/// `render.transport`: how light reaches the camera (docs/transport.md).
+#[derive(Deserialize, Serialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum TransportDesc {
+    /// The paper's: direct light at diffuse surfaces, mirror and glass chains.
+    Whitted,
+    /// Direct light only, at every surface the camera sees (Mitsuba's `direct`): the
+    /// path transport with one bounce.
+    Direct,
+    /// Path tracing: every surface scatters, with next-event estimation and multiple
+    /// importance sampling (Mitsuba's `path`).
+    Path,
+}
+
+/// `[render.path]`.
+#[derive(Deserialize, Serialize, Debug, Clone)]
+#[serde(deny_unknown_fields, default)]
+pub struct PathDesc {
+    /// Bounces before Russian roulette may end a path (default 5, as Mitsuba's
+    /// `rr_depth`; counted as `max_depth` is).
+    pub rr_depth: u32,
+    /// Emitters and the background seen straight from the camera are black (Mitsuba's
+    /// `hide_emitters`; default false).
+    pub hide_emitters: bool,
+}
+
+impl Default for PathDesc {
+    fn default() -> Self {
+        PathDesc { rr_depth: 5, hide_emitters: false }
     }
 }
 

@@ -118,6 +118,32 @@ pub struct Settings {
     pub gloss_mis: bool,
     /// Motion blur: the times the shutter opens and closes (`camera.shutter`).
     pub shutter: [f32; 2],
+    /// How light reaches the camera (`render.transport`).
+    pub transport: Transport,
+}
+
+/// How light reaches the camera (docs/transport.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Transport {
+    /// The paper's: diffuse surfaces take direct light only; mirrors and glass spawn
+    /// reflection and refraction rays up to `max_depth` bounces.
+    Whitted,
+    /// Path tracing (also `direct`, as one bounce): every surface scatters one ray by its
+    /// BSDF up to `max_depth` bounces, each diffuse vertex takes next-event estimation.
+    Path {
+        /// Bounces before Russian roulette may end a path.
+        rr_depth: u32,
+        /// Emitters and the background seen straight from the camera are black.
+        hide_emitters: bool,
+    },
+}
+
+impl Settings {
+    /// True under the path transport.
+    #[inline]
+    pub fn path(&self) -> bool {
+        matches!(self.transport, Transport::Path { .. })
+    }
 }
 
 /// Early stopping of a penumbra point's shadow rays (`render.shadows.tolerance`).

@@ -12,14 +12,14 @@ use wide::{f32x16, u32x16};
 
 use crate::accel::NO_LIGHT;
 use crate::light::{
-    emitted, gloss_light_pdf, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes,
-    SHADOW_TMAX_SCALE,
+    emitted, gloss_light_pdf, gloss_light_sample, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays,
+    unoccluded, QuadLanes, SHADOW_TMAX_SCALE,
 };
 use crate::queue::{
     sparse_opt, FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS,
 };
 use crate::sampling::power_heuristic;
-use crate::scene::{Light, Scene, ShadowMode};
+use crate::scene::{Light, Scene, ShadowMode, Transport};
 use crate::simd::{LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, diffuse_material, diffuse_surfaces, queued_surface};
 
@@ -74,14 +74,26 @@ fn sort_hits(
     film: &mut FilmQueue,
 ) {
     let (mut group, mut len) = ([0u32; LANES], 0);
+    let s = &scene.settings;
+    // The path transport: `hide_emitters` blacks out what camera rays see of emitters and
+    // the background, and a diffuse hit past the last bounce only adds what it emits
+    // (nothing).
+    let (path, hide) = match s.transport {
+        Transport::Path { hide_emitters, .. } => (true, hide_emitters),
+        Transport::Whitted => (false, false),
+    };
+    let hidden = |i: usize| hide && rays.depth[i] == 0;
     for i in 0..rays.len() {
         if hits.prim[i] == MISS {
-            if scene.background != Vec3::ZERO {
+            if scene.background != Vec3::ZERO && !hidden(i) {
                 film.push(rays.slot[i], rays.weight(i) * scene.background);
             }
             continue;
         }
         if diffuse_material(scene, hits.prim[i]).is_some() {
+            if path && rays.depth[i] >= s.max_depth {
+                continue;
+            }
             group[len] = i as u32;
             len += 1;
             if len == LANES {
@@ -92,17 +104,21 @@ fn sort_hits(
         }
         let light = scene.accel.light(hits.prim[i]);
         if light != NO_LIGHT {
+            if hidden(i) {
+                continue;
+            }
             if let Some(radiance) = emitted(&scene.lights[light as usize], rays.dir(i)) {
-                // A rough surface's ray shares this light with its light sample (MIS).
+                // A surface's ray shares this light with its light samples (MIS), or
+                // leaves it to them (a negative density: weight 0).
                 let pdf = rays.pdf[i];
-                let mis = if pdf > 0.0 {
+                let mis = if pdf != 0.0 {
                     power_heuristic(pdf, gloss_light_pdf(scene, light, rays.dir(i), hits.t[i]))
                 } else {
                     1.0
                 };
                 film.push(rays.slot[i], rays.weight(i) * radiance * mis);
             }
-        } else if rays.depth[i] < scene.settings.max_depth {
+        } else if rays.depth[i] < s.max_depth {
             specular.push(i as u32);
         }
     }
@@ -126,6 +142,10 @@ fn light_points(
         ShadowMode::Uniform => false,
     };
     let mut counts = ShadeCounts::default();
+    if s.path() && s.shadow_mode == ShadowMode::Uniform {
+        path_lights(scene, surfaces, shadow);
+        return counts;
+    }
     if let ShadowMode::Adaptive(probe) = s.shadow_mode {
         let fallback = scene.lights.iter().filter(|l| l.lit_area() && !probes_light(l, probe, s.shadow_samples));
         counts.uniform_fallback = fallback.count() as u64 * surfaces.len() as u64;
@@ -158,6 +178,38 @@ fn light_points(
         }
     }
     counts
+}
+
+/// Next-event estimation of the path transport at every point of `surfaces`: a ray to
+/// each point light, and `shadows.samples` points on the area lights, each light chosen
+/// uniformly and the point uniformly over its area ([`gloss_light_sample`], sample
+/// `sample · n + j` of the path's sequence, so a pixel's samples are stratified
+/// together), weighted by the power heuristic against the density with which the
+/// point's bounce ray (stage `bounce`) could have found the same point.
+fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
+    let n = scene.settings.shadow_samples;
+    let points = || (0..scene.lights.len()).filter(|&li| matches!(scene.lights[li], Light::Point { .. }));
+    for p in 0..surfaces.len() {
+        let surf = queued_surface(surfaces, p);
+        let time = sparse_opt(&surfaces.time, p);
+        for li in points() {
+            uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l, time));
+        }
+        for j in 0..n {
+            let index = surf.sample.wrapping_mul(n).wrapping_add(j);
+            let Some(l) = gloss_light_sample(scene, surf.o, surf.key, index) else { continue };
+            let cos = surf.n.dot(l.wi);
+            if cos <= 0.0 {
+                continue;
+            }
+            let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, l.wi, surf.wo);
+            let pdf = l.pdf * n as f32;
+            let c = surf.w * brdf * l.radiance * (cos * power_heuristic(pdf, cos * FRAC_1_PI) / pdf);
+            if c != Vec3::ZERO {
+                shadow.push(surf.o, l.wi, l.dist * SHADOW_TMAX_SCALE, surf.slot, c, time);
+            }
+        }
+    }
 }
 
 /// Uniform shadow rays from every point of `surfaces` to every lit quad light, 16

@@ -16,6 +16,7 @@ fn run(f: &Files, args: &[&str]) -> (i32, String) {
 fn xml_renders_with_defines_and_notes() {
     let f = Files::temp();
     let body = "<default name=\"r\" value=\"1\"/><integrator type=\"path\"/>\
+                <emitter type=\"area\" id=\"unused\"><rgb name=\"radiance\" value=\"1\"/></emitter>\
                 <shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>\
                 <emitter type=\"point\"><point name=\"position\" z=\"4\"/></emitter>";
     f.write("s.xml", xml_scene(body));
@@ -24,7 +25,7 @@ fn xml_renders_with_defines_and_notes() {
     assert!(f.dir().join("out.png").exists());
     let (code, err) = run(&f, &["render", "s.xml", "-o", "out2.png"]);
     assert_eq!(code, 0, "{err}");
-    assert!(err.contains("note: integrator `path` is read for max_depth only"), "{err}");
+    assert!(err.contains("is named by no <ref>"), "{err}");
     // The notes are part of the stats too: the table and the JSON.
     let o = Command::new(BIN)
         .args(["render", "s.xml", "-o", "out3.png", "--stats", "--stats-json", "s.json"])
@@ -32,11 +33,11 @@ fn xml_renders_with_defines_and_notes() {
         .output()
         .expect("run wavetrace");
     let table = String::from_utf8_lossy(&o.stdout);
-    assert!(table.contains("note: integrator `path` is read for max_depth only"), "{table}");
+    assert!(table.contains("is named by no <ref>"), "{table}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(f.dir().join("s.json")).unwrap()).unwrap();
     let notes = json["scene"]["notes"].as_array().expect("scene.notes");
-    assert!(notes.iter().any(|n| n.as_str().unwrap().contains("integrator `path`")), "{notes:?}");
+    assert!(notes.iter().any(|n| n.as_str().unwrap().contains("named by no <ref>")), "{notes:?}");
 }
 
 #[test]

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use wavetrace::accel::Shape;
-use wavetrace::scene::{Color, Light, Material};
+use wavetrace::scene::{Color, Light, Material, Transport};
 
 use crate::{error_of, load_file, try_load, xml_scene, Files};
 
@@ -239,8 +239,11 @@ fn a_cornell_box_written_as_mitsuba_writes_one_loads() {
         .iter()
         .any(|m| matches!(m, Material::Dielectric { ior, .. } if (*ior - 1.5046 / 1.00028).abs() < 1e-6)));
     assert_eq!(scene.settings.max_depth, 5);
+    // Mitsuba's `path`, with its default Russian roulette and one light sample per hit.
+    assert_eq!(scene.settings.transport, Transport::Path { rr_depth: 5, hide_emitters: false });
+    assert_eq!(scene.settings.shadow_samples, 1);
     let notes = scene.info.notes.join("\n");
-    for needle in ["black from behind", "box filter", "max_depth only"] {
+    for needle in ["black from behind", "box filter"] {
         assert!(notes.contains(needle), "`{needle}` not in the notes:\n{notes}");
     }
 }
@@ -307,4 +310,36 @@ fn every_unsupported_element_is_reported_in_one_run() {
     assert!(msg.starts_with("25 problems"), "{msg}");
     assert_eq!(msg.matches("<shape type=\"disk\">").count(), 20, "{msg}");
     assert!(msg.ends_with("and 5 more"), "{msg}");
+}
+
+#[test]
+fn integrators_map_to_transports_and_others_are_refused() {
+    let f = Files::temp();
+    let load = |name: &str, integrator: &str| load_file(&f.write(name, xml_scene(integrator)));
+    // No <integrator>: Mitsuba's default, `path` with unbounded depth.
+    let none = load("none.xml", "");
+    assert_eq!(none.settings.transport, Transport::Path { rr_depth: 5, hide_emitters: false });
+    assert_eq!(none.settings.max_depth, wavetrace::scene::load::MAX_DEPTH);
+    let path = load(
+        "path.xml",
+        "<integrator type=\"path\"><integer name=\"max_depth\" value=\"3\"/><integer name=\"rr_depth\" value=\"2\"/>\
+         <boolean name=\"hide_emitters\" value=\"true\"/></integrator>",
+    );
+    assert_eq!(path.settings.transport, Transport::Path { rr_depth: 2, hide_emitters: true });
+    assert_eq!((path.settings.max_depth, path.settings.shadow_samples), (2, 1));
+    let direct = load("direct.xml", "<integrator type=\"direct\"/>");
+    assert_eq!(direct.settings.max_depth, 1);
+    assert!(matches!(direct.settings.transport, Transport::Path { rr_depth: u32::MAX, .. }));
+    for (body, needle) in [
+        ("<integrator type=\"volpath\"/>", "wavetrace imports integrator types path, direct and whitted"),
+        ("<integrator type=\"path\"><integer name=\"max_depth\" value=\"0\"/></integrator>", "max_depth 0"),
+        (
+            "<integrator type=\"path\"><integer name=\"samples\" value=\"2\"/></integrator>",
+            "`samples` is not supported",
+        ),
+        ("<integrator type=\"direct\"><integer name=\"emitter_samples\" value=\"4\"/></integrator>", "emitter_samples"),
+    ] {
+        let msg = error_of(&f.write("bad.xml", xml_scene(body)), &[]);
+        assert!(msg.contains(needle) && msg.contains("bad.xml:"), "`{needle}` not in {msg}");
+    }
 }

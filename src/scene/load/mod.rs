@@ -14,7 +14,7 @@ use std::path::Path;
 use super::format::*;
 use super::text::line_col;
 use super::values::{check_finite, color, in_range, transform, vec3, Ctx, SceneSource, MAX_COORD};
-use super::{AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode};
+use super::{AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode, Transport};
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
@@ -244,7 +244,8 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     Ok(Settings {
         width: r.width,
         height: r.height,
-        max_depth: r.max_depth,
+        // Direct light is the path transport with one bounce.
+        max_depth: if r.transport == TransportDesc::Direct { 1 } else { r.max_depth },
         seed: r.seed,
         aa_mode,
         aa_samples: r.aa.samples,
@@ -262,6 +263,12 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         penumbra_stop,
         gloss_mis: r.gloss.mis,
         shutter: motion::shutter(cam, ctx)?,
+        transport: match r.transport {
+            TransportDesc::Whitted => Transport::Whitted,
+            TransportDesc::Path => Transport::Path { rr_depth: r.path.rr_depth, hide_emitters: r.path.hide_emitters },
+            // Mitsuba's `direct`: one bounce, never cut short.
+            TransportDesc::Direct => Transport::Path { rr_depth: u32::MAX, hide_emitters: r.path.hide_emitters },
+        },
     })
 }
 
@@ -385,7 +392,8 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     info.primitives = built.prims.len();
     let lights = built.lights.clone();
     let rough = built.prims.iter().any(|p| p.light == NO_LIGHT && materials[p.material as usize].roughness().is_some());
-    let gloss_lights = match settings.gloss_mis && rough {
+    // The path transport weighs every surface's light samples against its BSDF's rays.
+    let gloss_lights = match (settings.gloss_mis && rough) || settings.path() {
         true => (0..lights.len() as u32).filter(|&li| lights[li as usize].lit_area()).collect(),
         false => Vec::new(),
     };

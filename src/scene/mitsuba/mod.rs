@@ -75,6 +75,9 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported> {
     if !c.sensor {
         return Err(root.loc.err("the scene has no <sensor>"));
     }
+    if !root.kids.iter().any(|k| k.tag == "integrator") {
+        c.default_integrator();
+    }
     c.note_unreferenced(&root);
     Ok(c.out)
 }

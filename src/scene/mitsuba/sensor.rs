@@ -1,8 +1,10 @@
 //! The sensor (camera, film, sampler) and the integrator: image size, samples, field of
 //! view, the camera frame and the bounce limit.
 
-use super::xml::{value, El, Value};
+use super::xml::{El, Value};
 use super::{compose, unsupported, Converter, Params, SENSORS};
+use crate::scene::format::{PathDesc, TransportDesc};
+use crate::scene::load::MAX_DEPTH;
 use crate::Result;
 
 /// The parameters of `<film type="hdrfilm">` read or accepted.
@@ -106,29 +108,85 @@ impl Converter<'_> {
         Ok(spp)
     }
 
-    /// Reads the integrator's `max_depth` (its type is ignored, with a note).
+    /// Reads the integrator: Mitsuba's `path` (`max_depth`, `rr_depth`, `hide_emitters`)
+    /// becomes the path transport, `direct` the path transport with one bounce, and
+    /// both sample one light point per surface hit, as Mitsuba does (unless
+    /// `render.shadows.samples` says otherwise); the peer harness's `whitted` is the
+    /// paper's transport; any other type is refused.
     pub(super) fn integrator(&mut self, el: &El) -> Result<()> {
-        let depth = el.kids.iter().find(|k| k.attr("name") == Some("max_depth")).map(value).transpose()?;
         let ty = el.attr("type").unwrap_or("?");
-        let d = match depth {
-            Some(Value::Num(d)) => d,
-            _ => -1.0,
-        };
-        self.out.file.render.max_depth = if d < 0.0 {
-            self.note(format!(
-                "integrator `{ty}`: unbounded max_depth; wavetrace traces at most 5 specular bounces (render.max_depth)"
-            ));
-            5
-        } else {
-            // Mitsuba counts the camera ray as a segment.
-            (d as u32).saturating_sub(1)
-        };
-        self.note(format!(
-            "integrator `{ty}` is read for max_depth only: wavetrace's transport is Whitted (direct light at diffuse \
-             surfaces, perfect mirror and glass chains)"
-        ));
+        let render = &mut self.out.file.render;
+        match ty {
+            "path" => {
+                let p = Params::of(el, &["max_depth", "rr_depth", "hide_emitters"], &[])?;
+                render.transport = TransportDesc::Path;
+                render.max_depth = match p.num("max_depth")? {
+                    None | Some(-1.0) => MAX_DEPTH,
+                    Some(d) if d >= 1.0 && d.fract() == 0.0 => {
+                        // Mitsuba counts the camera ray as a segment.
+                        (d as u32 - 1).min(MAX_DEPTH)
+                    }
+                    Some(d) => {
+                        return Err(el.loc.err(format!("<integrator>: max_depth {d} is not -1 or a positive integer")))
+                    }
+                };
+                render.path.rr_depth = match p.num("rr_depth")? {
+                    None => 5,
+                    Some(d) if d >= 1.0 && d.fract() == 0.0 && d <= u32::MAX as f64 => d as u32,
+                    Some(d) => return Err(el.loc.err(format!("<integrator>: rr_depth {d} is not a positive integer"))),
+                };
+                render.path.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
+            }
+            // The peer harness's Whitted integrator (../shared/peers/mitsuba/common.py),
+            // which Mitsuba reads once the harness registers it: the paper's transport.
+            "whitted" => {
+                let p = Params::of(el, &["max_depth"], &[])?;
+                render.transport = TransportDesc::Whitted;
+                render.max_depth = match p.num("max_depth")? {
+                    None => 5,
+                    Some(d) if d >= 1.0 && d.fract() == 0.0 => (d as u32 - 1).min(MAX_DEPTH),
+                    Some(d) => {
+                        return Err(el.loc.err(format!("<integrator>: max_depth {d} is not a positive integer")))
+                    }
+                };
+                self.place("render.max_depth".into(), el);
+                return Ok(());
+            }
+            "direct" => {
+                let p = Params::of(el, &["emitter_samples", "bsdf_samples", "shading_samples", "hide_emitters"], &[])?;
+                for k in ["emitter_samples", "bsdf_samples", "shading_samples"] {
+                    if p.num(k)?.is_some_and(|n| n != 1.0) {
+                        return Err(el.loc.err(format!(
+                            "<integrator type=\"direct\">: `{k}` other than 1 is not supported; use \
+                             render.shadows.samples and render.aa.samples"
+                        )));
+                    }
+                }
+                render.transport = TransportDesc::Direct;
+                render.path.hide_emitters = p.boolean("hide_emitters")?.unwrap_or(false);
+            }
+            other => {
+                return Err(el.loc.err(format!(
+                    "<integrator type=\"{other}\">: not supported; wavetrace imports integrator types path, \
+                     direct and whitted (docs/import.md)"
+                )))
+            }
+        }
+        // One light sample per hit, as Mitsuba takes.
+        render.shadows.samples = 1;
         self.place("render.max_depth".into(), el);
+        self.place("render.transport".into(), el);
         Ok(())
+    }
+
+    /// A scene without an `<integrator>` is rendered by Mitsuba's default, `path` with
+    /// unbounded depth: so it is here.
+    pub(super) fn default_integrator(&mut self) {
+        let render = &mut self.out.file.render;
+        render.transport = TransportDesc::Path;
+        render.max_depth = MAX_DEPTH;
+        render.path = PathDesc::default();
+        render.shadows.samples = 1;
     }
 }
 

@@ -1,0 +1,168 @@
+//! The path transport against closed forms: inside a diffuse sphere lit by a point light
+//! at its centre every wall point sees the same radiance, so each bounce adds exactly one
+//! term of a geometric series; a convex sphere under a constant background reflects its
+//! albedo times the background; next-event estimation with multiple importance sampling
+//! integrates a quad light exactly; and the path transport keeps its bits across threads
+//! and crops.
+
+mod support;
+
+use glam::Vec3;
+use std::f32::consts::PI;
+use support::toml::{background, camera, diffuse, point_light, quad_light, render_block, sphere};
+use support::*;
+use wavetrace::{render, RenderOptions};
+
+/// The one pixel a narrow camera at `from` sees of the point `at`, under `sets`.
+fn pixel(text: &str, from: [f64; 3], at: [f64; 3], sets: &[&str]) -> Vec3 {
+    let text = [render_block(&["width=1", "height=1"]), camera(from, at, &["fov_y=0.001"]), text.to_string()].concat();
+    only_pixel(&render_text(&text, sets, 2))
+}
+
+/// A sphere of radius 1 and albedo `rho` around a point light of intensity 2 at its
+/// centre: the direct radiance of every wall point is rho·I / (π R²).
+fn closed_sphere(rho: f64) -> (String, f32) {
+    let text = [diffuse("wall", [rho; 3]), sphere([0.0; 3], 1.0, "wall"), point_light([0.0; 3], 2.0)].concat();
+    (text, rho as f32 * 2.0 / PI)
+}
+
+#[test]
+fn each_bounce_adds_one_term_of_the_series_inside_a_sphere() {
+    let rho = 0.8f32;
+    let (text, direct) = closed_sphere(rho as f64);
+    // Without Russian roulette the estimate is exact: every wall point's light sample is
+    // the same, and every bounce ray carries exactly the albedo. max_depth counts bounces
+    // after the camera ray (Mitsuba's max_depth - 1): k bounces add k terms.
+    for k in 1..=4u32 {
+        let depth = format!("render.max_depth={k}");
+        let got = pixel(
+            &text,
+            [0.0, 0.0, 0.3],
+            [0.0, 0.0, -1.0],
+            &["render.transport=path", "render.path.rr_depth=64", &depth],
+        );
+        let expected = direct * (1.0 - rho.powi(k as i32)) / (1.0 - rho);
+        let rel = (got.x - expected).abs() / expected;
+        assert!(rel < 1e-4, "max_depth {k}: {} vs {expected} (rel {rel})", got.x);
+    }
+    // The paper's transport takes the direct light only, as path with one bounce does.
+    let whitted = pixel(&text, [0.0, 0.0, 0.3], [0.0, 0.0, -1.0], &[]);
+    assert!((whitted.x - direct).abs() < 1e-4 * direct, "{} vs {direct}", whitted.x);
+}
+
+#[test]
+fn russian_roulette_converges_to_the_whole_series() {
+    let rho = 0.8f32;
+    let (text, direct) = closed_sphere(rho as f64);
+    let expected = direct / (1.0 - rho);
+    // Every pixel sees a wall of the same radiance: the pixels are independent estimates
+    // of it, and their spread gives the standard error of their mean.
+    let text =
+        [render_block(&["width=16", "height=16"]), camera([0.0, 0.0, 0.3], [0.0, 0.0, -1.0], &["fov_y=60"]), text]
+            .concat();
+    for rr in ["1", "5"] {
+        let sets = [
+            "render.transport=path",
+            "render.max_depth=64",
+            "render.aa.samples=256",
+            &format!("render.path.rr_depth={rr}"),
+        ];
+        let px: Vec<f64> = render_text(&text, &sets, 2).image.pixels.iter().map(|p| p.x as f64).collect();
+        let n = px.len() as f64;
+        let mean = px.iter().sum::<f64>() / n;
+        let se = (px.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+        // 64 bounces leave 0.8^64 ≈ 6e-7 of the series out; the rest is noise (4.5 sigma).
+        let err = (mean - expected as f64).abs();
+        assert!(err < 4.5 * se && se < 0.01 * mean, "rr_depth {rr}: {mean} ± {se} vs {expected}");
+    }
+}
+
+#[test]
+fn a_convex_sphere_reflects_its_albedo_of_a_constant_background() {
+    let text = [background([1.5; 3]), diffuse("grey", [0.6; 3]), sphere([0.0; 3], 1.0, "grey")].concat();
+    let got = pixel(&text, [0.0, 0.0, 5.0], [0.0, 0.0, 1.0], &["render.transport=path", "render.aa.samples=64"]);
+    // Every bounce ray escapes, carrying the albedo: exact up to rounding.
+    assert!((got - Vec3::splat(0.9)).abs().max_element() < 1e-4, "{got}");
+    // Hidden emitters hide the background behind the sphere, not the light it reflects.
+    let hidden = ["render.transport=path", "render.path.hide_emitters=true"];
+    assert_eq!(pixel(&text, [0.0, 0.0, 5.0], [0.0, 3.0, 0.0], &hidden), Vec3::ZERO);
+    let got = pixel(&text, [0.0, 0.0, 5.0], [0.0, 0.0, 1.0], &hidden);
+    assert!((got - Vec3::splat(0.9)).abs().max_element() < 1e-4, "{got}");
+}
+
+#[test]
+fn light_samples_and_bounce_rays_share_a_quad_light_by_mis() {
+    // A large light low over the plane, so the bounce rays find it often and the two
+    // strategies' weights both matter.
+    let (corner, u, v) = (Vec3::new(-1.0, 0.5, -1.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0));
+    let light =
+        quad_light(corner.to_array().map(f64::from), u.to_array().map(f64::from), v.to_array().map(f64::from), 3.0);
+    let verts = [corner, corner + u, corner + u + v, corner + v];
+    let text = format!("{PLANE}{light}");
+    for p in [Vec3::ZERO, Vec3::new(0.8, 0.0, 0.3), Vec3::new(1.5, 0.0, -1.2)] {
+        let expected = 0.5 / PI * polygon_irradiance(p, Vec3::Y, &verts, 3.0);
+        let from = (p + Vec3::new(0.0, 0.3, 0.4)).to_array().map(f64::from);
+        for n in ["1", "4"] {
+            let sets = ["render.transport=direct", "render.aa.samples=4096", &format!("render.shadows.samples={n}")];
+            let got = pixel(&text, from, p.to_array().map(f64::from), &sets);
+            let rel = (got.x - expected).abs() / expected;
+            assert!(rel < 0.01, "at {p}, {n} light samples: {} vs {expected} (rel {rel})", got.x);
+        }
+    }
+}
+
+#[test]
+fn adaptive_shadows_agree_with_uniform_under_path() {
+    // A lit room: a quad light under the top of a diffuse sphere; the adaptive test probes
+    // it at every vertex of every path.
+    let text = [
+        render_block(&["width=8", "height=8", "transport=\"path\"", "aa.samples=256"]),
+        camera([0.0, 0.0, 0.6], [0.0, -0.5, -1.0], &["fov_y=60"]),
+        diffuse("wall", [0.7, 0.5, 0.3]),
+        sphere([0.0; 3], 1.0, "wall"),
+        quad_light([-0.3, 0.8, -0.3], [0.0, 0.0, 0.6], [0.6, 0.0, 0.0], 5.0),
+        diffuse("red", [0.8, 0.1, 0.1]),
+        sphere([0.2, -0.6, -0.3], 0.25, "red"),
+    ]
+    .concat();
+    let mean = |mode: &str| {
+        let out = render_text(&text, &[&format!("render.shadows.mode={mode}")], 2);
+        out.image.pixels.iter().copied().sum::<Vec3>() / out.image.pixels.len() as f32
+    };
+    let (uniform, adaptive) = (mean("uniform"), mean("adaptive"));
+    let rel = ((uniform - adaptive).abs() / uniform).max_element();
+    assert!(rel < 0.02, "uniform {uniform} vs adaptive {adaptive}");
+}
+
+#[test]
+fn path_bits_hold_across_threads_and_crops() {
+    let text = [
+        render_block(&["width=24", "height=16", "transport=\"path\"", "aa.samples=4", "path.rr_depth=1"]),
+        camera([0.0, 1.0, 4.0], [0.0, 0.5, 0.0], &[]),
+        diffuse("white", [0.8; 3]),
+        support::toml::quad([-3.0, 0.0, 3.0], [6.0, 0.0, 0.0], [0.0, 0.0, -6.0], "white"),
+        support::toml::dielectric("glass", 1.5),
+        sphere([0.0, 0.6, 0.0], 0.6, "glass"),
+        quad_light([-0.5, 3.0, -0.5], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], 10.0),
+    ]
+    .concat();
+    let scene = support::scene(&text, &[]);
+    let at =
+        |threads, crop| render(&scene, &RenderOptions { threads: Some(threads), crop, ..Default::default() }).unwrap();
+    let one = at(1, None);
+    assert!(one.image.pixels.iter().any(|p| p.x > 0.0));
+    let bits =
+        |i: &wavetrace::film::Image| i.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    assert_eq!(bits(&one.image), bits(&at(2, None).image));
+    let crop = wavetrace::film::Tile { x0: 5, y0: 3, x1: 19, y1: 11 };
+    let part = at(2, Some(crop));
+    for y in crop.y0..crop.y1 {
+        for x in crop.x0..crop.x1 {
+            let (a, b) = (
+                one.image.pixels[(y * 24 + x) as usize],
+                part.image.pixels[((y - crop.y0) * 14 + x - crop.x0) as usize],
+            );
+            assert_eq!(a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits), "pixel ({x}, {y})");
+        }
+    }
+}
