@@ -1,5 +1,5 @@
 //! The path transport's diffuse bounces: reads the diffuse shading points of a wave and
-//! writes the ray each one scatters into the next level's queue.
+//! writes the ray each one scatters into the next level's queue, 16 points at a time.
 //!
 //! Lambert's lobe is drawn by cosine (Malley's method), so a Lambertian point's ray
 //! carries its albedo; a Phong point's ray carries f·cos/density, its highlight
@@ -8,42 +8,106 @@
 //! emitter it may hit; under adaptive shadows the light samples take the whole of the
 //! emitters' light and the ray is marked to see none.
 
-use std::f32::consts::PI;
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, PI};
+use wide::{f32x16, u32x16};
 
-use crate::microfacet::tangents;
-use crate::queue::{sparse_opt, RayQueue, SurfaceQueue};
-use crate::sampling::{cosine_hemisphere, dim, hash, sobol_owen};
+use crate::queue::{RayQueue, SurfaceQueue};
+use crate::sampling::{concentric_disk_lanes, dim, hash_lanes, sobol_owen_lanes};
 use crate::scene::{Scene, ShadowMode};
-use crate::surface::{diffuse_brdf, queued_surface};
+use crate::simd::{LaneIds, Real, LANES, V3};
+use crate::surface::diffuse_brdf;
 
 /// Appends to `next` the bounce ray of every point of `surfaces` (the diffuse hits of
 /// `rays` that may still scatter): a cosine-distributed direction about the shading
 /// normal, from point `sample` of the path's Owen-scrambled Sobol sequence keyed by its
 /// key and [`dim::BOUNCE`] (stratified over the pixel's samples).
 pub fn bounce(scene: &Scene, rays: &RayQueue, surfaces: &SurfaceQueue, next: &mut RayQueue) {
-    let s = &scene.settings;
-    let mis = s.shadow_mode == ShadowMode::Uniform;
-    // The light samples' count divides the density (their weights are for n samples).
-    let samples = s.shadow_samples as f32;
-    for p in 0..surfaces.len() {
-        let surf = queued_surface(surfaces, p);
-        let (ts, tt) = tangents(surf.n);
-        let l = cosine_hemisphere(sobol_owen(surf.sample, hash(&[surf.key, dim::BOUNCE])));
-        let wi = (ts * l.x + tt * l.y + surf.n * l.z).normalize();
-        let cos = surf.n.dot(wi);
-        if cos <= 0.0 {
-            continue;
-        }
-        // f·cos / (cos/π): the albedo for Lambert.
-        let f = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo) * PI;
-        let w = surf.w * f;
-        if w == glam::Vec3::ZERO {
-            continue;
-        }
-        let pdf = if mis { cos / PI / samples } else { -1.0 };
-        let ray = surfaces.ray[p] as usize;
-        let time = sparse_opt(&surfaces.time, p);
-        let key = hash(&[surf.key, 1]);
-        next.push(surf.o, wi, surf.slot, w, rays.depth[ray] + 1, key, surf.sample, pdf, time);
+    let mut start = 0;
+    while start < surfaces.len() {
+        let count = (surfaces.len() - start).min(LANES);
+        let ids: [u32; LANES] = std::array::from_fn(|k| (start + k.min(count - 1)) as u32);
+        bounce_lanes(scene, rays, surfaces, &ids, count, next);
+        start += count;
     }
+}
+
+/// The orthonormal tangents of unit normals `n` on lanes (Duff et al.'s frame, as
+/// [`tangents`](crate::microfacet::tangents)).
+#[inline(always)]
+fn tangents_lanes(n: V3<f32x16>) -> (V3<f32x16>, V3<f32x16>) {
+    let sign = f32x16::if_negative(n.z, f32x16::splat(-1.0), f32x16::ONE);
+    let a = f32x16::splat(-1.0) / (sign + n.z);
+    let b = n.x * n.y * a;
+    let s = V3 { x: n.x * n.x * a * sign + f32x16::ONE, y: b * sign, z: -n.x * sign };
+    let t = V3 { x: b, y: n.y * n.y * a + sign, z: -n.y };
+    (s, t)
+}
+
+/// The bounce rays of surface points `ids` (the first `count` real).
+fn bounce_lanes(
+    scene: &Scene,
+    rays: &RayQueue,
+    q: &SurfaceQueue,
+    ids: &[u32; LANES],
+    count: usize,
+    next: &mut RayQueue,
+) {
+    let s = &scene.settings;
+    let lanes = LaneIds::new(ids);
+    let f = |v: &[f32]| lanes.gather(v);
+    let v3 = |x: &[f32], y: &[f32], z: &[f32]| V3 { x: f(x), y: f(y), z: f(z) };
+    let normal = v3(&q.nx, &q.ny, &q.nz);
+    let (key, sample) = (lanes.gather_words(&q.key), lanes.gather_words(&q.sample));
+    let (ux, uy) = sobol_owen_lanes(sample, hash_lanes([key, u32x16::splat(dim::BOUNCE)]));
+    let (dx, dy) = concentric_disk_lanes(ux, uy, count);
+    let dz = (f32x16::ONE - dx * dx - dy * dy).max(f32x16::ZERO).sqrt();
+    let (ts, tt) = tangents_lanes(normal);
+    let wi = (ts.scale(dx) + tt.scale(dy) + normal.scale(dz)).normalize();
+    let cos = normal.dot(wi);
+    // Lambert's ray carries its albedo: f·cos / (cos/π).
+    let w = v3(&q.wr, &q.wg, &q.wb);
+    let c = v3(&q.cr, &q.cg, &q.cb);
+    let (mut wr, mut wg, mut wb) = ((w.x * c.x).to_array(), (w.y * c.y).to_array(), (w.z * c.z).to_array());
+    let live = cos.simd_gt(f32x16::ZERO).to_bitmask();
+    let spec = v3(&q.sr, &q.sg, &q.sb);
+    let zero = f32x16::ZERO;
+    let phong = !(spec.x.simd_eq(zero) & spec.y.simd_eq(zero) & spec.z.simd_eq(zero)).to_bitmask();
+    let (wx, wy, wz) = (wi.x.to_array(), wi.y.to_array(), wi.z.to_array());
+    let (mut keep, mut m) = ([0usize; LANES], 0);
+    for k in (0..count).filter(|&k| live & (1 << k) != 0) {
+        let p = ids[k] as usize;
+        if phong & (1 << k) != 0 {
+            let d = Vec3::new(wx[k], wy[k], wz[k]);
+            let v = q.weight(p) * diffuse_brdf(q.color(p), q.specular(p), q.shininess[p], q.normal(p), d, q.wo(p)) * PI;
+            (wr[k], wg[k], wb[k]) = (v.x, v.y, v.z);
+        }
+        if wr[k] != 0.0 || wg[k] != 0.0 || wb[k] != 0.0 {
+            keep[m] = k;
+            m += 1;
+        }
+    }
+    // The density over the light samples' count (their weights are for n samples), or
+    // -1: the light samples took the emitters' whole weight.
+    let pdf = match s.shadow_mode {
+        ShadowMode::Uniform => (cos * f32x16::splat(FRAC_1_PI / s.shadow_samples as f32)).to_array(),
+        ShadowMode::Adaptive(_) => [-1.0; LANES],
+    };
+    let o = v3(&q.ox, &q.oy, &q.oz).lanes();
+    let slot = ids.map(|p| q.slot[p as usize]);
+    let depth = ids.map(|p| rays.depth[q.ray[p as usize] as usize] + 1);
+    let key1 = hash_lanes([key, u32x16::ONE]).to_array();
+    let time = (!q.time.is_empty()).then(|| ids.map(|p| q.time[p as usize]));
+    next.push_picked(
+        o,
+        [wx, wy, wz],
+        slot,
+        [wr, wg, wb],
+        depth,
+        key1,
+        sample.to_array(),
+        pdf,
+        time.as_ref(),
+        &keep[..m],
+    );
 }

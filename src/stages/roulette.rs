@@ -1,6 +1,8 @@
 //! Russian roulette of the path transport: reads a level's rays and keeps each with a
 //! probability that follows its throughput, as Mitsuba's `path` integrator does.
 
+use glam::Vec3;
+
 use crate::queue::RayQueue;
 use crate::sampling::{dim, hash, sobol_owen};
 
@@ -11,20 +13,18 @@ use crate::sampling::{dim, hash, sobol_owen};
 /// [`dim::ROULETTE`]. Returns the number of rays ended.
 pub fn roulette(rays: &RayQueue, camera: &[f32], out: &mut RayQueue) -> u64 {
     out.clear();
-    let mut ended = 0;
-    for i in 0..rays.len() {
-        let w = rays.weight(i);
-        let t = w.max_element() / camera[rays.slot[i] as usize];
-        let q = t.min(0.95);
-        let u = sobol_owen(rays.sample[i], hash(&[rays.key[i], dim::ROULETTE])).x;
-        // NaN throughput (a broken path) ends too.
-        if u >= q || q.is_nan() {
-            ended += 1;
-            continue;
-        }
-        out.append_range(rays, i..i + 1);
-        let k = out.len() - 1;
-        (out.wr[k], out.wg[k], out.wb[k]) = (w.x / q, w.y / q, w.z / q);
+    let q = |w: Vec3, slot: u32| (w.max_element() / camera[slot as usize]).min(0.95);
+    let kept: Vec<u32> = (0..rays.len() as u32)
+        .filter(|&i| {
+            let i = i as usize;
+            // NaN throughput (a broken path) ends too.
+            sobol_owen(rays.sample[i], hash(&[rays.key[i], dim::ROULETTE])).x < q(rays.weight(i), rays.slot[i])
+        })
+        .collect();
+    out.gather(rays, &kept);
+    for k in 0..out.len() {
+        let q = q(out.weight(k), out.slot[k]);
+        (out.wr[k], out.wg[k], out.wb[k]) = (out.wr[k] / q, out.wg[k] / q, out.wb[k] / q);
     }
-    ended
+    (rays.len() - kept.len()) as u64
 }

@@ -10,10 +10,13 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
+mod path;
+use path::path_lights;
+
 use crate::accel::NO_LIGHT;
 use crate::light::{
-    emitted, gloss_light_pdf, gloss_light_sample, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays,
-    unoccluded, QuadLanes, SHADOW_TMAX_SCALE,
+    emitted, gloss_light_pdf, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes,
+    SHADOW_TMAX_SCALE,
 };
 use crate::queue::{
     sparse_opt, FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS,
@@ -178,38 +181,6 @@ fn light_points(
         }
     }
     counts
-}
-
-/// Next-event estimation of the path transport at every point of `surfaces`: a ray to
-/// each point light, and `shadows.samples` points on the area lights, each light chosen
-/// uniformly and the point uniformly over its area ([`gloss_light_sample`], sample
-/// `sample · n + j` of the path's sequence, so a pixel's samples are stratified
-/// together), weighted by the power heuristic against the density with which the
-/// point's bounce ray (stage `bounce`) could have found the same point.
-fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
-    let n = scene.settings.shadow_samples;
-    let points = || (0..scene.lights.len()).filter(|&li| matches!(scene.lights[li], Light::Point { .. }));
-    for p in 0..surfaces.len() {
-        let surf = queued_surface(surfaces, p);
-        let time = sparse_opt(&surfaces.time, p);
-        for li in points() {
-            uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l, time));
-        }
-        for j in 0..n {
-            let index = surf.sample.wrapping_mul(n).wrapping_add(j);
-            let Some(l) = gloss_light_sample(scene, surf.o, surf.key, index) else { continue };
-            let cos = surf.n.dot(l.wi);
-            if cos <= 0.0 {
-                continue;
-            }
-            let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, l.wi, surf.wo);
-            let pdf = l.pdf * n as f32;
-            let c = surf.w * brdf * l.radiance * (cos * power_heuristic(pdf, cos * FRAC_1_PI) / pdf);
-            if c != Vec3::ZERO {
-                shadow.push(surf.o, l.wi, l.dist * SHADOW_TMAX_SCALE, surf.slot, c, time);
-            }
-        }
-    }
 }
 
 /// Uniform shadow rays from every point of `surfaces` to every lit quad light, 16
