@@ -87,15 +87,15 @@ pub fn shading_normal(scene: &Scene, prim: usize, time: f32, x: Vec3, n: Vec3) -
     }
 }
 
-/// The Lambert/Phong parameters (albedo, Phong reflectance, exponent) of primitive
-/// `prim` when it is a diffuse non-emitter, else `None`.
+/// The Lambert/Phong parameters (albedo, Phong reflectance, exponent, two-sided) of
+/// primitive `prim` when it is a diffuse non-emitter, else `None`.
 #[inline]
-pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32)> {
+pub fn diffuse_material(scene: &Scene, prim: u32) -> Option<(Color, Vec3, f32, bool)> {
     if prim >= scene.accel.ids() as u32 || scene.accel.light(prim) != NO_LIGHT {
         return None;
     }
     match scene.materials[scene.accel.material(prim) as usize] {
-        Material::Diffuse { color, specular, shininess } => Some((color, specular, shininess)),
+        Material::Diffuse { color, specular, shininess, two_sided } => Some((color, specular, shininess, two_sided)),
         _ => None,
     }
 }
@@ -157,11 +157,15 @@ pub fn hit_point(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> (
 /// The diffuse surface that ray `i` hit, or `None` if it hit something else.
 #[inline]
 pub fn diffuse_surface(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> Option<Surface> {
-    let (color, specular, shininess) = diffuse_material(scene, hits.prim[i])?;
+    let (color, specular, shininess, two_sided) = diffuse_material(scene, hits.prim[i])?;
     let d = rays.dir(i);
     let time = sparse(&rays.time, i);
     let (x, err, ng) = hit_point(scene, rays, hits, i);
-    let color = color_at(scene, color, hits.prim[i] as usize, time, x);
+    // A one-sided surface seen from behind is black.
+    let (color, specular) = match two_sided || ng.dot(d) < 0.0 {
+        true => (color_at(scene, color, hits.prim[i] as usize, time, x), specular),
+        false => (Vec3::ZERO, Vec3::ZERO),
+    };
     // Diffuse surfaces are two-sided: light the side the ray arrived on.
     let n = if ng.dot(d) < 0.0 { ng } else { -ng };
     Some(Surface {
@@ -301,13 +305,21 @@ pub fn diffuse_surfaces(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[
     let n = V3::if_negative(ng.dot(d), ng, -ng);
     let o = offset_lanes(p, err, n).lanes();
     let shading = shading_lanes(scene, rays, hits, ids, p, n).lanes();
-    let w = V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) }.lanes();
+    let mut w = V3 { x: ray(&rays.wr), y: ray(&rays.wg), z: ray(&rays.wb) }.lanes();
+    let side = ng.dot(d).to_array();
     // Albedo, Phong reflectance and exponent: seven columns filled in one pass.
     let (mut color, mut specular, mut shininess) = ([[0.0f32; LANES]; 3], [[0.0f32; LANES]; 3], [0.0f32; LANES]);
     // The hit points as arrays, made once and only when a texture needs them.
     let mut points: Option<[[f32; LANES]; 3]> = None;
     for (k, &i) in lanes.idx.iter().enumerate() {
-        let (c, sp, e) = diffuse_material(scene, hits.prim[i]).unwrap_or((Color::Rgb(Vec3::ZERO), Vec3::ZERO, 0.0));
+        let (c, sp, e, two_sided) =
+            diffuse_material(scene, hits.prim[i]).unwrap_or((Color::Rgb(Vec3::ZERO), Vec3::ZERO, 0.0, true));
+        // A one-sided surface seen from behind is black: nothing reflects, and its
+        // zero throughput ends the path.
+        if !two_sided && side[k] >= 0.0 {
+            (w[0][k], w[1][k], w[2][k]) = (0.0, 0.0, 0.0);
+            continue;
+        }
         let c = match c {
             Color::Rgb(c) => c,
             textured => {

@@ -166,3 +166,26 @@ fn path_bits_hold_across_threads_and_crops() {
         }
     }
 }
+
+#[test]
+fn a_one_sided_surface_is_black_from_behind() {
+    // A floor facing up under a point light, seen from above and from below.
+    let text = |two_sided: bool| {
+        [
+            support::toml::material("floor", "diffuse", &["color=[0.5, 0.5, 0.5]", &format!("two_sided={two_sided}")]),
+            support::toml::quad([-5.0, 0.0, 5.0], [10.0, 0.0, 0.0], [0.0, 0.0, -10.0], "floor"),
+            point_light([0.0, 2.0, 0.0], 4.0),
+            point_light([0.0, -2.0, 0.0], 4.0),
+        ]
+        .concat()
+    };
+    for transport in ["whitted", "path"] {
+        let sets = [&format!("render.transport={transport}")[..]];
+        let above = pixel(&text(false), [0.5, 3.0, 0.0], [0.0; 3], &sets);
+        let below = pixel(&text(false), [0.5, -3.0, 0.0], [0.0; 3], &sets);
+        assert!(above.x > 0.0 && below == Vec3::ZERO, "{transport}: {above} above, {below} below");
+        // Two-sided (the TOML default), the back is lit by the light below it.
+        let back = pixel(&text(true), [0.5, -3.0, 0.0], [0.0; 3], &sets);
+        assert!((back.x - above.x).abs() < 1e-5 * above.x, "{transport}: {back} vs {above}");
+    }
+}

@@ -306,6 +306,11 @@ pub struct BackgroundDesc {
     pub color: [f32; 3],
 }
 
+/// serde's default for flags that are on unless given.
+fn yes() -> bool {
+    true
+}
+
 /// `[materials.NAME]`.
 #[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
@@ -320,6 +325,10 @@ pub enum MaterialDesc {
         /// Phong exponent (default 0; only used when `specular` is non-zero).
         #[serde(default)]
         shininess: f32,
+        /// Both sides reflect (default true); false: black seen from behind its normal,
+        /// as Mitsuba's `diffuse` without `twosided`.
+        #[serde(default = "yes")]
+        two_sided: bool,
     },
     /// Perfect mirror.
     Mirror {

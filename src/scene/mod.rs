@@ -248,6 +248,8 @@ pub enum Material {
         specular: Vec3,
         /// Phong exponent.
         shininess: f32,
+        /// Both sides reflect; else the side behind the geometric normal is black.
+        two_sided: bool,
     },
     /// Perfect mirror.
     Mirror {

@@ -260,7 +260,8 @@ fn textures_nested_or_referenced_become_colours() {
     let body = body.replace("id=\"far\"><ref", "id=\"far-bsdf\"><ref");
     let s = imported(&f.write("s.xml", xml_scene(&body)));
     let abs = |p: &str| std::fs::canonicalize(f.dir().join(p)).expect("canonical").display().to_string();
-    let diffuse = |color: ColorDesc| json(MaterialDesc::Diffuse { color, specular: [0.0; 3], shininess: 0.0 });
+    let diffuse =
+        |color: ColorDesc| json(MaterialDesc::Diffuse { color, specular: [0.0; 3], shininess: 0.0, two_sided: false });
     let wood = TextureDesc::Bitmap {
         file: abs("tex/wood.png"),
         raw: true,

@@ -30,7 +30,7 @@ pub(super) struct Textures {
 pub(super) fn material(name: &str, m: &MaterialDesc, ctx: &Ctx, textures: &mut Textures) -> Result<Material> {
     let p = |f: &str| format!("materials.{name}.{f}");
     Ok(match m {
-        MaterialDesc::Diffuse { color: c, specular, shininess } => {
+        MaterialDesc::Diffuse { color: c, specular, shininess, two_sided } => {
             if *shininess < 0.0 {
                 return Err(ctx.fail(&p("shininess"), "must be >= 0"));
             }
@@ -38,6 +38,7 @@ pub(super) fn material(name: &str, m: &MaterialDesc, ctx: &Ctx, textures: &mut T
                 color: color_or_texture(ctx, &p("color"), c, textures)?,
                 specular: color(ctx, &p("specular"), *specular)?,
                 shininess: *shininess,
+                two_sided: *two_sided,
             }
         }
         MaterialDesc::Mirror { color: c } => Material::Mirror { color: color(ctx, &p("color"), *c)? },

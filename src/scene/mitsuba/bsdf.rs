@@ -76,25 +76,10 @@ impl<'a> Converter<'a> {
         if let Some(id) = id {
             self.named.insert(id.to_string(), name.clone());
         }
-        let (desc, two_sided) = self.material(el)?;
-        if !two_sided && matches!(desc, MaterialDesc::Diffuse { .. }) {
-            self.note_one_sided(el);
-        }
+        let (desc, _) = self.material(el)?;
         self.out.file.materials.insert(name.clone(), desc);
         self.place(format!("materials.{name}"), el);
         Ok(name)
-    }
-
-    /// Notes once that Mitsuba's diffuse BSDF is one-sided.
-    pub(super) fn note_one_sided(&mut self, el: &El) {
-        if !self.one_sided_noted {
-            self.one_sided_noted = true;
-            self.note(format!(
-                "{}:{}: a diffuse BSDF without <bsdf type=\"twosided\"> (or a shape's default BSDF) is black from \
-                 behind in Mitsuba; wavetrace's diffuse surfaces reflect on both sides",
-                el.loc.file, el.loc.line
-            ));
-        }
     }
 
     /// The material of a BSDF element, and whether it is wrapped in a twosided.
@@ -104,7 +89,8 @@ impl<'a> Converter<'a> {
                 let p = Params::of(el, &["reflectance"], &["texture", "ref"])?;
                 textured_only(el, &["reflectance"])?;
                 let color = self.color_param(&p, "reflectance", [0.5; 3])?;
-                Ok((MaterialDesc::Diffuse { color, specular: [0.0; 3], shininess: 0.0 }, false))
+                // One-sided, as Mitsuba's: `twosided` turns the back on.
+                Ok((MaterialDesc::Diffuse { color, specular: [0.0; 3], shininess: 0.0, two_sided: false }, false))
             }
             "twosided" => self.twosided(el),
             "conductor" => Ok((self.conductor(el, false)?, false)),
@@ -141,7 +127,11 @@ impl<'a> Converter<'a> {
         self.twosided_depth += 1;
         let m = self.material(b);
         self.twosided_depth -= 1;
-        Ok((m?.0, true))
+        let mut m = m?.0;
+        if let MaterialDesc::Diffuse { two_sided, .. } = &mut m {
+            *two_sided = true;
+        }
+        Ok((m, true))
     }
 
     /// `conductor` and `roughconductor`: a named metal, or eta and k, or Mitsuba's default

@@ -122,7 +122,6 @@ struct Converter<'a> {
     /// Twosided BSDFs being converted, one inside the other (references can loop).
     twosided_depth: usize,
     sensor: bool,
-    one_sided_noted: bool,
 }
 
 /// Every element with an `id` below `el` (a `<ref id>` or `<alias id>` names one; it
@@ -173,7 +172,6 @@ impl<'a> Converter<'a> {
             emitter_shapes: BTreeMap::new(),
             twosided_depth: 0,
             sensor: false,
-            one_sided_noted: false,
         }
     }
 

@@ -229,11 +229,15 @@ impl<'a> Converter<'a> {
         let a = self.attached(el)?;
         match a.bsdfs[..] {
             [] => {
-                self.note_one_sided(el);
                 let name = "mitsuba-default-diffuse".to_string();
                 if !self.out.file.materials.contains_key(&name) {
-                    let d =
-                        MaterialDesc::Diffuse { color: ColorDesc::Rgb([0.5; 3]), specular: [0.0; 3], shininess: 0.0 };
+                    // One-sided, as Mitsuba's.
+                    let d = MaterialDesc::Diffuse {
+                        color: ColorDesc::Rgb([0.5; 3]),
+                        specular: [0.0; 3],
+                        shininess: 0.0,
+                        two_sided: false,
+                    };
                     self.out.file.materials.insert(name.clone(), d);
                 }
                 Ok(name)
