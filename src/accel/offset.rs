@@ -3,6 +3,10 @@
 //! own data (`Shape::surface_point`) together with a bound on its rounding error, and
 //! the new origin is pushed along the normal just past that bound, then one float step
 //! further. The push thus scales with the scene and with the distance from the origin.
+//! It can be a single denormal step: a triangle in the plane x = 0 has a point error of 0
+//! across it. The triangle test's own rounding, about ε times the triangle's size, is
+//! covered by that test, which reports only distances conservatively above 0 (PBRT's
+//! other half of the method: [`triangle_t_error`](super::shapes::triangle_t_error)).
 //! (Wächter and Binder's fixed-ulp offset, tried first, left acne at scale 1e4 and
 //! pushed 2 units off a unit sphere at 1e5: tests/extremes/offsets.rs.)
 

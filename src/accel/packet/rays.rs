@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use super::Columns;
-use crate::accel::shapes::{intersect_triangle, shear_axes, Shape};
+use crate::accel::shapes::{intersect_triangle, shear_axes, triangle_t_error, Shape};
 use crate::accel::wbvh::Beam;
 use crate::accel::{CULL, WIDEN};
 use crate::simd::{Vector, LANES};
@@ -164,7 +164,9 @@ impl<'a, S: Vector> Lanes<'a, S> {
         let outside = (u.lt(zero) | v.lt(zero) | w.lt(zero)) & (u.gt(zero) | v.gt(zero) | w.gt(zero));
         let det = u + v + w;
         let dist = (u * sz * a[2] + v * sz * b[2] + w * sz * c[2]) / det;
-        let t = S::select(outside | det.eq(zero), inf, S::select(det.finite() & dist.finite(), dist, inf));
+        let error = triangle_t_error([ax, bx, cx], [ay, by, cy], [a[2], b[2], c[2]], sz, [u, v, w], det);
+        let kept = det.finite() & dist.finite() & dist.gt(error);
+        let t = S::select(outside | det.eq(zero), inf, S::select(kept, dist, inf));
         // An edge function that rounds to zero is recomputed in f64 by the scalar kernel;
         // those (rare) lanes take the scalar kernel whole.
         let mut edge = mask & (u.eq(zero) | v.eq(zero) | w.eq(zero)).bits();

@@ -32,7 +32,7 @@ use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};
 use wide::f32x8;
 
 use super::lanes_of;
-use super::shapes::{intersect_triangle, shear_axes, Primitive, Shape};
+use super::shapes::{intersect_triangle, shear_axes, triangle_t_error, Primitive, Shape};
 use crate::simd::{Vector, LANES};
 
 /// The node width the renderer uses (chosen by measurement: docs/performance.md).
@@ -195,7 +195,9 @@ impl Sheared {
             return inf;
         }
         let dist = (u * sz * a[2] + v * sz * bb[2] + w * sz * c[2]) / det;
-        let t = Tris::select(missed, inf, Tris::select(det.finite() & dist.finite(), dist, inf));
+        let error = triangle_t_error([ax, bx, cx], [ay, by, cy], [a[2], bb[2], c[2]], sz, [u, v, w], det);
+        let kept = det.finite() & dist.finite() & dist.gt(error);
+        let t = Tris::select(missed, inf, Tris::select(kept, dist, inf));
         if edge == 0 {
             return t;
         }
