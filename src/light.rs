@@ -9,8 +9,9 @@ use std::f32::consts::FRAC_1_PI;
 
 use crate::sampling::{cmj_grid, dim, hash, hash_lanes, sobol_owen, sobol_owen_lanes, to_unit};
 use crate::scene::{Light, Probe, Scene};
-use crate::simd::{Real, Word, V3};
+use crate::simd::{LaneIds, Real, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, Surface};
+use wide::{f32x16, u32x16};
 
 /// Shadow rays stop this fraction short of the light, so a surface the light lies on
 /// (a lamp flush with a ceiling) does not shadow it.
@@ -219,6 +220,87 @@ pub fn quad_sample<W: Word>(
     let dist = dist2.sqrt();
     let wi = to.over(dist);
     QuadSample { uv, wi, dist, dist2, cos_x: n.dot(wi), cos_y: -quad.normal.dot(wi) }
+}
+
+/// The scene's area lights that a path's light samples pick from (its `gloss_lights`),
+/// as columns gathered per lane by the light's position in that list.
+pub struct AreaLights {
+    /// Origin, first edge, second edge, normal and radiance, x y z each.
+    c: [Vec<f32>; 15],
+    /// The light's area times the number of lights (the pick's probability inverted).
+    area: Vec<f32>,
+    triangle: Vec<bool>,
+}
+
+/// What [`AreaLights::sample`] gives per lane besides the sample: the picked light's area
+/// times the number of lights, and its radiance.
+pub struct PickedLights {
+    /// Area times the number of lights.
+    pub area: f32x16,
+    /// Radiance.
+    pub radiance: V3<f32x16>,
+}
+
+impl AreaLights {
+    /// The table of the scene's `gloss_lights`.
+    pub fn new(scene: &Scene) -> AreaLights {
+        let count = scene.gloss_lights.len() as f32;
+        let mut t = AreaLights { c: Default::default(), area: Vec::new(), triangle: Vec::new() };
+        for &li in &scene.gloss_lights {
+            // Every one is planar (a point light is never among them).
+            let zero = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO, false);
+            let (o, u, v, normal, area, radiance, tri) = planar(&scene.lights[li as usize]).unwrap_or(zero);
+            for (col, x) in t.c.iter_mut().zip([o, u, v, normal, radiance].iter().flat_map(|v| v.to_array())) {
+                col.push(x);
+            }
+            t.area.push(area * count);
+            t.triangle.push(tri);
+        }
+        t
+    }
+
+    /// Sample `index` of the sequence `seed` on light `pick[k]` of the table, per lane k,
+    /// seen from `o` with normal `n` ([`quad_sample`]); quads and triangles differ only in
+    /// the fold of the unit square, so a group with both samples both and picks per lane.
+    #[inline]
+    pub fn sample(
+        &self,
+        pick: &[u32; LANES],
+        o: V3<f32x16>,
+        n: V3<f32x16>,
+        index: u32x16,
+        seed: u32x16,
+    ) -> (QuadSample<f32x16>, PickedLights) {
+        let lanes = LaneIds::new(pick);
+        let v = |i: usize| V3 {
+            x: lanes.gather(&self.c[i]),
+            y: lanes.gather(&self.c[i + 1]),
+            z: lanes.gather(&self.c[i + 2]),
+        };
+        let quad = QuadLanes { corner: v(0), u: v(3), v: v(6), normal: v(9) };
+        let picked = PickedLights { area: lanes.gather(&self.area), radiance: v(12) };
+        let triangles = (0..LANES).filter(|&k| self.triangle[pick[k] as usize]).fold(0u32, |m, k| m | 1 << k);
+        let s = match triangles {
+            0 => quad_sample(&quad, o, n, index, seed, false),
+            t if t == u32::MAX >> (32 - LANES) => quad_sample(&quad, o, n, index, seed, true),
+            t => {
+                let (a, b) =
+                    (quad_sample(&quad, o, n, index, seed, false), quad_sample(&quad, o, n, index, seed, true));
+                let m =
+                    f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| if t & (1 << k) != 0 { -1.0 } else { 1.0 }));
+                let pick = |x: f32x16, y: f32x16| f32x16::if_negative(m, y, x);
+                QuadSample {
+                    uv: a.uv,
+                    wi: V3::if_negative(m, b.wi, a.wi),
+                    dist: pick(a.dist, b.dist),
+                    dist2: pick(a.dist2, b.dist2),
+                    cos_x: pick(a.cos_x, b.cos_x),
+                    cos_y: pick(a.cos_y, b.cos_y),
+                }
+            }
+        };
+        (s, picked)
+    }
 }
 
 /// Irradiance at `o` (unit normal `n`) from a parallelogram of unit radiance with

@@ -14,6 +14,9 @@ use super::text::{line_col, read_text};
 use super::transform::Transform;
 use crate::{Error, Result};
 
+/// Most bounces a scene may ask for (`render.max_depth`): each bounce level keeps a queue.
+pub const MAX_DEPTH: u32 = 64;
+
 /// Largest coordinate, edge or radius magnitude: the squared length of a cross product of
 /// two edges, (4e9)⁴ = 2.6e38, must stay below f32::MAX (3.4e38), or normals and
 /// directions turn to NaN.

@@ -13,14 +13,11 @@ use std::path::Path;
 
 use super::format::*;
 use super::text::line_col;
-use super::values::{check_finite, color, in_range, transform, vec3, Ctx, SceneSource, MAX_COORD};
+use super::values::{check_finite, color, in_range, transform, vec3, Ctx, SceneSource, MAX_COORD, MAX_DEPTH};
 use super::{AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode, Transport};
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
-
-/// Most reflection/refraction bounces a scene may ask for.
-pub const MAX_DEPTH: u32 = 64;
 
 /// Highest adaptive refinement level: 2^16 samples per pixel.
 pub const MAX_LEVEL: u32 = 16;

@@ -4,7 +4,7 @@
 use super::xml::{El, Value};
 use super::{compose, unsupported, Converter, Params, SENSORS};
 use crate::scene::format::{PathDesc, TransportDesc};
-use crate::scene::load::MAX_DEPTH;
+use crate::scene::values::MAX_DEPTH;
 use crate::Result;
 
 /// The parameters of `<film type="hdrfilm">` read or accepted.

@@ -313,8 +313,9 @@ impl<'a> Converter<'a> {
                 self.out.file.background.color = r;
                 self.place("background".into(), el);
                 self.note(format!(
-                    "{}:{}: <emitter type=\"constant\"> becomes the background colour: rays that escape see it, but \
-                     unlike in Mitsuba it lights nothing",
+                    "{}:{}: <emitter type=\"constant\"> becomes the background colour: under the path transport \
+                     the rays that escape bring its light (it is not sampled as a light: noisier than Mitsuba); \
+                     under whitted it lights nothing",
                     el.loc.file, el.loc.line
                 ));
             }

@@ -6,11 +6,11 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::light::{quad_sample, uniform_shadow_rays, QuadLanes, SHADOW_TMAX_SCALE};
+use crate::light::{uniform_shadow_rays, AreaLights, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
 use crate::sampling::{dim, hash_lanes, sobol_owen_lanes};
 use crate::scene::{Light, Scene};
-use crate::simd::{LaneIds, Real, Word, LANES, V3};
+use crate::simd::{LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, queued_surface};
 
 /// Next-event estimation at every point of `surfaces`: a ray to each point light, and
@@ -30,7 +30,7 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
     if scene.gloss_lights.is_empty() {
         return;
     }
-    let table = Table::new(scene);
+    let table = AreaLights::new(scene);
     let n = scene.settings.shadow_samples as usize;
     let total = surfaces.len() * n;
     let mut start = 0;
@@ -45,61 +45,11 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
     }
 }
 
-/// The scene's area lights (its `gloss_lights`) as columns, gathered per lane by the
-/// light's position in that list.
-struct Table {
-    c: [Vec<f32>; 15],
-    /// The light's area times the number of lights (the pick's probability inverted).
-    area: Vec<f32>,
-    triangle: Vec<bool>,
-}
-
-impl Table {
-    fn new(scene: &Scene) -> Table {
-        let count = scene.gloss_lights.len() as f32;
-        let mut t = Table { c: Default::default(), area: Vec::new(), triangle: Vec::new() };
-        for &li in &scene.gloss_lights {
-            let (o, u, v, normal, area, radiance, tri) = match scene.lights[li as usize] {
-                Light::Quad { corner, u, v, normal, area, radiance } => (corner, u, v, normal, area, radiance, false),
-                Light::Triangle { v0, e1, e2, normal, area, radiance } => (v0, e1, e2, normal, area, radiance, true),
-                // Not among the scene's area lights.
-                Light::Point { .. } => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO, false),
-            };
-            for (col, x) in t.c.iter_mut().zip([o, u, v, normal, radiance].iter().flat_map(|v| v.to_array())) {
-                col.push(x);
-            }
-            t.area.push(area * count);
-            t.triangle.push(tri);
-        }
-        t
-    }
-}
-
-/// The area lights' parameters per lane.
-struct Lights {
-    quad: QuadLanes<f32x16>,
-    area: f32x16,
-    radiance: V3<f32x16>,
-    /// Lanes on a triangle light (bit k).
-    triangles: u32,
-}
-
-impl Lights {
-    /// Lane k on light `pick[k]` of the table.
-    fn of(t: &Table, pick: &[u32; LANES]) -> Lights {
-        let lanes = LaneIds::new(pick);
-        let v = |i: usize| V3 { x: lanes.gather(&t.c[i]), y: lanes.gather(&t.c[i + 1]), z: lanes.gather(&t.c[i + 2]) };
-        let quad = QuadLanes { corner: v(0), u: v(3), v: v(6), normal: v(9) };
-        let triangles = (0..LANES).filter(|&k| t.triangle[pick[k] as usize]).fold(0, |m, k| m | 1 << k);
-        Lights { quad, area: lanes.gather(&t.area), radiance: v(12), triangles }
-    }
-}
-
 /// The light samples of one lane group: pair k is sample `sample[k]` of point
 /// `point[k]`, the first `count` real; `table` holds the area lights.
 fn area_lanes(
     scene: &Scene,
-    table: &Table,
+    table: &AreaLights,
     q: &SurfaceQueue,
     (point, sample, count): (&[u32; LANES], &[u32; LANES], usize),
     shadow: &mut ShadowQueue,
@@ -120,31 +70,9 @@ fn area_lanes(
         let m = lights.len();
         u.to_array().map(|u| ((u * m as f32) as usize).min(m - 1) as u32)
     };
-    let l = Lights::of(table, &pick);
     let li = pick.map(|j| lights[j as usize]);
     let seed = hash_lanes([key, u32x16::from(li), u32x16::splat(dim::GLOSS_LIGHT)]);
-    // Quads and triangles differ only in the fold of the unit square: a mixed group
-    // samples both and picks per lane.
-    let s = match l.triangles {
-        0 => quad_sample(&l.quad, o, normal, index, seed, false),
-        t if t == (1 << LANES) - 1 => quad_sample(&l.quad, o, normal, index, seed, true),
-        t => {
-            let (a, b) = (
-                quad_sample(&l.quad, o, normal, index, seed, false),
-                quad_sample(&l.quad, o, normal, index, seed, true),
-            );
-            let m = f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| if t & (1 << k) != 0 { -1.0 } else { 1.0 }));
-            let pick = |x: f32x16, y: f32x16| f32x16::if_negative(m, y, x);
-            crate::light::QuadSample {
-                uv: a.uv,
-                wi: V3::if_negative(m, b.wi, a.wi),
-                dist: pick(a.dist, b.dist),
-                dist2: pick(a.dist2, b.dist2),
-                cos_x: pick(a.cos_x, b.cos_x),
-                cos_y: pick(a.cos_y, b.cos_y),
-            }
-        }
-    };
+    let (s, l) = table.sample(&pick, o, normal, index, seed);
     // Density of the point per solid angle (n samples), and the bounce ray's for it.
     let zero = f32x16::ZERO;
     let live = s.cos_x.simd_gt(zero) & s.cos_y.simd_gt(zero) & s.dist2.simd_gt(zero);
