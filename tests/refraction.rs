@@ -593,3 +593,33 @@ fn figure_5_inside_outside_normal_and_eta_are_always_consistent() {
     assert!((sin_to(next.dir(0), n) - si / 1.5).abs() < 1e-5, "entering: eta must be 1/ior");
     assert!(next.origin(0).length() < 1.0, "entering: the refracted ray starts inside");
 }
+
+#[test]
+fn a_thin_sheet_passes_light_straight_and_reflects_its_two_faces() {
+    // One quad of thin glass in the plane y = 0 (Mitsuba's thindielectric).
+    let text = [
+        camera([0.0, 5.0, 5.0], [0.0; 3], &[]),
+        material("sheet", "dielectric", &["ior=1.5", "thin=true", "color=[0.9, 0.8, 0.7]"]),
+        quad([-10.0, 0.0, -10.0], [0.0, 0.0, 20.0], [20.0, 0.0, 0.0], "sheet"),
+    ]
+    .concat();
+    let scene = scene(&text, &[]);
+    for deg in [0.0f64, 30.0, 60.0, 85.0] {
+        let th = deg.to_radians();
+        let d = DVec3::new(th.sin(), -th.cos(), 0.0).as_vec3();
+        // A unit step before the origin, where it hits the sheet.
+        let (next, _) = step(&scene, &one_ray(-d, d));
+        assert_eq!(next.len(), 2, "at {deg}°");
+        // One face reflects R; the light bounced between the faces sums to 2R / (1 + R).
+        let r = fresnel64(th.cos(), 1.0 / 1.5);
+        let sheet = 2.0 * r / (1.0 + r);
+        let (refl, through) = (0, 1);
+        assert!((next.weight(refl).x as f64 - sheet).abs() < 1e-6, "at {deg}°: {} vs {sheet}", next.weight(refl));
+        let t = next.weight(through);
+        assert!((t.x as f64 - 0.9 * (1.0 - sheet)).abs() < 1e-6, "at {deg}°: {t}");
+        assert!((t.z as f64 - 0.7 * (1.0 - sheet)).abs() < 1e-6, "at {deg}°: {t}");
+        // Straight through, from below the sheet.
+        assert_eq!(next.dir(through), d, "at {deg}°");
+        assert!(next.origin(through).y < 0.0 && next.origin(refl).y > 0.0, "at {deg}°");
+    }
+}

@@ -348,6 +348,10 @@ pub enum MaterialDesc {
         color: [f32; 3],
         // The four roughness fields repeat in `Conductor`: serde's `flatten` does not
         // combine with `deny_unknown_fields`, which keeps a misspelt key an error.
+        /// A thin sheet (Mitsuba's `thindielectric`): light passes straight through,
+        /// and reflection sums the sheet's internal bounces (default false; smooth only).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        thin: bool,
         /// Rough glass: the microfacet distribution, "ggx" or "beckmann" (default
         /// "beckmann", as Mitsuba's `roughdielectric`; only with a roughness).
         #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -266,6 +266,9 @@ pub enum Material {
         tint: Vec3,
         /// Microfacet roughness; `None`: smooth.
         roughness: Option<Microfacet>,
+        /// A thin sheet: transmission goes straight through, reflection is the sheet's
+        /// (2R / (1 + R) for a Fresnel reflectance R of one face).
+        thin: bool,
     },
     /// A metal: Fresnel reflectance of a complex index of refraction.
     Conductor {

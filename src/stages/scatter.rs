@@ -365,8 +365,14 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     // fixed ratio, NaN for Fresnel), its colour (mirror colour or dielectric tint) and
     // whether it is a mirror (None: not a specular material, nothing to spawn).
     let mut mat = [(1.0f32, 1.0f32, Vec3::ONE, None); LANES];
+    // Thin sheets (bit k), finished lane by lane after the others.
+    let mut thin = 0u32;
     for (k, &i) in ids.iter().enumerate() {
-        mat[k] = match scene.materials[scene.accel.material(hits.prim[i as usize]) as usize] {
+        let m = scene.materials[scene.accel.material(hits.prim[i as usize]) as usize];
+        if let Material::Dielectric { thin: true, .. } = m {
+            thin |= 1 << k;
+        }
+        mat[k] = match m {
             Material::Mirror { color } => (1.0, 1.0, color, Some(true)),
             Material::Dielectric { ior, ratio: ReflectRatio::Fixed(c), tint, .. } => (ior, c, tint, Some(false)),
             Material::Dielectric { ior, ratio: ReflectRatio::Fresnel, tint, .. } => (ior, f32::NAN, tint, Some(false)),
@@ -393,6 +399,8 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     let arr = |v: V3<f32x16>| [v.x.to_array(), v.y.to_array(), v.z.to_array()];
     let (refl_o, refl_d) = (arr(offset_lanes(p, err, n)), arr(reflect_lanes(d, ns)));
     let (refr_o, refr_d) = (arr(offset_lanes(p, err, -n)), arr(t));
+    // The shading normals, for thin sheets' Fresnel.
+    let ns_arr = if thin != 0 { arr(ns) } else { [[0.0; LANES]; 3] };
     // As refract(): no refraction where cos²θt ≤ 0 (a NaN refracts, as there).
     let refracts = !cos2_t.simd_le(f32x16::ZERO).to_bitmask();
     let keys = |branch: u32| {
@@ -411,6 +419,20 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
         let Some(mirror) = mirror else { continue };
         if mirror {
             next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample, 0.0, time);
+            continue;
+        }
+        if thin & (1 << k) != 0 {
+            // A thin sheet: no bending, no total internal reflection; the light bounced
+            // between its faces adds to its reflection (Mitsuba's thindielectric).
+            let (d, n) = (rays.dir(i), at(&ns_arr, k));
+            let r = fresnel(-d.dot(n), 1.0 / mat[k].0);
+            let c = if fixed.is_nan() { 2.0 * r / (1.0 + r) } else { fixed };
+            if c > 0.0 {
+                next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0, time);
+            }
+            if c < 1.0 {
+                next.push(at(&refr_o, k), d, slot, w * color * (1.0 - c), depth, key2[k], sample, 0.0, time);
+            }
             continue;
         }
         let refracted = refracts & (1 << k) != 0;

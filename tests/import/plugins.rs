@@ -214,6 +214,7 @@ fn rough_dielectrics_keep_the_dielectric_rules() {
             ior,
             reflect_ratio: None,
             color,
+            thin: false,
             distribution: Some(distribution.to_string()),
             alpha: Some(alpha),
             alpha_u: None,
@@ -319,4 +320,20 @@ fn a_rectangle_quad_has_mitsubas_uv() {
         }
         other => panic!("{other:?}"),
     }
+}
+
+#[test]
+fn thin_dielectrics_are_thin_smooth_glass() {
+    let s = scene_of("<bsdf type=\"thindielectric\" id=\"pane\"><rgb name=\"specular_transmittance\" value=\"0.9, 0.9, 0.8\"/></bsdf>");
+    let pane = json(MaterialDesc::Dielectric {
+        ior: 1.5046 / 1.00028,
+        reflect_ratio: None,
+        color: [0.9, 0.9, 0.8],
+        thin: true,
+        distribution: None,
+        alpha: None,
+        alpha_u: None,
+        alpha_v: None,
+    });
+    assert_eq!(material(&s, "pane"), pane);
 }

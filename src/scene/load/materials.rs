@@ -42,7 +42,7 @@ pub(super) fn material(name: &str, m: &MaterialDesc, ctx: &Ctx, textures: &mut T
             }
         }
         MaterialDesc::Mirror { color: c } => Material::Mirror { color: color(ctx, &p("color"), *c)? },
-        MaterialDesc::Dielectric { ior, reflect_ratio, color: c, distribution, alpha, alpha_u, alpha_v } => {
+        MaterialDesc::Dielectric { ior, reflect_ratio, color: c, thin, distribution, alpha, alpha_u, alpha_v } => {
             if *ior <= 0.0 {
                 return Err(ctx.fail(&p("ior"), format!("{ior} must be > 0")));
             }
@@ -53,7 +53,10 @@ pub(super) fn material(name: &str, m: &MaterialDesc, ctx: &Ctx, textures: &mut T
                     ctx.fail(&p("reflect_ratio"), "rough glass splits by Fresnel at each microfacet: leave it out")
                 );
             }
-            Material::Dielectric { ior: *ior, ratio, tint: color(ctx, &p("color"), *c)?, roughness }
+            if roughness.is_some() && *thin {
+                return Err(ctx.fail(&p("thin"), "a thin sheet is smooth: leave out the roughness"));
+            }
+            Material::Dielectric { ior: *ior, ratio, tint: color(ctx, &p("color"), *c)?, roughness, thin: *thin }
         }
         MaterialDesc::Conductor { material, eta, k, color: c, distribution, alpha, alpha_u, alpha_v } => {
             let roughness = roughness(ctx, name, distribution, (*alpha, *alpha_u, *alpha_v))?;

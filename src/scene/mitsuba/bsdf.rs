@@ -95,8 +95,9 @@ impl<'a> Converter<'a> {
             "twosided" => self.twosided(el),
             "conductor" => Ok((self.conductor(el, false)?, false)),
             "roughconductor" => Ok((self.conductor(el, true)?, false)),
-            "dielectric" => Ok((self.dielectric(el, false)?, false)),
-            "roughdielectric" => Ok((self.dielectric(el, true)?, false)),
+            "dielectric" => Ok((self.dielectric(el, false, false)?, false)),
+            "roughdielectric" => Ok((self.dielectric(el, true, false)?, false)),
+            "thindielectric" => Ok((self.dielectric(el, false, true)?, false)),
             _ => Err(unsupported(el, "bsdf", BSDFS)),
         }
     }
@@ -172,9 +173,9 @@ impl<'a> Converter<'a> {
         Ok(MaterialDesc::Conductor { material, eta, k, color, distribution, alpha, alpha_u, alpha_v })
     }
 
-    /// `dielectric` and `roughdielectric`: glass of ior = int_ior / ext_ior (numbers or
-    /// Mitsuba's named media).
-    fn dielectric(&mut self, el: &El, rough: bool) -> Result<MaterialDesc> {
+    /// `dielectric`, `roughdielectric` and `thindielectric`: glass of ior = int_ior /
+    /// ext_ior (numbers or Mitsuba's named media); `rough` and `thin` exclude each other.
+    fn dielectric(&mut self, el: &El, rough: bool, thin: bool) -> Result<MaterialDesc> {
         let mut allowed = vec!["int_ior", "ext_ior", "specular_transmittance", "specular_reflectance"];
         if rough {
             allowed.extend(ROUGH_PARAMS);
@@ -194,6 +195,7 @@ impl<'a> Converter<'a> {
             ior: int / ext,
             reflect_ratio: None,
             color,
+            thin,
             distribution,
             alpha,
             alpha_u,
