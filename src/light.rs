@@ -110,9 +110,30 @@ pub struct GlossLightSample {
     pub pdf: f32,
 }
 
+/// The position in the scene's `gloss_lights` of the light a sample `u` in [0, 1) picks:
+/// uniformly, or by the scene's `light_cdf` (the path transport's pick by power).
+#[inline]
+pub fn pick_light(scene: &Scene, u: f32) -> usize {
+    let n = scene.gloss_lights.len();
+    if scene.light_cdf.is_empty() {
+        return ((u * n as f32) as usize).min(n - 1);
+    }
+    scene.light_cdf.partition_point(|&c| c <= u).min(n - 1)
+}
+
+/// The probability with which [`pick_light`] picks light `li` (an index into the scene's
+/// lights, one of its `gloss_lights`).
+#[inline]
+fn pick_probability(scene: &Scene, li: u32) -> f32 {
+    match scene.light_pick.get(li as usize) {
+        Some(&p) => p,
+        None => 1.0 / scene.gloss_lights.len() as f32,
+    }
+}
+
 /// A point on one of the scene's `gloss_lights` seen from `x`, for multiple importance
 /// sampling at the rough-surface hit of the path (`key`, `sample`): the light chosen
-/// uniformly, the point uniform over its area, each from point `sample` of an
+/// by [`pick_light`], the point uniform over its area, each from point `sample` of an
 /// Owen-scrambled Sobol sequence keyed by the path ([`dim::GLOSS_LIGHT_PICK`],
 /// [`dim::GLOSS_LIGHT`]), so stratified over the pixel's samples. `None` when the scene
 /// has no such light or the point sees the light's back.
@@ -124,7 +145,7 @@ pub fn gloss_light_sample(scene: &Scene, x: Vec3, key: u32, sample: u32) -> Opti
         1 => lights[0],
         n => {
             let u = sobol_owen(sample, hash(&[key, dim::GLOSS_LIGHT_PICK])).x;
-            lights[((u * n as f32) as usize).min(n - 1)]
+            lights[pick_light(scene, u).min(n - 1)]
         }
     };
     let (corner, u, v, normal, area, radiance, triangle) = planar(&scene.lights[li as usize])?;
@@ -135,8 +156,12 @@ pub fn gloss_light_sample(scene: &Scene, x: Vec3, key: u32, sample: u32) -> Opti
     if q.cos_y <= 0.0 || q.dist2 == 0.0 {
         return None;
     }
-    // Uniform over the light's area, the light chosen with probability 1 / n.
-    let pdf = q.dist2 / (q.cos_y * area * lights.len() as f32);
+    // Uniform over the light's area, the light chosen with probability 1 / n (uniform), or
+    // by power.
+    let pdf = match scene.light_pick.is_empty() {
+        true => q.dist2 / (q.cos_y * area * lights.len() as f32),
+        false => q.dist2 / (q.cos_y * area) * scene.light_pick[li as usize],
+    };
     Some(GlossLightSample { wi: q.wi.vec(), dist: q.dist, radiance, pdf })
 }
 
@@ -151,7 +176,10 @@ pub fn gloss_light_pdf(scene: &Scene, li: u32, d: Vec3, t: f32) -> f32 {
     if cos <= 0.0 {
         return 0.0;
     }
-    t * t / (cos * area * scene.gloss_lights.len() as f32)
+    match scene.light_pick.is_empty() {
+        true => t * t / (cos * area * scene.gloss_lights.len() as f32),
+        false => t * t / (cos * area) * scene.light_pick[li as usize],
+    }
 }
 
 /// A planar light's origin, edges and normal on lanes (a parallelogram's corner and edges,
@@ -227,15 +255,15 @@ pub fn quad_sample<W: Word>(
 pub struct AreaLights {
     /// Origin, first edge, second edge, normal and radiance, x y z each.
     c: [Vec<f32>; 15],
-    /// The light's area times the number of lights (the pick's probability inverted).
+    /// The light's area over its pick probability.
     area: Vec<f32>,
     triangle: Vec<bool>,
 }
 
 /// What [`AreaLights::sample`] gives per lane besides the sample: the picked light's area
-/// times the number of lights, and its radiance.
+/// over its pick probability, and its radiance.
 pub struct PickedLights {
-    /// Area times the number of lights.
+    /// Area over the light's pick probability.
     pub area: f32x16,
     /// Radiance.
     pub radiance: V3<f32x16>,
@@ -244,7 +272,6 @@ pub struct PickedLights {
 impl AreaLights {
     /// The table of the scene's `gloss_lights`.
     pub fn new(scene: &Scene) -> AreaLights {
-        let count = scene.gloss_lights.len() as f32;
         let mut t = AreaLights { c: Default::default(), area: Vec::new(), triangle: Vec::new() };
         for &li in &scene.gloss_lights {
             // Every one is planar (a point light is never among them).
@@ -253,7 +280,7 @@ impl AreaLights {
             for (col, x) in t.c.iter_mut().zip([o, u, v, normal, radiance].iter().flat_map(|v| v.to_array())) {
                 col.push(x);
             }
-            t.area.push(area * count);
+            t.area.push(area / pick_probability(scene, li));
             t.triangle.push(tri);
         }
         t

@@ -333,6 +333,17 @@ impl Light {
             Light::Point { .. } => false,
         }
     }
+
+    /// The power an area light emits, up to a constant: its area times the luminance of
+    /// its radiance (Rec. 709 weights); 0 for a point light.
+    pub fn power(&self) -> f32 {
+        match *self {
+            Light::Quad { radiance, area, .. } | Light::Triangle { radiance, area, .. } => {
+                area * radiance.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+            }
+            Light::Point { .. } => 0.0,
+        }
+    }
 }
 
 impl Material {
@@ -407,6 +418,12 @@ pub struct Scene {
     /// `settings.gloss_mis`; empty when that is off or no rough material is used, so a
     /// scene without one pays nothing for it.
     pub gloss_lights: Vec<u32>,
+    /// Under the path transport, the probability with which a light sample picks each
+    /// light (indexed like `lights`; 0 for those not in `gloss_lights`): by power, area
+    /// times the luminance of the radiance. Empty: uniform over `gloss_lights`.
+    pub light_pick: Vec<f32>,
+    /// The running sums of `light_pick` over `gloss_lights`, the last 1; empty with it.
+    pub light_cdf: Vec<f32>,
     /// Load facts for the stats.
     pub info: SceneInfo,
 }

@@ -14,7 +14,7 @@ use std::path::Path;
 use super::format::*;
 use super::text::line_col;
 use super::values::{check_finite, color, in_range, transform, vec3, Ctx, SceneSource, MAX_COORD, MAX_DEPTH};
-use super::{AaMode, Camera, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode, Transport};
+use super::{AaMode, Camera, Light, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode, Transport};
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
@@ -394,6 +394,10 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         true => (0..lights.len() as u32).filter(|&li| lights[li as usize].lit_area()).collect(),
         false => Vec::new(),
     };
+    let (light_pick, light_cdf) = match settings.path() {
+        true => light_choice(&lights, &gloss_lights),
+        false => (Vec::new(), Vec::new()),
+    };
     if f.render.bvh == BvhDesc::Auto {
         settings.bvh = BvhQuality::for_budget(ray_budget(&settings, lights.len()), built.prims.len());
     }
@@ -412,9 +416,31 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         uvs,
         uv_frames: frames,
         has_specular,
+        light_pick,
+        light_cdf,
         gloss_lights,
         info,
     })
+}
+
+/// The path transport's choice among `gloss` (indices into `lights`) by power: each
+/// light's probability (indexed like `lights`) and their running sums over `gloss` (the
+/// last exactly 1). Uniform when no light has power.
+fn light_choice(lights: &[Light], gloss: &[u32]) -> (Vec<f32>, Vec<f32>) {
+    let power = |li: u32| lights[li as usize].power() as f64;
+    let total: f64 = gloss.iter().map(|&li| power(li)).sum();
+    let share = |li: u32| if total > 0.0 { power(li) / total } else { 1.0 / gloss.len() as f64 };
+    let mut pick = vec![0.0f32; lights.len()];
+    let (mut cdf, mut sum) = (Vec::with_capacity(gloss.len()), 0.0f64);
+    for &li in gloss {
+        pick[li as usize] = share(li) as f32;
+        sum += share(li);
+        cdf.push(sum as f32);
+    }
+    if let Some(last) = cdf.last_mut() {
+        *last = 1.0;
+    }
+    (pick, cdf)
 }
 
 #[cfg(test)]

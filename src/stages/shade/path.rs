@@ -6,7 +6,7 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::light::{uniform_shadow_rays, AreaLights, SHADOW_TMAX_SCALE};
+use crate::light::{pick_light, uniform_shadow_rays, AreaLights, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
 use crate::sampling::{dim, hash_lanes, sobol_owen_lanes};
 use crate::scene::{Light, Scene};
@@ -67,8 +67,7 @@ fn area_lanes(
         [0; LANES]
     } else {
         let (u, _) = sobol_owen_lanes(index, hash_lanes([key, u32x16::splat(dim::GLOSS_LIGHT_PICK)]));
-        let m = lights.len();
-        u.to_array().map(|u| ((u * m as f32) as usize).min(m - 1) as u32)
+        u.to_array().map(|u| pick_light(scene, u) as u32)
     };
     let li = pick.map(|j| lights[j as usize]);
     let seed = hash_lanes([key, u32x16::from(li), u32x16::splat(dim::GLOSS_LIGHT)]);
