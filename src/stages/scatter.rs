@@ -399,6 +399,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     let arr = |v: V3<f32x16>| [v.x.to_array(), v.y.to_array(), v.z.to_array()];
     let (refl_o, refl_d) = (arr(offset_lanes(p, err, n)), arr(reflect_lanes(d, ns)));
     let (refr_o, refr_d) = (arr(offset_lanes(p, err, -n)), arr(t));
+    let one_branch = scene.settings.path();
     // The shading normals, for thin sheets' Fresnel.
     let ns_arr = if thin != 0 { arr(ns) } else { [[0.0; LANES]; 3] };
     // As refract(): no refraction where cos²θt ≤ 0 (a NaN refracts, as there).
@@ -441,6 +442,16 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
             (true, false) => fixed,
             (true, true) => fresnel_r[k],
         };
+        if one_branch && refracted && c > 0.0 && c < 1.0 {
+            // The path transport follows one branch, reflection with probability c, as
+            // Mitsuba does: the same expectation, one ray instead of two.
+            let pick = sobol_owen(sample, hash(&[rays.key[i], dim::GLOSS_BRANCH])).x;
+            match pick < c {
+                true => next.push(at(&refl_o, k), at(&refl_d, k), slot, w, depth, key1[k], sample, 0.0, time),
+                false => next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color, depth, key2[k], sample, 0.0, time),
+            }
+            continue;
+        }
         if c > 0.0 {
             next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0, time);
         }
