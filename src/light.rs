@@ -8,7 +8,7 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
 use crate::sampling::{cmj_grid, dim, hash, hash_lanes, sobol_owen, sobol_owen_lanes, to_unit};
-use crate::scene::{Light, Probe, Scene};
+use crate::scene::{AreaLights, Light, Probe, Scene};
 use crate::simd::{LaneIds, Real, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, Surface};
 use wide::{f32x16, u32x16};
@@ -42,18 +42,6 @@ pub fn sample_grid(n: u32) -> (u32, u32) {
     }
 }
 
-/// The planar emitter of light `li` as (origin, u, v, normal, area, radiance, triangle):
-/// points `origin + a·u + b·v` with a, b in [0, 1] (a + b <= 1 for a triangle). `None`
-/// for a point light.
-#[inline]
-fn planar(light: &Light) -> Option<(Vec3, Vec3, Vec3, Vec3, f32, Vec3, bool)> {
-    match *light {
-        Light::Quad { corner, u, v, normal, area, radiance } => Some((corner, u, v, normal, area, radiance, false)),
-        Light::Triangle { v0, e1, e2, normal, area, radiance } => Some((v0, e1, e2, normal, area, radiance, true)),
-        Light::Point { .. } => None,
-    }
-}
-
 /// Visits the stratified samples of area light `li` seen from `surf` that can contribute
 /// (both cosines positive), calling `f(cell, direction, distance, contribution)`, where
 /// `cell` is the sample's row-major cell in the [`sample_grid`] of `shadows.samples`:
@@ -70,7 +58,7 @@ fn planar(light: &Light) -> Option<(Vec3, Vec3, Vec3, Vec3, f32, Vec3, bool)> {
 /// cells stay those of the square).
 #[inline]
 pub fn area_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(u32, Vec3, f32, Vec3)) {
-    let Some((corner, u, v, normal, area, radiance, triangle)) = planar(&scene.lights[li]) else { return };
+    let Some((corner, u, v, normal, area, radiance, triangle)) = scene.lights[li].planar() else { return };
     let count = scene.settings.shadow_samples;
     let seed = light_seed(surf.key, li);
     let first = surf.sample.wrapping_mul(count);
@@ -121,16 +109,6 @@ pub fn pick_light(scene: &Scene, u: f32) -> usize {
     scene.light_cdf.partition_point(|&c| c <= u).min(n - 1)
 }
 
-/// The probability with which [`pick_light`] picks light `li` (an index into the scene's
-/// lights, one of its `gloss_lights`).
-#[inline]
-fn pick_probability(scene: &Scene, li: u32) -> f32 {
-    match scene.light_pick.get(li as usize) {
-        Some(&p) => p,
-        None => 1.0 / scene.gloss_lights.len() as f32,
-    }
-}
-
 /// A point on one of the scene's `gloss_lights` seen from `x`, for multiple importance
 /// sampling at the rough-surface hit of the path (`key`, `sample`): the light chosen
 /// by [`pick_light`], the point uniform over its area, each from point `sample` of an
@@ -148,7 +126,7 @@ pub fn gloss_light_sample(scene: &Scene, x: Vec3, key: u32, sample: u32) -> Opti
             lights[pick_light(scene, u).min(n - 1)]
         }
     };
-    let (corner, u, v, normal, area, radiance, triangle) = planar(&scene.lights[li as usize])?;
+    let (corner, u, v, normal, area, radiance, triangle) = scene.lights[li as usize].planar()?;
     let quad = QuadLanes::<f32>::splat(corner, u, v, normal);
     let seed = hash(&[key, li, dim::GLOSS_LIGHT]);
     // The cosine at x is the BSDF's business: any normal will do for quad_sample's.
@@ -171,7 +149,7 @@ pub fn gloss_light_sample(scene: &Scene, x: Vec3, key: u32, sample: u32) -> Opti
 /// its density for a light the sampler has (a dark light emits nothing to weight).
 #[inline]
 pub fn gloss_light_pdf(scene: &Scene, li: u32, d: Vec3, t: f32) -> f32 {
-    let Some((_, _, _, normal, area, _, _)) = planar(&scene.lights[li as usize]) else { return 0.0 };
+    let Some((_, _, _, normal, area, _, _)) = scene.lights[li as usize].planar() else { return 0.0 };
     let cos = -normal.dot(d);
     if cos <= 0.0 {
         return 0.0;
@@ -250,16 +228,6 @@ pub fn quad_sample<W: Word>(
     QuadSample { uv, wi, dist, dist2, cos_x: n.dot(wi), cos_y: -quad.normal.dot(wi) }
 }
 
-/// The scene's area lights that a path's light samples pick from (its `gloss_lights`),
-/// as columns gathered per lane by the light's position in that list.
-pub struct AreaLights {
-    /// Origin, first edge, second edge, normal and radiance, x y z each.
-    c: [Vec<f32>; 15],
-    /// The light's area over its pick probability.
-    area: Vec<f32>,
-    triangle: Vec<bool>,
-}
-
 /// What [`AreaLights::sample`] gives per lane besides the sample: the picked light's area
 /// over its pick probability, and its radiance.
 pub struct PickedLights {
@@ -270,22 +238,6 @@ pub struct PickedLights {
 }
 
 impl AreaLights {
-    /// The table of the scene's `gloss_lights`.
-    pub fn new(scene: &Scene) -> AreaLights {
-        let mut t = AreaLights { c: Default::default(), area: Vec::new(), triangle: Vec::new() };
-        for &li in &scene.gloss_lights {
-            // Every one is planar (a point light is never among them).
-            let zero = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO, false);
-            let (o, u, v, normal, area, radiance, tri) = planar(&scene.lights[li as usize]).unwrap_or(zero);
-            for (col, x) in t.c.iter_mut().zip([o, u, v, normal, radiance].iter().flat_map(|v| v.to_array())) {
-                col.push(x);
-            }
-            t.area.push(area / pick_probability(scene, li));
-            t.triangle.push(tri);
-        }
-        t
-    }
-
     /// Sample `index` of the sequence `seed` on light `pick[k]` of the table, per lane k,
     /// seen from `o` with normal `n` ([`quad_sample`]); quads and triangles differ only in
     /// the fold of the unit square, so a group with both samples both and picks per lane.
@@ -382,7 +334,7 @@ pub fn polygon_irradiance(o: Vec3, n: Vec3, verts: &[Vec3]) -> f32 {
 /// occlusion tests. `None` for a point light or a dark light, which take the uniform path.
 #[inline]
 pub fn unoccluded(scene: &Scene, surf: &Surface, li: usize) -> Option<(Vec3, u64)> {
-    let (corner, u, v, normal, _, radiance, triangle) = planar(&scene.lights[li])?;
+    let (corner, u, v, normal, _, radiance, triangle) = scene.lights[li].planar()?;
     if radiance == Vec3::ZERO {
         return None;
     }
@@ -416,7 +368,7 @@ pub fn unoccluded(scene: &Scene, surf: &Surface, li: usize) -> Option<(Vec3, u64
 /// the front and black from behind.
 #[inline]
 pub fn emitted(light: &Light, d: Vec3) -> Option<Vec3> {
-    let (_, _, _, normal, _, radiance, _) = planar(light)?;
+    let (_, _, _, normal, _, radiance, _) = light.planar()?;
     (normal.dot(d) < 0.0).then_some(radiance)
 }
 
@@ -454,7 +406,7 @@ pub fn probes_light(light: &Light, probe: Probe, samples: u32) -> bool {
 #[inline]
 pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3; 9] {
     let mut t = [Vec3::ZERO; 9];
-    let Some((corner, u, v, _, _, _, triangle)) = planar(&scene.lights[li]) else { return t };
+    let Some((corner, u, v, _, _, _, triangle)) = scene.lights[li].planar() else { return t };
     let at = |a: f32, b: f32| corner + a * u + b * v;
     let h = |q: u32, d: u32| to_unit(hash(&[key, li as u32, q, d, dim::PROBE]));
     if triangle {

@@ -334,6 +334,18 @@ impl Light {
         }
     }
 
+    /// The planar emitter as (origin, u, v, normal, area, radiance, triangle): points
+    /// `origin + a·u + b·v` with a, b in [0, 1] (a + b <= 1 for a triangle). `None` for a
+    /// point light.
+    #[inline]
+    pub fn planar(&self) -> Option<(Vec3, Vec3, Vec3, Vec3, f32, Vec3, bool)> {
+        match *self {
+            Light::Quad { corner, u, v, normal, area, radiance } => Some((corner, u, v, normal, area, radiance, false)),
+            Light::Triangle { v0, e1, e2, normal, area, radiance } => Some((v0, e1, e2, normal, area, radiance, true)),
+            Light::Point { .. } => None,
+        }
+    }
+
     /// The power an area light emits, up to a constant: its area times the luminance of
     /// its radiance (Rec. 709 weights); 0 for a point light.
     pub fn power(&self) -> f32 {
@@ -343,6 +355,39 @@ impl Light {
             }
             Light::Point { .. } => 0.0,
         }
+    }
+}
+
+/// A scene's area lights that light samples pick from (its `gloss_lights`), as columns
+/// gathered per lane by the light's position in that list; built once per scene
+/// ([`light`](crate::light) samples them).
+#[derive(Clone, Debug, Default)]
+pub struct AreaLights {
+    /// Origin, first edge, second edge, normal and radiance, x y z each.
+    pub(crate) c: [Vec<f32>; 15],
+    /// The light's area over its pick probability.
+    pub(crate) area: Vec<f32>,
+    /// Whether it is a triangle (else a parallelogram).
+    pub(crate) triangle: Vec<bool>,
+}
+
+impl AreaLights {
+    /// The table of `gloss` (indices into `lights`, every one an area light), each picked
+    /// with probability `pick[li]` (uniformly when `pick` is empty).
+    pub fn new(lights: &[Light], gloss: &[u32], pick: &[f32]) -> AreaLights {
+        let mut t = AreaLights::default();
+        for &li in gloss {
+            // Every one is planar (a point light is never among them).
+            let zero = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO, false);
+            let (o, u, v, normal, area, radiance, tri) = lights[li as usize].planar().unwrap_or(zero);
+            for (col, x) in t.c.iter_mut().zip([o, u, v, normal, radiance].iter().flat_map(|v| v.to_array())) {
+                col.push(x);
+            }
+            let p = pick.get(li as usize).copied().unwrap_or(1.0 / gloss.len() as f32);
+            t.area.push(area / p);
+            t.triangle.push(tri);
+        }
+        t
     }
 }
 
@@ -424,6 +469,8 @@ pub struct Scene {
     pub light_pick: Vec<f32>,
     /// The running sums of `light_pick` over `gloss_lights`, the last 1; empty with it.
     pub light_cdf: Vec<f32>,
+    /// `gloss_lights` as columns for the path transport's light samples on lanes.
+    pub area_lights: AreaLights,
     /// Load facts for the stats.
     pub info: SceneInfo,
 }

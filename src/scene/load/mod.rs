@@ -14,7 +14,9 @@ use std::path::Path;
 use super::format::*;
 use super::text::line_col;
 use super::values::{check_finite, color, in_range, transform, vec3, Ctx, SceneSource, MAX_COORD, MAX_DEPTH};
-use super::{AaMode, Camera, Light, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode, Transport};
+use super::{
+    AaMode, AreaLights, Camera, Light, Material, PenumbraStop, Probe, Scene, SceneInfo, Settings, ShadowMode, Transport,
+};
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
 use crate::{Error, Result};
@@ -398,6 +400,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         true => light_choice(&lights, &gloss_lights),
         false => (Vec::new(), Vec::new()),
     };
+    let area_lights = AreaLights::new(&lights, &gloss_lights, &light_pick);
     if f.render.bvh == BvhDesc::Auto {
         settings.bvh = BvhQuality::for_budget(ray_budget(&settings, lights.len()), built.prims.len());
     }
@@ -416,6 +419,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         uvs,
         uv_frames: frames,
         has_specular,
+        area_lights,
         light_pick,
         light_cdf,
         gloss_lights,

@@ -6,10 +6,10 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::light::{pick_light, uniform_shadow_rays, AreaLights, SHADOW_TMAX_SCALE};
+use crate::light::{pick_light, uniform_shadow_rays, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
 use crate::sampling::{dim, hash_lanes, sobol_owen_lanes};
-use crate::scene::{Light, Scene};
+use crate::scene::{AreaLights, Light, Scene};
 use crate::simd::{LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, queued_surface};
 
@@ -30,7 +30,6 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
     if scene.gloss_lights.is_empty() {
         return;
     }
-    let table = AreaLights::new(scene);
     let n = scene.settings.shadow_samples as usize;
     let total = surfaces.len() * n;
     let mut start = 0;
@@ -40,7 +39,7 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
         let pair = |k: usize| start + k.min(count - 1);
         let point: [u32; LANES] = std::array::from_fn(|k| (pair(k) / n) as u32);
         let sample: [u32; LANES] = std::array::from_fn(|k| (pair(k) % n) as u32);
-        area_lanes(scene, &table, surfaces, (&point, &sample, count), shadow);
+        area_lanes(scene, &scene.area_lights, surfaces, (&point, &sample, count), shadow);
         start += count;
     }
 }
