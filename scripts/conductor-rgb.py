@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Print the named-conductor table of src/microfacet/conductors.rs from Mitsuba 3 itself.
+"""Print the named-conductor table of src/bsdf/microfacet/conductors.rs from Mitsuba 3 itself.
 
 Mitsuba's `conductor` plugin reads spectral eta/k tables for a material name and, in its
 RGB variants, turns them into one (eta, k) triple per channel. This script loads the

@@ -27,3 +27,9 @@ pub fn srgb_decode(v: f32) -> f32 {
         ((v + 0.055) / 1.055).powf(2.4)
     }
 }
+
+/// The luminance (Y) of a linear Rec. 709 colour, with Mitsuba's coefficients.
+#[inline]
+pub fn luminance(c: glam::Vec3) -> f32 {
+    c.x * 0.212_671 + c.y * 0.715_16 + c.z * 0.072_169
+}

@@ -14,7 +14,7 @@ pub mod color;
 pub mod error;
 pub mod film;
 pub mod light;
-pub mod microfacet;
+pub mod bsdf;
 pub mod motion;
 pub mod queue;
 pub mod render;

@@ -8,7 +8,7 @@ mod support;
 use glam::Vec3;
 use std::path::Path;
 use support::*;
-use wavetrace::microfacet::Distribution;
+use wavetrace::bsdf::microfacet::Distribution;
 use wavetrace::scene::{Color, Material};
 use wavetrace::tools::compare;
 use wavetrace::{render, RenderOptions};

@@ -398,6 +398,41 @@ pub enum MaterialDesc {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         alpha_v: Option<f32>,
     },
+    /// A diffuse base under a dielectric coating (Mitsuba's `plastic`, and its
+    /// `roughplastic` with a roughness).
+    Plastic {
+        /// Reflectance of the base (Mitsuba's `diffuse_reflectance`): an RGB triple or a
+        /// texture.
+        color: ColorDesc,
+        /// Multiplies the coating's reflection (Mitsuba's `specular_reflectance`; default
+        /// white).
+        #[serde(default = "white", deserialize_with = "exact::color")]
+        specular: [f32; 3],
+        /// The coating's index of refraction over the outside's (default 1.49 / 1.00028,
+        /// Mitsuba's polypropylene in air).
+        #[serde(default = "plastic_ior")]
+        ior: f32,
+        /// Scale the base by 1 / (1 − r·ρ), the coating's internal reflections tinted by
+        /// the base, rather than 1 / (1 − r) (Mitsuba's `nonlinear`; default false).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        nonlinear: bool,
+        /// Both sides are its front (default true); false: black from behind, as Mitsuba's
+        /// plastics without `twosided`.
+        #[serde(default = "yes")]
+        two_sided: bool,
+        /// The coating's microfacet distribution, "ggx" or "beckmann" (default
+        /// "beckmann"; only with a roughness).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        distribution: Option<String>,
+        /// The coating's isotropic roughness; absent: a smooth coating.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        alpha: Option<f32>,
+    },
+}
+
+/// Mitsuba's default plastic coating: polypropylene (1.49) in air (1.00028).
+fn plastic_ior() -> f32 {
+    1.49 / 1.00028
 }
 
 fn white_color() -> ColorDesc {

@@ -16,7 +16,8 @@ use glam::{DAffine3, Mat3, Vec2, Vec3};
 
 use crate::accel::Accel;
 use crate::accel::BvhQuality;
-use crate::microfacet::Microfacet;
+use crate::bsdf::microfacet::Microfacet;
+use crate::bsdf::plastic::Transmittance;
 use crate::motion::Motion;
 use crate::simd::{Real, V3};
 use crate::texture::Texture;
@@ -281,6 +282,27 @@ pub enum Material {
         /// Microfacet roughness; `None`: smooth.
         roughness: Option<Microfacet>,
     },
+    /// A diffuse base under a dielectric coating (Mitsuba's `plastic`, `roughplastic`).
+    Plastic {
+        /// Reflectance of the diffuse base.
+        color: Color,
+        /// Multiplies the coating's reflection.
+        specular: Vec3,
+        /// The coating's index of refraction over the outside's.
+        eta: f32,
+        /// The coating's roughness; `None`: smooth.
+        roughness: Option<Microfacet>,
+        /// The base scaled by 1 / (1 − r·ρ) rather than 1 / (1 − r).
+        nonlinear: bool,
+        /// Both sides are its front; else the side behind the geometric normal is black.
+        two_sided: bool,
+        /// The coating's internal diffuse reflectance r.
+        internal: f32,
+        /// Mitsuba's `specular_sampling_weight`.
+        specular_weight: f32,
+        /// The rough coating's transmittance: an index into [`Scene::transmittance`].
+        table: u32,
+    },
 }
 
 /// A light source, validated.
@@ -392,10 +414,18 @@ impl AreaLights {
 }
 
 impl Material {
-    /// The microfacet roughness of a rough conductor or rough glass.
+    /// True for the materials that sample the lights themselves (under MIS): rough ones
+    /// and plastic, whose diffuse base needs them even under a smooth coating.
+    pub fn samples_lights(&self) -> bool {
+        self.roughness().is_some() || matches!(self, Material::Plastic { .. })
+    }
+
+    /// The microfacet roughness of a rough conductor, rough glass or rough plastic.
     pub fn roughness(&self) -> Option<&Microfacet> {
         match self {
-            Material::Conductor { roughness, .. } | Material::Dielectric { roughness, .. } => roughness.as_ref(),
+            Material::Conductor { roughness, .. }
+            | Material::Dielectric { roughness, .. }
+            | Material::Plastic { roughness, .. } => roughness.as_ref(),
             Material::Diffuse { .. } | Material::Mirror { .. } => None,
         }
     }
@@ -471,6 +501,8 @@ pub struct Scene {
     pub light_cdf: Vec<f32>,
     /// `gloss_lights` as columns for the path transport's light samples on lanes.
     pub area_lights: AreaLights,
+    /// The rough plastics' coating transmittance tables ([`Material::Plastic`]'s `table`).
+    pub transmittance: Vec<Transmittance>,
     /// Load facts for the stats.
     pub info: SceneInfo,
 }

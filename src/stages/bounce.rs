@@ -33,7 +33,7 @@ pub fn bounce(scene: &Scene, rays: &RayQueue, surfaces: &SurfaceQueue, next: &mu
 }
 
 /// The orthonormal tangents of unit normals `n` on lanes (Duff et al.'s frame, as
-/// [`tangents`](crate::microfacet::tangents)).
+/// [`tangents`](crate::bsdf::microfacet::tangents)).
 #[inline(always)]
 fn tangents_lanes(n: V3<f32x16>) -> (V3<f32x16>, V3<f32x16>) {
     let sign = f32x16::if_negative(n.z, f32x16::splat(-1.0), f32x16::ONE);

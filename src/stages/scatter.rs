@@ -13,7 +13,8 @@ use wide::{f32x16, u32x16};
 
 use crate::accel::offset::{offset_lanes, offset_ray_origin};
 use crate::light::{gloss_light_sample, SHADOW_TMAX_SCALE};
-use crate::microfacet::{
+use crate::bsdf::plastic::{Plastic, TABLE_RES};
+use crate::bsdf::microfacet::{
     fresnel_conductor, rough_conductor_eval, rough_conductor_pdf, rough_dielectric_eval, rough_dielectric_pdf,
     rough_dielectric_split, tangents, Microfacet,
 };
@@ -152,9 +153,9 @@ pub fn scatter(
 }
 
 /// True for the materials [`glossy`] samples: conductors (smooth ones too, for their
-/// Fresnel reflectance and textures) and rough glass.
+/// Fresnel reflectance and textures), rough glass and plastic.
 pub fn is_glossy(m: &Material) -> bool {
-    matches!(m, Material::Conductor { .. } | Material::Dielectric { roughness: Some(_), .. })
+    matches!(m, Material::Conductor { .. } | Material::Dielectric { roughness: Some(_), .. } | Material::Plastic { .. })
 }
 
 /// A conductor's Fresnel reflectance ([`fresnel_conductor`]) for a cosine that may
@@ -184,6 +185,19 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
             conductor(scene, &h, (eta, k, color), roughness, out);
         }
         Material::Dielectric { ior, tint, roughness: Some(mf), .. } => rough_glass(scene, &h, ior, tint, &mf, out),
+        Material::Plastic { color, specular, eta, ref roughness, nonlinear, two_sided, internal, specular_weight, table } => {
+            let bsdf = Plastic {
+                diffuse: color_at(scene, color, h.prim, h.time, h.x),
+                specular,
+                eta,
+                roughness: roughness.as_ref(),
+                table: scene.transmittance.get(table as usize).unwrap_or(&[0.0; TABLE_RES]),
+                internal,
+                nonlinear,
+                specular_weight,
+            };
+            plastic(scene, &h, &bsdf, two_sided, out);
+        }
         Material::Diffuse { .. } | Material::Mirror { .. } | Material::Dielectric { roughness: None, .. } => {
             debug_assert!(false, "not a glossy material");
         }
@@ -306,6 +320,27 @@ fn conductor(
     next.push(h.origin(wo), wo, h.slot, tint * weight, h.depth, h.key1, h.sample, pdf, h.carried);
 }
 
+/// A plastic's light sample and its one ray, the coating's reflection or the base's
+/// cosine-weighted bounce ([`Plastic::sample`]), the lobe picked by point `sample` of
+/// the path's [`dim::GLOSS_BRANCH`] sequence. The side the ray arrived on is the front
+/// of a two-sided plastic; a one-sided one is black from behind.
+fn plastic(scene: &Scene, h: &GlossyHit, bsdf: &Plastic, two_sided: bool, out: Scattered) {
+    let Scattered { next, shadow } = out;
+    let front = h.d.dot(h.ng) < 0.0;
+    if !front && !two_sided {
+        return;
+    }
+    let n = if front { h.ng } else { -h.ng };
+    let frame = Frame::new(shading_normal(scene, h.prim, h.time, h.x, n));
+    let wi = frame.to_local(-h.d);
+    h.light(scene, &frame, &|wl| bsdf.eval_pdf(wi, wl), shadow);
+    let pick = sobol_owen(h.sample, hash(&[h.key, dim::GLOSS_BRANCH])).x;
+    let Some(s) = bsdf.sample(wi, pick, h.u) else { return };
+    let pdf = if h.mis { s.pdf } else { 0.0 };
+    let wo = frame.to_world(s.wo);
+    next.push(h.origin(wo), wo, h.slot, h.w * s.weight, h.depth, h.key1, h.sample, pdf, h.carried);
+}
+
 /// Rough glass: its light sample, and one ray: the reflection with probability F, else
 /// the refraction (Mitsuba's choice), each weighted by its branch weight over its
 /// probability.
@@ -376,7 +411,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
             Material::Mirror { color } => (1.0, 1.0, color, Some(true)),
             Material::Dielectric { ior, ratio: ReflectRatio::Fixed(c), tint, .. } => (ior, c, tint, Some(false)),
             Material::Dielectric { ior, ratio: ReflectRatio::Fresnel, tint, .. } => (ior, f32::NAN, tint, Some(false)),
-            Material::Diffuse { .. } | Material::Conductor { .. } => {
+            Material::Diffuse { .. } | Material::Conductor { .. } | Material::Plastic { .. } => {
                 debug_assert!(false, "not a smooth mirror or glass");
                 (1.0, 1.0, Vec3::ZERO, None)
             }

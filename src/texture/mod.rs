@@ -87,4 +87,16 @@ impl Texture {
             }
         }
     }
+
+    /// The texture's mean as Mitsuba's `mean()` in its RGB variants: a bitmap's mean
+    /// texel luminance, a checkerboard's mean of its two colours' channel means.
+    pub fn mean(&self) -> f32 {
+        match self {
+            Texture::Bitmap { bitmap, .. } => {
+                let sum: f64 = bitmap.texels.iter().map(|&t| f64::from(crate::color::luminance(t))).sum();
+                (sum / bitmap.texels.len().max(1) as f64) as f32
+            }
+            Texture::Checkerboard { color0, color1, .. } => 0.5 * (color0.element_sum() + color1.element_sum()) / 3.0,
+        }
+    }
 }

@@ -4,8 +4,9 @@
 use glam::{Affine2, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
-use crate::microfacet::MIN_ALPHA;
-use crate::microfacet::{named_conductor, Distribution, Microfacet, CONDUCTORS};
+use crate::bsdf::microfacet::MIN_ALPHA;
+use crate::bsdf::plastic::{self, Transmittance};
+use crate::bsdf::microfacet::{named_conductor, Distribution, Microfacet, CONDUCTORS};
 use crate::scene::format::*;
 use crate::scene::values::{color, transform, Ctx};
 use crate::scene::{Color, Material, ReflectRatio};
@@ -16,7 +17,7 @@ use crate::Result;
 /// close to diffuse), and small enough that the distributions stay finite.
 pub const MAX_ALPHA: f32 = 1e3;
 
-/// The textures of a scene's materials, each distinct description loaded once.
+/// The textures and tables of a scene's materials, each distinct one loaded once.
 #[derive(Default)]
 pub(super) struct Textures {
     /// Loaded textures, indexed by [`Color::Texture`].
@@ -24,6 +25,9 @@ pub(super) struct Textures {
     descs: Vec<TextureDesc>,
     /// The image files read, each with the field that names it.
     pub(super) files: Vec<(String, PathBuf)>,
+    /// Rough plastics' coating transmittances, indexed by their `table`, each with the
+    /// coating it was computed for and its internal reflectance.
+    pub(super) tables: Vec<(Microfacet, f32, Transmittance, f32)>,
 }
 
 /// Material `name` validated; its textures are added to `textures`.
@@ -68,6 +72,58 @@ pub(super) fn material(name: &str, m: &MaterialDesc, ctx: &Ctx, textures: &mut T
                 (Some((eta, k)), color, roughness) => Material::Conductor { eta, k, color, roughness },
             }
         }
+        MaterialDesc::Plastic { color: c, specular, ior, nonlinear, two_sided, distribution, alpha } => {
+            plastic(ctx, name, (c, *specular, *ior, *nonlinear, *two_sided), (distribution, *alpha), textures)?
+        }
+    })
+}
+
+/// A plastic: its colours, and the coating's internal reflectance and sampling weight
+/// (and, rough, its transmittance table) computed once.
+fn plastic(
+    ctx: &Ctx,
+    name: &str,
+    (c, specular, ior, nonlinear, two_sided): (&ColorDesc, [f32; 3], f32, bool, bool),
+    (distribution, alpha): (&Option<String>, Option<f32>),
+    textures: &mut Textures,
+) -> Result<Material> {
+    let p = |f: &str| format!("materials.{name}.{f}");
+    if !(ior > 0.0 && ior.is_finite()) {
+        return Err(ctx.fail(&p("ior"), format!("{ior} must be > 0")));
+    }
+    let roughness = roughness(ctx, name, distribution, (alpha, None, None))?;
+    if roughness.is_some() && ior == 1.0 {
+        return Err(ctx.fail(&p("ior"), "a rough coating needs an index other than 1 (as Mitsuba)"));
+    }
+    let base = color_or_texture(ctx, &p("color"), c, textures)?;
+    let specular = color(ctx, &p("specular"), specular)?;
+    let diffuse_mean = match base {
+        Color::Rgb(c) => c.element_sum() / 3.0,
+        Color::Texture(t) => textures.list[t as usize].mean(),
+    };
+    let specular_weight = plastic::specular_weight(specular.element_sum() / 3.0, diffuse_mean);
+    let (internal, table) = match &roughness {
+        None => (plastic::smooth_internal(ior), 0),
+        Some(mf) => {
+            let known = textures.tables.iter().position(|(m, eta, ..)| m == mf && *eta == ior);
+            let i = known.unwrap_or_else(|| {
+                let t = plastic::rough_transmittance(mf, ior);
+                textures.tables.push((*mf, ior, t, plastic::rough_internal(mf, ior)));
+                textures.tables.len() - 1
+            });
+            (textures.tables[i].3, i as u32)
+        }
+    };
+    Ok(Material::Plastic {
+        color: base,
+        specular,
+        eta: ior,
+        roughness,
+        nonlinear,
+        two_sided,
+        internal,
+        specular_weight,
+        table,
     })
 }
 

@@ -390,7 +390,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         .any(|p| p.light == NO_LIGHT && !matches!(materials[p.material as usize], Material::Diffuse { .. }));
     info.primitives = built.prims.len();
     let lights = built.lights.clone();
-    let rough = built.prims.iter().any(|p| p.light == NO_LIGHT && materials[p.material as usize].roughness().is_some());
+    let rough = built.prims.iter().any(|p| p.light == NO_LIGHT && materials[p.material as usize].samples_lights());
     // The path transport weighs every surface's light samples against its BSDF's rays.
     let gloss_lights = match (settings.gloss_mis && rough) || settings.path() {
         true => (0..lights.len() as u32).filter(|&li| lights[li as usize].lit_area()).collect(),
@@ -420,6 +420,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         uv_frames: frames,
         has_specular,
         area_lights,
+        transmittance: textures.tables.iter().map(|t| t.2).collect(),
         light_pick,
         light_cdf,
         gloss_lights,

@@ -132,7 +132,9 @@ fn object(
 fn has_texture(m: &Material) -> bool {
     matches!(
         m,
-        Material::Diffuse { color: Color::Texture(_), .. } | Material::Conductor { color: Color::Texture(_), .. }
+        Material::Diffuse { color: Color::Texture(_), .. }
+            | Material::Conductor { color: Color::Texture(_), .. }
+            | Material::Plastic { color: Color::Texture(_), .. }
     )
 }
 

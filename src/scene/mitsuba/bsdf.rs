@@ -98,6 +98,8 @@ impl<'a> Converter<'a> {
             "dielectric" => Ok((self.dielectric(el, false, false)?, false)),
             "roughdielectric" => Ok((self.dielectric(el, true, false)?, false)),
             "thindielectric" => Ok((self.dielectric(el, false, true)?, false)),
+            "plastic" => Ok((self.plastic(el, false)?, false)),
+            "roughplastic" => Ok((self.plastic(el, true)?, false)),
             _ => Err(unsupported(el, "bsdf", BSDFS)),
         }
     }
@@ -129,7 +131,7 @@ impl<'a> Converter<'a> {
         let m = self.material(b);
         self.twosided_depth -= 1;
         let mut m = m?.0;
-        if let MaterialDesc::Diffuse { two_sided, .. } = &mut m {
+        if let MaterialDesc::Diffuse { two_sided, .. } | MaterialDesc::Plastic { two_sided, .. } = &mut m {
             *two_sided = true;
         }
         Ok((m, true))
@@ -201,6 +203,34 @@ impl<'a> Converter<'a> {
             alpha_u,
             alpha_v,
         })
+    }
+
+    /// `plastic` and `roughplastic`: a diffuse base (`diffuse_reflectance`, maybe a
+    /// texture) under a coating of index int_ior / ext_ior, one-sided as Mitsuba's (a
+    /// `twosided` turns the back on); the rough coating is isotropic, as Mitsuba requires.
+    fn plastic(&mut self, el: &El, rough: bool) -> Result<MaterialDesc> {
+        let mut allowed = vec!["diffuse_reflectance", "specular_reflectance", "int_ior", "ext_ior", "nonlinear"];
+        if rough {
+            allowed.extend(ROUGH_PARAMS);
+        }
+        let p = Params::of(el, &allowed, &["texture", "ref"])?;
+        textured_only(el, &["diffuse_reflectance"])?;
+        let (int, ext) = (ior(&p, "int_ior", 1.49)?, ior(&p, "ext_ior", 1.00028)?);
+        if rough && int == ext {
+            return Err(el.loc.err(format!("{}: int_ior and ext_ior must differ (as Mitsuba)", el.what())));
+        }
+        let color = self.color_param(&p, "diffuse_reflectance", [0.5; 3])?;
+        let specular = p.color("specular_reflectance")?.unwrap_or([1.0; 3]);
+        let nonlinear = p.boolean("nonlinear")?.unwrap_or(false);
+        let Rough { distribution, alpha, alpha_u, alpha_v } =
+            if rough { self.roughness(&p)? } else { Rough::default() };
+        if alpha_u.is_some() || alpha_v.is_some() {
+            return Err(el.loc.err(format!(
+                "{}: anisotropic roughness (alpha_u, alpha_v) is not supported, as in Mitsuba: give `alpha`",
+                el.what()
+            )));
+        }
+        Ok(MaterialDesc::Plastic { color, specular, ior: int / ext, nonlinear, two_sided: false, distribution, alpha })
     }
 
     /// The microfacet parameters, with Mitsuba's defaults (beckmann, alpha 0.1) and its

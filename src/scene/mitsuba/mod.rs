@@ -27,9 +27,11 @@ pub use sensor::{focal_length_to_fov, fov_to_x, x_to_fov_y};
 /// Shape types imported.
 pub const SHAPES: &str = "obj, ply, rectangle, cube, sphere, shapegroup, instance";
 /// BSDF types imported.
-pub const BSDFS: &str = "diffuse, twosided, conductor, roughconductor, dielectric, roughdielectric, thindielectric";
+pub const BSDFS: &str =
+    "diffuse, twosided, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic";
 /// Texture types imported.
-pub const TEXTURES: &str = "bitmap, checkerboard (as a diffuse `reflectance` or a conductor's `specular_reflectance`)";
+pub const TEXTURES: &str = "bitmap, checkerboard (as a diffuse `reflectance`, a plastic's `diffuse_reflectance` or a \
+                             conductor's `specular_reflectance`)";
 /// Emitter types imported.
 pub const EMITTERS: &str = "area (on a rectangle, cube, obj or ply), point, constant (background only)";
 /// Sensor types imported.

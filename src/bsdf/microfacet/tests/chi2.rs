@@ -6,9 +6,10 @@ use super::*;
 // χ² goodness of fit, after Mitsuba's `python/chi2.py` (`ChiSquareTest`, `SphericalDomain`)
 // and `math::chi2`.
 
-/// The number of χ² tests in this file: the Šidák correction spreads the 1 % significance
-/// level over all of them, so the whole set rejects a correct sampler 1 % of the time.
-const CHI2_TESTS: u32 = 12 + 12 + 16;
+/// The number of χ² tests in this file and in plastic's (`bsdf/plastic/tests.rs`, 12):
+/// the Šidák correction spreads the 1 % significance level over all of them, so the whole
+/// set rejects a correct sampler 1 % of the time.
+const CHI2_TESTS: u32 = 12 + 12 + 16 + 12;
 
 /// Histogram resolution over (φ, −cos θ), Mitsuba's aspect 2 for the sphere.
 const RES_PHI: usize = 100;
@@ -116,7 +117,7 @@ fn rlgamma(a: f64, x: f64) -> f64 {
 /// Runs the χ² test of `sample` (one direction per pair of random numbers, None for an
 /// invalid sample, which Mitsuba counts with weight 0) against `pdf` (a density over the
 /// sphere) and returns Err with the reason when it rejects.
-fn chi2(
+pub(crate) fn chi2(
     name: &str,
     seed: u64,
     ires: usize,

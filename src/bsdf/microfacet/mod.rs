@@ -17,7 +17,7 @@
 
 mod conductors;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use conductors::{named_conductor, CONDUCTORS};
 
@@ -312,7 +312,7 @@ pub fn fresnel_conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// transmitted side's (the factor on the tangential part of the refracted direction).
 /// `cos_i` < 0 means wi is inside (below the normal). F = 1 under total internal
 /// reflection, 0 for η = 1.
-fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32, f32) {
+pub(crate) fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32, f32) {
     let (eta_it, eta_ti) = if cos_i >= 0.0 { (eta, 1.0 / eta) } else { (1.0 / eta, eta) };
     let cos_t2 = 1.0 - (1.0 - cos_i * cos_i) * eta_ti * eta_ti;
     let ci = cos_i.abs();
@@ -332,13 +332,13 @@ fn fresnel_dielectric(cos_i: f32, eta: f32) -> (f32, f32, f32) {
 }
 
 /// Mirror `wi` about `m` (both pointing away from the surface).
-fn reflect(wi: Vec3, m: Vec3) -> Vec3 {
+pub(crate) fn reflect(wi: Vec3, m: Vec3) -> Vec3 {
     2.0 * wi.dot(m) * m - wi
 }
 
 /// Refract `wi` through `m` given [`fresnel_dielectric`]'s cos θt and η_ti (Mitsuba's
 /// `refract`).
-fn refract(wi: Vec3, m: Vec3, cos_t: f32, eta_ti: f32) -> Vec3 {
+pub(crate) fn refract(wi: Vec3, m: Vec3, cos_t: f32, eta_ti: f32) -> Vec3 {
     m * (wi.dot(m) * eta_ti + cos_t) - wi * eta_ti
 }
 

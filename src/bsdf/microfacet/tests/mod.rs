@@ -6,13 +6,13 @@ use super::*;
 
 /// PCG32 (O'Neill's `pcg32_random_r`, as Mitsuba's `PCG32`), seeded per test so every run
 /// draws the same numbers.
-struct Pcg32 {
+pub(crate) struct Pcg32 {
     state: u64,
     inc: u64,
 }
 
 impl Pcg32 {
-    fn new(seed: u64, seq: u64) -> Self {
+    pub(crate) fn new(seed: u64, seq: u64) -> Self {
         let mut rng = Pcg32 { state: 0, inc: (seq << 1) | 1 };
         rng.next_u32();
         rng.state = rng.state.wrapping_add(seed);
@@ -28,11 +28,11 @@ impl Pcg32 {
     }
 
     /// A float in [0, 1) with 24 random bits.
-    fn next_f32(&mut self) -> f32 {
+    pub(crate) fn next_f32(&mut self) -> f32 {
         (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 
-    fn next_vec2(&mut self) -> Vec2 {
+    pub(crate) fn next_vec2(&mut self) -> Vec2 {
         Vec2::new(self.next_f32(), self.next_f32())
     }
 
@@ -59,7 +59,7 @@ fn beckmann(au: f32, av: f32) -> Microfacet {
     Microfacet { distribution: Distribution::Beckmann, alpha_u: au, alpha_v: av }
 }
 
-mod chi2;
+pub(crate) mod chi2;
 
 // ---------------------------------------------------------------------------------------
 // Weights, reciprocity, energy.
