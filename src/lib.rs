@@ -10,11 +10,12 @@
 #![warn(missing_docs)]
 
 pub mod accel;
+pub mod bsdf;
 pub mod color;
+pub mod emitter;
 pub mod error;
 pub mod film;
 pub mod light;
-pub mod bsdf;
 pub mod motion;
 pub mod queue;
 pub mod render;

@@ -12,12 +12,12 @@ use glam::{Vec2, Vec3};
 use wide::{f32x16, u32x16};
 
 use crate::accel::offset::{offset_lanes, offset_ray_origin};
-use crate::light::{gloss_light_sample, SHADOW_TMAX_SCALE};
-use crate::bsdf::plastic::{Plastic, TABLE_RES};
 use crate::bsdf::microfacet::{
     fresnel_conductor, rough_conductor_eval, rough_conductor_pdf, rough_dielectric_eval, rough_dielectric_pdf,
     rough_dielectric_split, tangents, Microfacet,
 };
+use crate::bsdf::plastic::{Plastic, TABLE_RES};
+use crate::light::{gloss_light_sample, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, HitQueue, IndexQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
 use crate::scene::{Material, ReflectRatio, Scene};
@@ -185,7 +185,17 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
             conductor(scene, &h, (eta, k, color), roughness, out);
         }
         Material::Dielectric { ior, tint, roughness: Some(mf), .. } => rough_glass(scene, &h, ior, tint, &mf, out),
-        Material::Plastic { color, specular, eta, ref roughness, nonlinear, two_sided, internal, specular_weight, table } => {
+        Material::Plastic {
+            color,
+            specular,
+            eta,
+            ref roughness,
+            nonlinear,
+            two_sided,
+            internal,
+            specular_weight,
+            table,
+        } => {
             let bsdf = Plastic {
                 diffuse: color_at(scene, color, h.prim, h.time, h.x),
                 specular,

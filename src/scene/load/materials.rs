@@ -5,8 +5,8 @@ use glam::{Affine2, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
 use crate::bsdf::microfacet::MIN_ALPHA;
-use crate::bsdf::plastic::{self, Transmittance};
 use crate::bsdf::microfacet::{named_conductor, Distribution, Microfacet, CONDUCTORS};
+use crate::bsdf::plastic::{self, Transmittance};
 use crate::scene::format::*;
 use crate::scene::values::{color, transform, Ctx};
 use crate::scene::{Color, Material, ReflectRatio};

@@ -1,0 +1,252 @@
+//! The environment: radiance arriving from infinitely far along each direction that
+//! escapes the scene. A constant (Mitsuba's `constant` emitter; wavetrace's background
+//! colour) or a latitude-longitude map (Mitsuba's `envmap`, looked up exactly as Mitsuba
+//! 3.9.1 does), turned by a rotation.
+//!
+//! Under the path transport it is a light: next-event estimation samples it, a constant
+//! uniformly over the sphere, a map by a piecewise-constant density over its (u, v)
+//! square proportional to luminance × sin θ (pbrt's `ImageInfiniteLight`), and rays that
+//! escape are weighted against that density.
+
+use glam::{Mat3, Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+use crate::color::luminance;
+
+/// The environment: constant radiance, or a map scaled by `radiance`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Environment {
+    /// The constant radiance, or the factor on the map's texels.
+    pub radiance: Vec3,
+    /// The map, if any.
+    pub map: Option<LatLong>,
+    /// World directions into the map's frame (the inverse of its rotation).
+    pub to_local: Mat3,
+    /// The map's frame into the world.
+    pub to_world: Mat3,
+}
+
+/// A latitude-longitude map with its sampling distribution. Mitsuba's convention: a
+/// direction d (in the map's frame) reads u = atan2(d.x, −d.z) / 2π, periodic, between
+/// texel centres (i + ½) / width, and v = acos(d.y) / π with row j at v = j / (height − 1)
+/// (the first row is the +y pole, the last the −y pole), bilinearly.
+#[derive(Clone, PartialEq)]
+pub struct LatLong {
+    width: usize,
+    height: usize,
+    texels: Vec<Vec3>,
+    /// Cumulative sums of the rows' weights, normalised; the last 1.
+    rows: Vec<f32>,
+    /// Per row, the cumulative sums of its cells' weights, normalised (width per row).
+    cols: Vec<f32>,
+    /// Each cell's density over the (u, v) square.
+    density: Vec<f32>,
+}
+
+impl std::fmt::Debug for LatLong {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // The texels' sum stands for them: a scene's digest changes with its map.
+        let sum = self.texels.iter().fold(glam::DVec3::ZERO, |s, t| s + t.as_dvec3());
+        write!(f, "LatLong({}x{}, sum {sum:?})", self.width, self.height)
+    }
+}
+
+/// One direction drawn towards the environment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnvSample {
+    /// Unit direction, world.
+    pub wi: Vec3,
+    /// The radiance arriving along it.
+    pub radiance: Vec3,
+    /// Its density over solid angle.
+    pub pdf: f32,
+}
+
+impl Environment {
+    /// A constant environment.
+    pub fn constant(radiance: Vec3) -> Environment {
+        Environment { radiance, map: None, to_local: Mat3::IDENTITY, to_world: Mat3::IDENTITY }
+    }
+
+    /// True when it emits nothing.
+    pub fn is_black(&self) -> bool {
+        self.radiance == Vec3::ZERO || self.map.as_ref().is_some_and(|m| m.rows.is_empty())
+    }
+
+    /// The radiance arriving along world direction `d` (unit): seen by a ray going along d.
+    pub fn eval(&self, d: Vec3) -> Vec3 {
+        match &self.map {
+            None => self.radiance,
+            Some(map) => self.radiance * map.eval(direction_to_uv(self.to_local * d)),
+        }
+    }
+
+    /// A direction from the square sample `u`, with its radiance and density; `None` for a
+    /// black environment or a zero-density draw.
+    pub fn sample(&self, u: Vec2) -> Option<EnvSample> {
+        if self.is_black() {
+            return None;
+        }
+        let Some(map) = &self.map else {
+            let wi = uniform_sphere(u);
+            return Some(EnvSample { wi, radiance: self.radiance, pdf: 0.25 * FRAC_1_PI });
+        };
+        let (uv, density) = map.sample(u);
+        let (local, sin_theta) = uv_to_direction(uv);
+        if density <= 0.0 || sin_theta <= 0.0 {
+            return None;
+        }
+        let wi = (self.to_world * local).normalize();
+        let pdf = density / (2.0 * PI * PI * sin_theta);
+        // The radiance a ray along wi would find, to its last bit.
+        Some(EnvSample { wi, radiance: self.eval(wi), pdf })
+    }
+
+    /// The density with which [`Environment::sample`] draws world direction `d` (unit).
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        if self.is_black() {
+            return 0.0;
+        }
+        let Some(map) = &self.map else { return 0.25 * FRAC_1_PI };
+        let local = self.to_local * d;
+        let sin_theta = (local.x * local.x + local.z * local.z).sqrt();
+        if sin_theta <= 0.0 {
+            return 0.0;
+        }
+        map.density_at(direction_to_uv(local)) / (2.0 * PI * PI * sin_theta)
+    }
+}
+
+impl LatLong {
+    /// The map of `width` × `height` linear RGB texels (row by row from the +y pole) and
+    /// its sampling distribution; `None` when a side is 0 or the texel count is wrong.
+    pub fn new(width: usize, height: usize, texels: Vec<Vec3>) -> Option<LatLong> {
+        if width == 0 || height == 0 || texels.len() != width * height {
+            return None;
+        }
+        let mut map = LatLong { width, height, texels, rows: vec![], cols: vec![0.0; width * height], density: vec![] };
+        // A cell's weight: the largest luminance the bilinear lookup takes at its corners
+        // and centre (so no cell that shows light has density 0), times sin θ at its
+        // centre, the Jacobian of the (u, v) square onto the sphere.
+        let mut weight = vec![0.0f64; width * height];
+        for j in 0..height {
+            let sin_theta = (PI * (j as f32 + 0.5) / height as f32).sin();
+            for i in 0..width {
+                let probe = |a: f32, b: f32| {
+                    let uv = Vec2::new((i as f32 + a) / width as f32, (j as f32 + b) / height as f32);
+                    luminance(map.eval(uv)).max(0.0)
+                };
+                let peak = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)]
+                    .iter()
+                    .map(|&(a, b)| probe(a, b))
+                    .fold(0.0f32, f32::max);
+                weight[j * width + i] = f64::from(peak * sin_theta);
+            }
+        }
+        let total: f64 = weight.iter().sum();
+        if !(total > 0.0 && total.is_finite()) {
+            // Black (or unusable): nothing to sample.
+            return Some(map);
+        }
+        let mut row_sum = 0.0;
+        map.rows = (0..height)
+            .map(|j| {
+                let row = &weight[j * width..(j + 1) * width];
+                let sum: f64 = row.iter().sum();
+                let mut acc = 0.0;
+                for (i, w) in row.iter().enumerate() {
+                    acc += w;
+                    map.cols[j * width + i] =
+                        if sum > 0.0 { (acc / sum) as f32 } else { (i + 1) as f32 / width as f32 };
+                }
+                map.cols[j * width + width - 1] = 1.0;
+                row_sum += sum;
+                (row_sum / total) as f32
+            })
+            .collect();
+        map.rows[height - 1] = 1.0;
+        let cells = (width * height) as f64;
+        map.density = weight.iter().map(|w| (w / total * cells) as f32).collect();
+        Some(map)
+    }
+
+    /// The texel value at `uv`, as Mitsuba's envmap: periodic in u between texel centres,
+    /// rows at v = j / (height − 1), clamped at the poles, bilinear.
+    fn eval(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width, self.height);
+        let u = uv.x - uv.x.floor();
+        let v = if uv.y.is_nan() { 0.0 } else { uv.y.clamp(0.0, 1.0) };
+        let x = u * w as f32 - 0.5;
+        let y = v * (h - 1) as f32;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let col = |c: f32| (c as i64).rem_euclid(w as i64) as usize;
+        let row = |r: f32| (r.max(0.0) as usize).min(h - 1);
+        let at = |c: f32, r: f32| self.texels[row(r) * w + col(c)];
+        let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1.0, y0) * fx;
+        let bottom = at(x0, y0 + 1.0) * (1.0 - fx) + at(x0 + 1.0, y0 + 1.0) * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// A point of the (u, v) square drawn from `s`: a row by its weight, a cell in it by
+    /// its weight, uniformly inside the cell; and its density over the square.
+    fn sample(&self, s: Vec2) -> (Vec2, f32) {
+        let (w, h) = (self.width, self.height);
+        let j = self.rows.partition_point(|&c| c <= s.y).min(h - 1);
+        let lo = if j == 0 { 0.0 } else { self.rows[j - 1] };
+        let fy = ((s.y - lo) / (self.rows[j] - lo)).clamp(0.0, 1.0);
+        let cols = &self.cols[j * w..(j + 1) * w];
+        let i = cols.partition_point(|&c| c <= s.x).min(w - 1);
+        let lo = if i == 0 { 0.0 } else { cols[i - 1] };
+        let fx = ((s.x - lo) / (cols[i] - lo)).clamp(0.0, 1.0);
+        let fx = if fx.is_nan() { 0.5 } else { fx };
+        let fy = if fy.is_nan() { 0.5 } else { fy };
+        // Keep the point inside its cell: (i + fx) / w may round up to the next one.
+        let uv = Vec2::new(((i as f32 + fx) / w as f32).min(next_below(i + 1, w)), {
+            ((j as f32 + fy) / h as f32).min(next_below(j + 1, h))
+        });
+        (uv, self.density[j * w + i])
+    }
+
+    /// The density over the (u, v) square at `uv`.
+    fn density_at(&self, uv: Vec2) -> f32 {
+        if self.density.is_empty() {
+            return 0.0;
+        }
+        let u = uv.x - uv.x.floor();
+        let i = ((u * self.width as f32) as usize).min(self.width - 1);
+        let j = ((uv.y.clamp(0.0, 1.0) * self.height as f32) as usize).min(self.height - 1);
+        self.density[j * self.width + i]
+    }
+}
+
+/// The largest f32 below k / n.
+fn next_below(k: usize, n: usize) -> f32 {
+    let x = k as f32 / n as f32;
+    f32::from_bits(x.to_bits() - 1)
+}
+
+/// Mitsuba's `direction_to_uv` (d unit, in the map's frame), with θ from atan2 rather
+/// than Mitsuba's acos(d.y), which loses digits near the poles (the same uv elsewhere).
+fn direction_to_uv(d: Vec3) -> Vec2 {
+    let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
+    Vec2::new(d.x.atan2(-d.z) * (0.5 * FRAC_1_PI), sin_theta.atan2(d.y) * FRAC_1_PI)
+}
+
+/// Mitsuba's `uv_to_direction`, and sin θ.
+fn uv_to_direction(uv: Vec2) -> (Vec3, f32) {
+    let (sin_theta, cos_theta) = (uv.y * PI).sin_cos();
+    let (sin_phi, cos_phi) = (uv.x * 2.0 * PI).sin_cos();
+    (Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta), sin_theta)
+}
+
+/// A uniform direction on the sphere (Mitsuba's `square_to_uniform_sphere`).
+fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.y;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * u.x).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+#[cfg(test)]
+mod tests;
