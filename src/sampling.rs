@@ -43,6 +43,8 @@ pub mod dim {
     pub const BOUNCE: u32 = 15;
     /// Path transport: Russian roulette's decision for a path's ray.
     pub const ROULETTE: u32 = 16;
+    /// Path transport: a light sample's direction towards the environment.
+    pub const ENVIRONMENT: u32 = 17;
     /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
     /// renderer's dimensions, which grow from 1).
     pub const BENCH: u32 = 100;

@@ -210,7 +210,7 @@ fn shows_nothing(scene: &wavetrace::Scene) -> bool {
         Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance.max_element() > 0.0,
         Light::Point { intensity, .. } => intensity.max_element() > 0.0,
     });
-    !lit && scene.background.max_element() <= 0.0
+    !lit && scene.background.is_black()
 }
 
 /// Renders; returns the exit status (0, or 130 when a signal cut the render short).

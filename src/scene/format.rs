@@ -301,9 +301,20 @@ fn default_fov() -> f32 {
 #[derive(Deserialize, Serialize, Debug, Clone, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct BackgroundDesc {
-    /// Radiance of rays that hit nothing (default black).
-    #[serde(deserialize_with = "exact::color")]
-    pub color: [f32; 3],
+    /// Radiance of rays that hit nothing (default black; with `map`, its factor, default
+    /// white).
+    #[serde(default, skip_serializing_if = "Option::is_none", deserialize_with = "exact::opt::color")]
+    pub color: Option<[f32; 3]>,
+    /// A latitude-longitude environment map (EXR or PNG, relative to the scene file), in
+    /// Mitsuba's `envmap` convention: the image's top row is +y, its centre column −z.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<String>,
+    /// Multiplies the map (Mitsuba's `scale`; default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f32>,
+    /// A rotation of the map into the world (Mitsuba's `to_world`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transform: Option<Vec<TransformOp>>,
 }
 
 /// serde's default for flags that are on unless given.
@@ -771,7 +782,7 @@ mod exact {
             )*};
         }
 
-        optional!(position, look_at, eta, k, emission);
+        optional!(position, look_at, eta, k, emission, color);
 
         /// `uv`: exactly three pairs of numbers when given.
         pub(in super::super) fn uv<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[[f32; 2]; 3]>, D::Error> {

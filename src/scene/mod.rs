@@ -18,6 +18,7 @@ use crate::accel::Accel;
 use crate::accel::BvhQuality;
 use crate::bsdf::microfacet::Microfacet;
 use crate::bsdf::plastic::Transmittance;
+use crate::emitter::environment::Environment;
 use crate::motion::Motion;
 use crate::simd::{Real, V3};
 use crate::texture::Texture;
@@ -413,6 +414,14 @@ impl AreaLights {
     }
 }
 
+impl Scene {
+    /// True when next-event estimation samples the environment: under the path transport,
+    /// when it emits.
+    pub fn samples_environment(&self) -> bool {
+        self.settings.path() && !self.background.is_black()
+    }
+}
+
 impl Material {
     /// True for the materials that sample the lights themselves (under MIS): rough ones
     /// and plastic, whose diffuse base needs them even under a smooth coating.
@@ -468,8 +477,9 @@ pub struct Scene {
     pub settings: Settings,
     /// Camera.
     pub camera: Camera,
-    /// Radiance of escaped rays.
-    pub background: Vec3,
+    /// Radiance of escaped rays: constant, or an environment map; a light under the path
+    /// transport.
+    pub background: Environment,
     /// Materials, indexed by `Primitive::material`.
     pub materials: Vec<Material>,
     /// Lights, indexed by `Primitive::light`.

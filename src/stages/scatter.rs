@@ -243,7 +243,8 @@ struct GlossyHit {
     key1: u32,
     /// The microfacet sample.
     u: Vec2,
-    /// Whether the hit samples the lights too (multiple importance sampling).
+    /// Whether the hit samples the lights (area lights, or the environment under the path
+    /// transport) too, under multiple importance sampling.
     mis: bool,
 }
 
@@ -268,7 +269,7 @@ impl GlossyHit {
             sample: rays.sample[i],
             key1: hash(&[key, 1]),
             u: sobol_owen(rays.sample[i], hash(&[key, dim::GLOSS])),
-            mis: !scene.gloss_lights.is_empty(),
+            mis: !scene.gloss_lights.is_empty() || scene.samples_environment(),
         }
     }
 
@@ -280,13 +281,28 @@ impl GlossyHit {
     /// The light sample of a rough hit in `frame` (under MIS), whose BSDF gives f·cos and
     /// density for a local direction: its shadow ray into `shadow`.
     fn light(&self, scene: &Scene, frame: &Frame, bsdf: &dyn Fn(Vec3) -> (Vec3, f32), shadow: &mut ShadowQueue) {
-        let Some(l) = self.mis.then(|| gloss_light_sample(scene, self.x, self.key, self.sample)).flatten() else {
+        if !self.mis {
             return;
-        };
-        let (f, pdf) = bsdf(frame.to_local(l.wi));
-        let c = self.w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
-        if c != Vec3::ZERO {
-            shadow.push(self.origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, self.slot, c, self.carried);
+        }
+        if let Some(l) = gloss_light_sample(scene, self.x, self.key, self.sample) {
+            let (f, pdf) = bsdf(frame.to_local(l.wi));
+            let c = self.w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
+            if c != Vec3::ZERO {
+                shadow.push(self.origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, self.slot, c, self.carried);
+            }
+        }
+        // The environment, under the path transport: a sample of its own beside the area
+        // lights' (its shadow ray reaches to infinity).
+        if !scene.samples_environment() {
+            return;
+        }
+        let u = sobol_owen(self.sample, hash(&[self.key, dim::ENVIRONMENT]));
+        if let Some(s) = scene.background.sample(u) {
+            let (f, pdf) = bsdf(frame.to_local(s.wi));
+            let c = self.w * f * s.radiance * (power_heuristic(s.pdf, pdf) / s.pdf);
+            if c != Vec3::ZERO {
+                shadow.push(self.origin(s.wi), s.wi, f32::MAX, self.slot, c, self.carried);
+            }
         }
     }
 }

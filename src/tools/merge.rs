@@ -92,7 +92,7 @@ impl RenderId {
     /// The identity of a render of `scene` by this build.
     pub fn of(scene: &Scene) -> RenderId {
         let mut scene_hash = Fnv::new();
-        let _ = write!(scene_hash, "{:?}", (&scene.camera, scene.background, &scene.materials, &scene.lights));
+        let _ = write!(scene_hash, "{:?}", (&scene.camera, &scene.background, &scene.materials, &scene.lights));
         scene.accel.prims().for_each(|p| scene_hash.primitive(&p));
         RenderId {
             scene_hash: scene_hash.hex(),

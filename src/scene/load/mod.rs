@@ -6,7 +6,7 @@ mod materials;
 mod motion;
 mod objects;
 
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -19,6 +19,8 @@ use super::{
 };
 use crate::accel::BvhQuality;
 use crate::accel::NO_LIGHT;
+use crate::emitter::environment::{Environment, LatLong};
+use crate::texture::{Bitmap, Filter, Wrap};
 use crate::{Error, Result};
 
 /// Highest adaptive refinement level: 2^16 samples per pixel.
@@ -374,7 +376,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     let mut info = SceneInfo::default();
     let mut camera = camera(&f.camera, settings.width, settings.height, ctx)?;
     motion::camera(&f.camera, &mut camera, settings.shutter, ctx)?;
-    let background = color(ctx, "background.color", f.background.color)?;
+    let background = background(ctx, &f.background, &mut info)?;
     let mut names: BTreeMap<&str, u32> = BTreeMap::new();
     let (mut materials, mut textures) = (Vec::new(), materials::Textures::default());
     for (name, m) in &f.materials {
@@ -426,6 +428,44 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         gloss_lights,
         info,
     })
+}
+
+/// `[background]`: a constant, or a lat-long map (scaled by `color` and `scale`) turned by
+/// a rotation.
+fn background(ctx: &Ctx, b: &BackgroundDesc, info: &mut SceneInfo) -> Result<Environment> {
+    let Some(file) = &b.map else {
+        for (field, given) in [("scale", b.scale.is_some()), ("transform", b.transform.is_some())] {
+            if given {
+                return Err(ctx.fail(&format!("background.{field}"), "applies to a `map`: give one, or leave it out"));
+            }
+        }
+        return Ok(Environment::constant(color(ctx, "background.color", b.color.unwrap_or([0.0; 3]))?));
+    };
+    let scale = b.scale.unwrap_or(1.0);
+    if !(scale >= 0.0 && scale.is_finite()) {
+        return Err(ctx.fail("background.scale", format!("{scale} must be a number >= 0")));
+    }
+    let tint = color(ctx, "background.color", b.color.unwrap_or([1.0; 3]))?;
+    let path = ctx.src.dir.join(file);
+    let bitmap = Bitmap::load(&path, false, Wrap::Repeat, Filter::Bilinear)
+        .map_err(|e| ctx.fail("background.map", format!("{}: {e}", path.display())))?;
+    info.inputs.push(("the environment map `background.map`".to_string(), path));
+    let map = LatLong::new(bitmap.width as usize, bitmap.height as usize, bitmap.texels)
+        .ok_or_else(|| ctx.fail("background.map", "the image is empty"))?;
+    let to_world = match &b.transform {
+        None => Mat3::IDENTITY,
+        Some(ops) => {
+            let t = transform(ctx, "background.transform", ops)?;
+            let m = Mat3::from_mat4(t.m.as_mat4());
+            let rotation = (m.transpose() * m - Mat3::IDENTITY).to_cols_array().iter().all(|e| e.abs() < 1e-4)
+                && (m.determinant() - 1.0).abs() < 1e-4;
+            if !rotation {
+                return Err(ctx.fail("background.transform", "must be a rotation (no scale, mirror or shear)"));
+            }
+            m
+        }
+    };
+    Ok(Environment { radiance: tint * scale, map: Some(map), to_local: to_world.transpose(), to_world })
 }
 
 /// The path transport's choice among `gloss` (indices into `lights`) by power: each

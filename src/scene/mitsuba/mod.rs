@@ -33,7 +33,7 @@ pub const BSDFS: &str =
 pub const TEXTURES: &str = "bitmap, checkerboard (as a diffuse `reflectance`, a plastic's `diffuse_reflectance` or a \
                              conductor's `specular_reflectance`)";
 /// Emitter types imported.
-pub const EMITTERS: &str = "area (on a rectangle, cube, obj or ply), point, constant (background only)";
+pub const EMITTERS: &str = "area (on a rectangle, cube, obj or ply), point, constant, envmap";
 /// Sensor types imported.
 pub const SENSORS: &str = "perspective, thinlens";
 
@@ -124,6 +124,8 @@ struct Converter<'a> {
     /// Twosided BSDFs being converted, one inside the other (references can loop).
     twosided_depth: usize,
     sensor: bool,
+    /// A `constant` or `envmap` emitter has been read (one is taken).
+    environment_seen: bool,
 }
 
 /// Every element with an `id` below `el` (a `<ref id>` or `<alias id>` names one; it
@@ -174,6 +176,7 @@ impl<'a> Converter<'a> {
             emitter_shapes: BTreeMap::new(),
             twosided_depth: 0,
             sensor: false,
+            environment_seen: false,
         }
     }
 

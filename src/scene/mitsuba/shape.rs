@@ -292,6 +292,28 @@ impl<'a> Converter<'a> {
         p.color("radiance")?.ok_or_else(|| e.loc.err("<emitter type=\"area\"> lacks `radiance`"))
     }
 
+    /// `constant` (its radiance) or `envmap` (its file, found as meshes are, `scale` and a
+    /// rotation `to_world`) as the background, which the path transport samples as a light.
+    fn environment(&mut self, el: &El) -> Result<BackgroundDesc> {
+        if el.attr("type") == Some("constant") {
+            let p = Params::of(el, &["radiance"], &[])?;
+            return Ok(BackgroundDesc { color: Some(p.color("radiance")?.unwrap_or([1.0; 3])), ..Default::default() });
+        }
+        let p = Params::of(el, &["filename", "scale", "to_world"], &[])?;
+        let (file, fel) =
+            p.string("filename")?.ok_or_else(|| el.loc.err(format!("{}: lacks `filename`", el.what())))?;
+        let path = xml::resolve(&file, &el.dir, &self.search, &fel.loc)?;
+        // Absolute, so that it does not depend on the folder the loader starts from.
+        let path = std::fs::canonicalize(&path).unwrap_or(path);
+        let ops = p.transform("to_world")?;
+        Ok(BackgroundDesc {
+            color: None,
+            map: Some(path.display().to_string()),
+            scale: p.num("scale")?.map(|s| s as f32),
+            transform: (!ops.is_empty()).then_some(ops),
+        })
+    }
+
     /// A top-level emitter: a point light or the background. An area emitter there must
     /// have an id (shapes reference it); the first pass has read it.
     pub(super) fn emitter(&mut self, el: &El) -> Result<()> {
@@ -307,17 +329,13 @@ impl<'a> Converter<'a> {
                 self.out.file.lights.push(LightDesc::Point { position, intensity, transform_end: None });
                 self.place(format!("lights.{li}"), el);
             }
-            "constant" => {
-                let p = Params::of(el, &["radiance"], &[])?;
-                let r = p.color("radiance")?.unwrap_or([1.0; 3]);
-                self.out.file.background.color = r;
+            "constant" | "envmap" => {
+                if self.environment_seen {
+                    return Err(el.loc.err(format!("{}: a second environment; wavetrace takes one", el.what())));
+                }
+                self.environment_seen = true;
+                self.out.file.background = self.environment(el)?;
                 self.place("background".into(), el);
-                self.note(format!(
-                    "{}:{}: <emitter type=\"constant\"> becomes the background colour: under the path transport \
-                     the rays that escape bring its light (it is not sampled as a light: noisier than Mitsuba); \
-                     under whitted it lights nothing",
-                    el.loc.file, el.loc.line
-                ));
             }
             "area" if el.attr("id").is_some() => {}
             "area" => {

@@ -86,10 +86,17 @@ fn sort_hits(
         Transport::Whitted => (false, false),
     };
     let hidden = |i: usize| hide && rays.depth[i] == 0;
+    let (environment, sampled) = (!scene.background.is_black(), scene.samples_environment());
     for i in 0..rays.len() {
         if hits.prim[i] == MISS {
-            if scene.background != Vec3::ZERO && !hidden(i) {
-                film.push(rays.slot[i], rays.weight(i) * scene.background);
+            if environment && !hidden(i) {
+                let d = rays.dir(i);
+                // A surface's ray shares the environment with its light samples (MIS); an
+                // adaptive-shadow bounce (negative density) has no environment sample
+                // beside it, and takes all.
+                let pdf = rays.pdf[i];
+                let mis = if sampled && pdf > 0.0 { power_heuristic(pdf, scene.background.pdf(d)) } else { 1.0 };
+                film.push(rays.slot[i], rays.weight(i) * scene.background.eval(d) * mis);
             }
             continue;
         }

@@ -8,7 +8,7 @@ use wide::{f32x16, u32x16};
 
 use crate::light::{pick_light, uniform_shadow_rays, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
-use crate::sampling::{dim, hash_lanes, sobol_owen_lanes};
+use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen, sobol_owen_lanes};
 use crate::scene::{AreaLights, Light, Scene};
 use crate::simd::{LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, queued_surface};
@@ -27,6 +27,9 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
             uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l, time));
         }
     }
+    if scene.samples_environment() {
+        environment_lights(scene, surfaces, shadow);
+    }
     if scene.gloss_lights.is_empty() {
         return;
     }
@@ -41,6 +44,33 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
         let sample: [u32; LANES] = std::array::from_fn(|k| (pair(k) % n) as u32);
         area_lanes(scene, &scene.area_lights, surfaces, (&point, &sample, count), shadow);
         start += count;
+    }
+}
+
+/// Next-event estimation of the environment at every point of `surfaces`:
+/// `shadows.samples` directions each (sample j of camera sample i is point i·n + j of the
+/// path's [`dim::ENVIRONMENT`] sequence), beside the area lights' samples, weighted by
+/// the power heuristic against the bounce ray's cosine density. The shadow rays reach to
+/// infinity.
+fn environment_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
+    let n = scene.settings.shadow_samples;
+    for p in 0..surfaces.len() {
+        let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
+        for j in 0..n {
+            let u = sobol_owen(surf.sample * n + j, hash(&[surf.key, dim::ENVIRONMENT]));
+            let Some(s) = scene.background.sample(u) else { continue };
+            let cos = surf.n.dot(s.wi);
+            if cos <= 0.0 {
+                continue;
+            }
+            let light_pdf = s.pdf * n as f32;
+            let mis = power_heuristic(light_pdf, cos * FRAC_1_PI);
+            let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, s.wi, surf.wo);
+            let c = surf.w * brdf * s.radiance * (cos * mis / light_pdf);
+            if c != Vec3::ZERO {
+                shadow.push(surf.o, s.wi, f32::MAX, surf.slot, c, time);
+            }
+        }
     }
 }
 
