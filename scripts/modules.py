@@ -26,7 +26,7 @@ MAX_PARAMS = 6
 # The renderer core, top to bottom (docs/architecture.md's module map): a module uses
 # only the modules above it. The tools (src/tools/, src/cli/) may use any of them.
 LAYERS = [
-    "error", "color", "simd", "sampling", "film", "system", "microfacet", "motion", "texture",
+    "error", "color", "simd", "sampling", "film", "system", "bsdf", "motion", "texture", "emitter",
     "queue", "accel", "scene", "surface", "light", "stages", "stats", "render",
 ]
 

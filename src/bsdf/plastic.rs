@@ -14,6 +14,7 @@
 //! incident angle, as Mitsuba does.
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use std::f32::consts::FRAC_1_PI;
 
 use super::microfacet::{fresnel_dielectric, reflect, refract, Microfacet};
@@ -175,28 +176,45 @@ pub fn smooth_internal(eta: f32) -> f32 {
 /// Gauss–Legendre quadrature on 32² points (Mitsuba's `eval_transmittance`).
 pub fn rough_transmittance(mf: &Microfacet, eta: f32) -> Transmittance {
     let quad = Quadrature::new(if eta > 1.0 { 32 } else { 128 });
-    std::array::from_fn(|i| {
-        let wi = table_direction(i);
-        quad.integrate(|u| {
-            let m = mf.sample(wi, u);
-            let (f, cos_t, eta_ti) = fresnel_dielectric(wi.dot(m), eta);
-            let wo = refract(wi, m, cos_t, eta_ti);
-            if wo.z * wi.z >= 0.0 {
-                0.0
-            } else {
-                f64::from(mf.smith_g1(wo, m) * (1.0 - f))
-            }
-        }) as f32
-    })
+    let rows: Vec<f32> = (0..TABLE_RES)
+        .into_par_iter()
+        .map(|i| {
+            let wi = table_direction(i);
+            quad.integrate(|u| {
+                let m = mf.sample(wi, u);
+                let (f, cos_t, eta_ti) = fresnel_dielectric(wi.dot(m), eta);
+                let wo = refract(wi, m, cos_t, eta_ti);
+                if wo.z * wi.z >= 0.0 {
+                    0.0
+                } else {
+                    f64::from(mf.smith_g1(wo, m) * (1.0 - f))
+                }
+            }) as f32
+        })
+        .collect();
+    std::array::from_fn(|i| rows[i])
 }
 
 /// The rough coating's internal diffuse reflectance: twice the mean over the table's
 /// cosines μ of μ times the reflectance seen from inside (Mitsuba's `eval_reflectance`
-/// with η inverted, 128² points).
+/// with η inverted), on 64² points per cosine where Mitsuba takes 128² (for η > 1): a
+/// quarter of the work, within 10⁻⁴ of Mitsuba's value (tested), which moves the base's
+/// brightness by less than 0.04 %.
 pub fn rough_internal(mf: &Microfacet, eta: f32) -> f32 {
+    internal_reflectance(mf, eta, if eta < 1.0 { 32 } else { INTERNAL_POINTS })
+}
+
+/// Gauss–Legendre points per axis of [`rough_internal`] for a coating denser than the
+/// outside.
+const INTERNAL_POINTS: usize = 64;
+
+/// [`rough_internal`] on `n`² points per cosine.
+fn internal_reflectance(mf: &Microfacet, eta: f32, n: usize) -> f32 {
     let eta = 1.0 / eta;
-    let quad = Quadrature::new(if eta > 1.0 { 32 } else { 128 });
-    let sum: f64 = (0..TABLE_RES)
+    let quad = Quadrature::new(n);
+    // The rows in parallel, summed in order.
+    let rows: Vec<f64> = (0..TABLE_RES)
+        .into_par_iter()
         .map(|i| {
             let wi = table_direction(i);
             let r = quad.integrate(|u| {
@@ -210,7 +228,8 @@ pub fn rough_internal(mf: &Microfacet, eta: f32) -> f32 {
             });
             r as f32 as f64 * f64::from(wi.z)
         })
-        .sum();
+        .collect();
+    let sum: f64 = rows.iter().sum();
     (2.0 * sum / TABLE_RES as f64) as f32
 }
 

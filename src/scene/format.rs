@@ -423,8 +423,7 @@ pub enum MaterialDesc {
         /// Mitsuba's polypropylene in air).
         #[serde(default = "plastic_ior")]
         ior: f32,
-        /// Scale the base by 1 / (1 − r·ρ), the coating's internal reflections tinted by
-        /// the base, rather than 1 / (1 − r) (Mitsuba's `nonlinear`; default false).
+        /// Scale the base by 1 / (1 − r·ρ), not 1 / (1 − r) (Mitsuba's `nonlinear`).
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         nonlinear: bool,
         /// Both sides are its front (default true); false: black from behind, as Mitsuba's
