@@ -376,7 +376,7 @@ pub fn emitted(light: &Light, d: Vec3) -> Option<Vec3> {
 /// (0 for a point light).
 pub fn probe_count(light: &Light, probe: Probe) -> u32 {
     match light {
-        Light::Point { .. } => 0,
+        Light::Point { .. } | Light::Directional { .. } => 0,
         Light::Quad { .. } => probe.rays(),
         Light::Triangle { .. } => match probe {
             Probe::Corners => 3,
@@ -455,16 +455,26 @@ pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3;
 }
 
 /// Visits the shadow rays uniform mode casts from `surf` to light `li`: one to a point
-/// light, `shadows.samples` stratified ones to an area light (those that can contribute),
+/// or directional light (that one reaching to infinity), `shadows.samples` stratified ones to an area light (those that can contribute),
 /// none to a dark light. Calls `f(direction, tmax, contribution)`.
 #[inline]
 pub fn uniform_shadow_rays(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(Vec3, f32, Vec3)) {
     match scene.lights[li] {
         // A dark light adds nothing: it costs no shadow rays either.
         Light::Point { intensity, .. }
+        | Light::Directional { irradiance: intensity, .. }
         | Light::Quad { radiance: intensity, .. }
         | Light::Triangle { radiance: intensity, .. }
             if intensity == Vec3::ZERO => {}
+        Light::Directional { direction, irradiance } => {
+            let wi = -direction;
+            let cos = surf.n.dot(wi);
+            if cos <= 0.0 {
+                return;
+            }
+            let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
+            f(wi, f32::MAX, surf.w * brdf * irradiance * cos);
+        }
         Light::Point { position, intensity } => {
             let to = position - surf.o;
             let dist2 = to.length_squared();

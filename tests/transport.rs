@@ -318,3 +318,48 @@ fn light_samples_pick_lights_by_power_and_stay_unbiased() {
         assert!(rel < 0.005, "at {p}: {} vs {expected} (rel {rel})", got.x);
     }
 }
+
+#[test]
+fn a_directional_light_lights_diffuse_and_plastic_surfaces() {
+    // Irradiance E along d on the plane y = 0: a Lambert point returns ρ/π·E·cos θ, a
+    // plastic its BSDF's f·cos θ times E, under every transport (plastic: path and
+    // direct, where glossy vertices sample delta lights).
+    let d = Vec3::new(0.3, -1.0, 0.2).normalize();
+    let light = format!("[[lights]]\ntype = \"directional\"\ndirection = {:?}\nirradiance = [2, 2, 2]\n", d.to_array());
+    let from = [0.4, 1.0, 0.9];
+    let expected = 0.5 / PI * 2.0 * -d.y;
+    for transport in ["whitted", "path", "direct"] {
+        let got = pixel(&format!("{PLANE}{light}"), from, [0.0; 3], &[&format!("render.transport={transport}")]);
+        assert!((got - Vec3::splat(expected)).abs().max_element() < 1e-5, "{transport}: {got} vs {expected}");
+    }
+    let plastic = PLANE.replace("type = \"diffuse\"", "type = \"plastic\"\nior = 1.5");
+    let text = format!("{plastic}{light}");
+    let scene = support::scene(&[render_block(&[]), camera(from, [0.0; 3], &[]), text.clone()].concat(), &[]);
+    let wavetrace::scene::Material::Plastic { specular, eta, internal, specular_weight, nonlinear, .. } =
+        scene.materials[0]
+    else {
+        panic!("not a plastic")
+    };
+    let bsdf = wavetrace::bsdf::plastic::Plastic {
+        diffuse: Vec3::splat(0.5),
+        specular,
+        eta,
+        roughness: None,
+        table: &[0.0; wavetrace::bsdf::plastic::TABLE_RES],
+        internal,
+        nonlinear,
+        specular_weight,
+    };
+    // The plane's shading frame: +z is +y. wi towards the camera, wo towards the light.
+    let local = |v: Vec3| Vec3::new(v.x, v.z, v.y);
+    let wi = local(Vec3::from(from.map(|x| x as f32)).normalize());
+    let expected = bsdf.eval_pdf(wi, local(-d)).0 * 2.0;
+    for transport in ["path", "direct"] {
+        let got = pixel(&text, from, [0.0; 3], &[&format!("render.transport={transport}")]);
+        // The smooth coating's mirror reflects the black sky: the base alone is seen.
+        assert!(
+            (got - expected).abs().max_element() < 1e-4 * expected.max_element(),
+            "{transport}: {got} vs {expected}"
+        );
+    }
+}

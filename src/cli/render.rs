@@ -208,7 +208,9 @@ fn shows_nothing(scene: &wavetrace::Scene) -> bool {
     use wavetrace::scene::Light;
     let lit = scene.lights.iter().any(|l| match l {
         Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance.max_element() > 0.0,
-        Light::Point { intensity, .. } => intensity.max_element() > 0.0,
+        Light::Point { intensity, .. } | Light::Directional { irradiance: intensity, .. } => {
+            intensity.max_element() > 0.0
+        }
     });
     !lit && scene.background.is_black()
 }

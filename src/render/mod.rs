@@ -43,7 +43,7 @@ pub fn wave_size(scene: &Scene) -> u64 {
         .lights
         .iter()
         .map(|l| match (l, s.shadow_mode) {
-            (Light::Point { .. }, _) => 1,
+            (Light::Point { .. } | Light::Directional { .. }, _) => 1,
             (_, ShadowMode::Uniform) => s.shadow_samples as u64,
             (l, ShadowMode::Adaptive(p)) if crate::light::probes_light(l, p, s.shadow_samples) => {
                 crate::light::probe_count(l, p) as u64 + s.shadow_samples as u64

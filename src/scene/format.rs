@@ -605,6 +605,15 @@ pub enum LightDesc {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         transform_end: Option<Vec<TransformOp>>,
     },
+    /// Parallel light from infinitely far away (Mitsuba's `directional`).
+    Directional {
+        /// The direction the light travels in (normalised; must be non-zero).
+        #[serde(deserialize_with = "exact::direction")]
+        direction: [f32; 3],
+        /// Irradiance on a surface facing the light, W/m².
+        #[serde(deserialize_with = "exact::irradiance")]
+        irradiance: [f32; 3],
+    },
 }
 
 /// `[[objects]]`.
@@ -765,7 +774,7 @@ mod exact {
     fields!(
         up: 3, shutter: 2, color: 3, specular: 3, color0: 3, color1: 3, corner: 3, edge_u: 3, edge_v: 3,
         radiance: 3, v0: 3, v1: 3, v2: 3, position: 3, intensity: 3, center: 3, translate: 3, scale: 3,
-        axis: 3, origin: 3, target: 3,
+        axis: 3, origin: 3, target: 3, direction: 3, irradiance: 3,
     );
 
     /// The optional fields: present, they are read as the others are.

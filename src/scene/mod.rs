@@ -346,14 +346,21 @@ pub enum Light {
         /// Intensity, W/sr.
         intensity: Vec3,
     },
+    /// Parallel light from infinitely far (Mitsuba's `directional`).
+    Directional {
+        /// Unit direction the light travels in.
+        direction: Vec3,
+        /// Irradiance on a surface facing it, W/m².
+        irradiance: Vec3,
+    },
 }
 
 impl Light {
-    /// An area light that emits (a point light, or a dark one, is not).
+    /// An area light that emits (a point or directional light, or a dark one, is not).
     pub fn lit_area(&self) -> bool {
         match *self {
             Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance != Vec3::ZERO,
-            Light::Point { .. } => false,
+            Light::Point { .. } | Light::Directional { .. } => false,
         }
     }
 
@@ -365,7 +372,7 @@ impl Light {
         match *self {
             Light::Quad { corner, u, v, normal, area, radiance } => Some((corner, u, v, normal, area, radiance, false)),
             Light::Triangle { v0, e1, e2, normal, area, radiance } => Some((v0, e1, e2, normal, area, radiance, true)),
-            Light::Point { .. } => None,
+            Light::Point { .. } | Light::Directional { .. } => None,
         }
     }
 
@@ -376,7 +383,7 @@ impl Light {
             Light::Quad { radiance, area, .. } | Light::Triangle { radiance, area, .. } => {
                 area * radiance.dot(Vec3::new(0.2126, 0.7152, 0.0722))
             }
-            Light::Point { .. } => 0.0,
+            Light::Point { .. } | Light::Directional { .. } => 0.0,
         }
     }
 }

@@ -20,7 +20,7 @@ use crate::bsdf::plastic::{Plastic, TABLE_RES};
 use crate::light::{gloss_light_sample, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, HitQueue, IndexQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
-use crate::scene::{Material, ReflectRatio, Scene};
+use crate::scene::{Light, Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
 use crate::surface::{color_at, hit_lanes, hit_point, shading_lanes, shading_normal, HitLanes};
 
@@ -246,6 +246,8 @@ struct GlossyHit {
     /// Whether the hit samples the lights (area lights, or the environment under the path
     /// transport) too, under multiple importance sampling.
     mis: bool,
+    /// Whether it samples the point and directional lights (the path transport).
+    delta: bool,
 }
 
 impl GlossyHit {
@@ -254,6 +256,9 @@ impl GlossyHit {
         // The path's time, carried by the rays it goes on with.
         let carried = sparse_opt(&rays.time, i);
         let key = rays.key[i];
+        // Under the path transport, delta lights light glossy surfaces too.
+        let delta = scene.settings.path()
+            && scene.lights.iter().any(|l| matches!(l, Light::Point { .. } | Light::Directional { .. }));
         GlossyHit {
             prim: hits.prim[i] as usize,
             d: rays.dir(i),
@@ -269,7 +274,8 @@ impl GlossyHit {
             sample: rays.sample[i],
             key1: hash(&[key, 1]),
             u: sobol_owen(rays.sample[i], hash(&[key, dim::GLOSS])),
-            mis: !scene.gloss_lights.is_empty() || scene.samples_environment(),
+            mis: !scene.gloss_lights.is_empty() || scene.samples_environment() || delta,
+            delta,
         }
     }
 
@@ -283,6 +289,22 @@ impl GlossyHit {
     fn light(&self, scene: &Scene, frame: &Frame, bsdf: &dyn Fn(Vec3) -> (Vec3, f32), shadow: &mut ShadowQueue) {
         if !self.mis {
             return;
+        }
+        // Delta lights, one ray each: the BSDF's rays never find them.
+        for light in scene.lights.iter().filter(|_| self.delta) {
+            let (wi, tmax, l) = match *light {
+                Light::Point { position, intensity } => {
+                    let to = position - self.x;
+                    let d2 = to.length_squared();
+                    (to / d2.sqrt(), d2.sqrt() * SHADOW_TMAX_SCALE, intensity / d2)
+                }
+                Light::Directional { direction, irradiance } => (-direction, f32::MAX, irradiance),
+                Light::Quad { .. } | Light::Triangle { .. } => continue,
+            };
+            let c = self.w * bsdf(frame.to_local(wi)).0 * l;
+            if c != Vec3::ZERO && c.is_finite() {
+                shadow.push(self.origin(wi), wi, tmax, self.slot, c, self.carried);
+            }
         }
         if let Some(l) = gloss_light_sample(scene, self.x, self.key, self.sample) {
             let (f, pdf) = bsdf(frame.to_local(l.wi));

@@ -179,6 +179,14 @@ fn light(ctx: &Ctx, path: &str, l: &LightDesc, b: &mut Built) -> Result<()> {
             position: coord(ctx, &format!("{path}.position"), vec3(*position))?,
             intensity: color(ctx, &format!("{path}.intensity"), *intensity)?,
         }),
+        LightDesc::Directional { direction, irradiance } => {
+            let direction = vec3(*direction)
+                .try_normalize()
+                .filter(|d| d.is_finite())
+                .ok_or_else(|| ctx.fail(&format!("{path}.direction"), "must be a non-zero direction"))?;
+            let irradiance = color(ctx, &format!("{path}.irradiance"), *irradiance)?;
+            b.lights.push(Light::Directional { direction, irradiance });
+        }
     }
     Ok(())
 }

@@ -329,6 +329,17 @@ impl<'a> Converter<'a> {
                 self.out.file.lights.push(LightDesc::Point { position, intensity, transform_end: None });
                 self.place(format!("lights.{li}"), el);
             }
+            "directional" => {
+                let p = Params::of(el, &["irradiance", "direction", "to_world"], &[])?;
+                let irradiance = p.color("irradiance")?.unwrap_or([1.0; 3]);
+                let t = compose(el, &p.transform("to_world")?)?;
+                // Mitsuba: `direction`, or the local +z through `to_world`.
+                let local = p.point("direction")?.unwrap_or([0.0, 0.0, 1.0]);
+                let direction = t.vector(glam::Vec3::from_array(local)).to_array();
+                let li = self.out.file.lights.len();
+                self.out.file.lights.push(LightDesc::Directional { direction, irradiance });
+                self.place(format!("lights.{li}"), el);
+            }
             "constant" | "envmap" => {
                 if self.environment_seen {
                     return Err(el.loc.err(format!("{}: a second environment; wavetrace takes one", el.what())));

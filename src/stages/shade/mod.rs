@@ -252,7 +252,7 @@ impl LightLanes {
         let params = |li: u32| match scene.lights[li as usize] {
             Light::Quad { corner, u, v, normal, area, radiance } => (corner, u, v, normal, area / n, radiance),
             // Not reached: lanes run only when every light is a quad.
-            Light::Point { .. } | Light::Triangle { .. } => {
+            Light::Point { .. } | Light::Directional { .. } | Light::Triangle { .. } => {
                 (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO)
             }
         };

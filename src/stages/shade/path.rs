@@ -20,7 +20,9 @@ use crate::surface::{diffuse_brdf, queued_surface};
 /// weighted by the power heuristic against the density with which the point's bounce
 /// ray (stage `bounce`) could have found the same point.
 pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
-    let points = (0..scene.lights.len()).filter(|&li| matches!(scene.lights[li], Light::Point { .. }));
+    // Delta lights (points, directions) get one ray each: no other strategy finds them.
+    let points = (0..scene.lights.len())
+        .filter(|&li| matches!(scene.lights[li], Light::Point { .. } | Light::Directional { .. }));
     for li in points {
         for p in 0..surfaces.len() {
             let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
