@@ -364,19 +364,34 @@ pub fn unoccluded(scene: &Scene, surf: &Surface, li: usize) -> Option<(Vec3, u64
     Some((sum, n))
 }
 
-/// The radiance a ray with direction `d` sees on emitter `light`: one-sided, radiance on
-/// the front and black from behind.
+/// The radiance a ray from `origin` with direction `d` sees on emitter `light`:
+/// one-sided, radiance on the front (a sphere's outside) and black from behind.
 #[inline]
-pub fn emitted(light: &Light, d: Vec3) -> Option<Vec3> {
+pub fn emitted(light: &Light, origin: Vec3, d: Vec3) -> Option<Vec3> {
+    if let Light::Sphere { center, radius, radiance } = *light {
+        return ((origin - center).length_squared() > radius * radius).then_some(radiance);
+    }
     let (_, _, _, normal, _, radiance, _) = light.planar()?;
     (normal.dot(d) < 0.0).then_some(radiance)
+}
+
+/// The density with which the light samples would have drawn the point of light `li`
+/// that a ray from `origin` along unit `d` meets at distance `t`: a planar light's
+/// [`gloss_light_pdf`], a sampled sphere's cone density; 0 for a light not sampled.
+#[inline]
+pub fn hit_light_pdf(scene: &Scene, li: u32, origin: Vec3, d: Vec3, t: f32) -> f32 {
+    match scene.lights[li as usize] {
+        Light::Sphere { center, radius, .. } if scene.sphere_lights.contains(&li) => sphere_pdf(center, radius, origin),
+        Light::Sphere { .. } => 0.0,
+        _ => gloss_light_pdf(scene, li, d, t),
+    }
 }
 
 /// Probe rays per shading point of the adaptive shadow test on `light` with `probe`
 /// (0 for a point light).
 pub fn probe_count(light: &Light, probe: Probe) -> u32 {
     match light {
-        Light::Point { .. } | Light::Directional { .. } => 0,
+        Light::Point { .. } | Light::Directional { .. } | Light::Sphere { .. } => 0,
         Light::Quad { .. } => probe.rays(),
         Light::Triangle { .. } => match probe {
             Probe::Corners => 3,
@@ -463,6 +478,7 @@ pub fn uniform_shadow_rays(scene: &Scene, surf: &Surface, li: usize, mut f: impl
         // A dark light adds nothing: it costs no shadow rays either.
         Light::Point { intensity, .. }
         | Light::Directional { irradiance: intensity, .. }
+        | Light::Sphere { radiance: intensity, .. }
         | Light::Quad { radiance: intensity, .. }
         | Light::Triangle { radiance: intensity, .. }
             if intensity == Vec3::ZERO => {}
@@ -490,5 +506,74 @@ pub fn uniform_shadow_rays(scene: &Scene, surf: &Surface, li: usize, mut f: impl
         Light::Quad { .. } | Light::Triangle { .. } => {
             area_light_samples(scene, surf, li, |_, wi, dist, l| f(wi, dist * SHADOW_TMAX_SCALE, l))
         }
+        Light::Sphere { center, radius, radiance } => {
+            // `shadows.samples` stratified directions in the cone the sphere subtends.
+            let count = scene.settings.shadow_samples;
+            let seed = light_seed(surf.key, li);
+            for j in 0..count {
+                let u = sobol_owen(surf.sample.wrapping_mul(count).wrapping_add(j), seed);
+                let Some(s) = sphere_sample(center, radius, surf.o, u) else { return };
+                let cos = surf.n.dot(s.wi);
+                if cos > 0.0 {
+                    let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, s.wi, surf.wo);
+                    let l = surf.w * brdf * radiance * (cos / (s.pdf * count as f32));
+                    f(s.wi, s.dist * SHADOW_TMAX_SCALE, l);
+                }
+            }
+        }
     }
+}
+
+/// A direction from `x` towards a sphere light, drawn uniformly in the cone the sphere
+/// subtends (pbrt's and Mitsuba's choice for a sphere seen from outside).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereSample {
+    /// Unit direction.
+    pub wi: Vec3,
+    /// Distance to the sphere's near side along it.
+    pub dist: f32,
+    /// Density per unit solid angle: 1 / (2π (1 − cos θmax)).
+    pub pdf: f32,
+}
+
+/// [`SphereSample`] for the square sample `u`; `None` from inside the sphere (it emits
+/// outwards only: nothing reaches an inside point).
+#[inline]
+pub fn sphere_sample(center: Vec3, radius: f32, x: Vec3, u: glam::Vec2) -> Option<SphereSample> {
+    let to = center - x;
+    let d2 = to.length_squared();
+    let r2 = radius * radius;
+    if d2 <= r2 {
+        return None;
+    }
+    let d = d2.sqrt();
+    let axis = to / d;
+    // 1 − cos θmax without cancellation for small, far spheres.
+    let sin2_max = r2 / d2;
+    let one_minus_max = sin2_max / (1.0 + (1.0 - sin2_max).max(0.0).sqrt());
+    let one_minus_cos = u.x * one_minus_max;
+    let cos = 1.0 - one_minus_cos;
+    let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
+    let (sp, cp) = (2.0 * std::f32::consts::PI * u.y).sin_cos();
+    let (s, t) = crate::bsdf::microfacet::tangents(axis);
+    let wi = (s * (sin * cp) + t * (sin * sp) + axis * cos).normalize();
+    // The near intersection with the sphere; at the cone's rim the root is 0.
+    let b = wi.dot(to);
+    let disc = (r2 - (d2 - b * b)).max(0.0);
+    let dist = b - disc.sqrt();
+    Some(SphereSample { wi, dist: dist.max(0.0), pdf: 1.0 / (2.0 * std::f32::consts::PI * one_minus_max) })
+}
+
+/// The density [`sphere_sample`] gives any direction in the cone of the sphere seen from
+/// `x`: 0 from inside.
+#[inline]
+pub fn sphere_pdf(center: Vec3, radius: f32, x: Vec3) -> f32 {
+    let d2 = (center - x).length_squared();
+    let r2 = radius * radius;
+    if d2 <= r2 {
+        return 0.0;
+    }
+    let sin2_max = r2 / d2;
+    let one_minus_max = sin2_max / (1.0 + (1.0 - sin2_max).max(0.0).sqrt());
+    1.0 / (2.0 * std::f32::consts::PI * one_minus_max)
 }

@@ -266,7 +266,9 @@ fn a_one_sided_surface_is_black_from_behind() {
 #[test]
 fn imported_path_scenes_match_mitsubas_own_integrator() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/import");
-    for (name, bound) in [("cbox", 0.044), ("room", 0.029), ("plastic", 0.0212), ("envmap", 0.0229)] {
+    for (name, bound) in
+        [("cbox", 0.044), ("room", 0.029), ("plastic", 0.0212), ("envmap", 0.0229), ("spheres", 0.0303)]
+    {
         let source = wavetrace::scene::SceneSource::from_file(&dir.join(format!("{name}.xml"))).unwrap();
         let scene = wavetrace::scene::load(&source, &["render.aa.samples=256".into()]).unwrap();
         let out = render(&scene, &RenderOptions { threads: Some(2), ..Default::default() }).unwrap();
@@ -362,4 +364,34 @@ fn a_directional_light_lights_diffuse_and_plastic_surfaces() {
             "{transport}: {got} vs {expected}"
         );
     }
+}
+
+#[test]
+fn a_sphere_light_gives_its_closed_form_irradiance() {
+    // A sphere of radius R and radiance L at distance d from a point, its centre at angle α
+    // from the normal and the whole cone above the horizon: E = π L (R/d)² cos α. Light
+    // samples (uniform in the cone) and, under path and direct, bounce rays by MIS.
+    let (c, r, l) = (Vec3::new(0.6, 2.0, 0.3), 0.5f32, 3.0f32);
+    let light = format!(
+        "[[lights]]\ntype = \"sphere\"\ncenter = {:?}\nradius = {r}\nradiance = [{l}, {l}, {l}]\n",
+        c.to_array()
+    );
+    let text = format!("{PLANE}{light}");
+    for p in [Vec3::ZERO, Vec3::new(-0.8, 0.0, 0.5)] {
+        let to = c - p;
+        let e = PI * l * r * r / to.length_squared() * (to.normalize().y);
+        let expected = 0.5 / PI * e;
+        let from = (p + Vec3::new(0.1, 0.3, -0.4)).to_array().map(f64::from);
+        for transport in ["whitted", "path", "direct"] {
+            let sets = [&format!("render.transport={transport}"), "render.aa.samples=2048", "render.path.rr_depth=64"];
+            let got = pixel(&text, from, p.to_array().map(f64::from), &sets);
+            // Path adds the light the plane sends back up to the sphere... which emits
+            // only: nothing returns, so every transport sees the direct light alone.
+            let rel = (got.x - expected).abs() / expected;
+            assert!(rel < 0.01, "{transport} at {p}: {} vs {expected} (rel {rel})", got.x);
+        }
+    }
+    // Seen directly: its radiance.
+    let seen = pixel(&text, [0.6, 2.0, -3.0], c.to_array().map(f64::from), &["render.transport=path"]);
+    assert!((seen - Vec3::splat(l)).abs().max_element() < 1e-6, "{seen}");
 }

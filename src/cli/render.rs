@@ -207,7 +207,9 @@ fn report_line(text: &str, json_on_stdout: bool) {
 fn shows_nothing(scene: &wavetrace::Scene) -> bool {
     use wavetrace::scene::Light;
     let lit = scene.lights.iter().any(|l| match l {
-        Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance.max_element() > 0.0,
+        Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } | Light::Sphere { radiance, .. } => {
+            radiance.max_element() > 0.0
+        }
         Light::Point { intensity, .. } | Light::Directional { irradiance: intensity, .. } => {
             intensity.max_element() > 0.0
         }

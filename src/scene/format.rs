@@ -605,6 +605,17 @@ pub enum LightDesc {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         transform_end: Option<Vec<TransformOp>>,
     },
+    /// A sphere emitting outwards (Mitsuba's area emitter on a sphere).
+    Sphere {
+        /// Centre.
+        #[serde(deserialize_with = "exact::center")]
+        center: [f32; 3],
+        /// Radius (> 0).
+        radius: f32,
+        /// Radiance on the outside.
+        #[serde(deserialize_with = "exact::radiance")]
+        radiance: [f32; 3],
+    },
     /// Parallel light from infinitely far away (Mitsuba's `directional`).
     Directional {
         /// The direction the light travels in (normalised; must be non-zero).

@@ -346,6 +346,16 @@ pub enum Light {
         /// Intensity, W/sr.
         intensity: Vec3,
     },
+    /// A sphere emitting outwards (Mitsuba's `area` emitter on a `sphere`), sampled by the
+    /// solid angle it subtends.
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+        /// Emitted radiance, on the outside.
+        radiance: Vec3,
+    },
     /// Parallel light from infinitely far (Mitsuba's `directional`).
     Directional {
         /// Unit direction the light travels in.
@@ -356,12 +366,18 @@ pub enum Light {
 }
 
 impl Light {
-    /// An area light that emits (a point or directional light, or a dark one, is not).
+    /// A planar area light that emits (a point, directional or sphere light, or a dark
+    /// one, is not): the lights [`Scene::gloss_lights`] holds.
     pub fn lit_area(&self) -> bool {
         match *self {
             Light::Quad { radiance, .. } | Light::Triangle { radiance, .. } => radiance != Vec3::ZERO,
-            Light::Point { .. } | Light::Directional { .. } => false,
+            Light::Point { .. } | Light::Directional { .. } | Light::Sphere { .. } => false,
         }
+    }
+
+    /// A sphere light that emits.
+    pub fn lit_sphere(&self) -> bool {
+        matches!(*self, Light::Sphere { radiance, .. } if radiance != Vec3::ZERO)
     }
 
     /// The planar emitter as (origin, u, v, normal, area, radiance, triangle): points
@@ -372,7 +388,7 @@ impl Light {
         match *self {
             Light::Quad { corner, u, v, normal, area, radiance } => Some((corner, u, v, normal, area, radiance, false)),
             Light::Triangle { v0, e1, e2, normal, area, radiance } => Some((v0, e1, e2, normal, area, radiance, true)),
-            Light::Point { .. } | Light::Directional { .. } => None,
+            Light::Point { .. } | Light::Directional { .. } | Light::Sphere { .. } => None,
         }
     }
 
@@ -383,7 +399,7 @@ impl Light {
             Light::Quad { radiance, area, .. } | Light::Triangle { radiance, area, .. } => {
                 area * radiance.dot(Vec3::new(0.2126, 0.7152, 0.0722))
             }
-            Light::Point { .. } | Light::Directional { .. } => 0.0,
+            Light::Point { .. } | Light::Directional { .. } | Light::Sphere { .. } => 0.0,
         }
     }
 }
@@ -516,6 +532,9 @@ pub struct Scene {
     pub light_pick: Vec<f32>,
     /// The running sums of `light_pick` over `gloss_lights`, the last 1; empty with it.
     pub light_cdf: Vec<f32>,
+    /// The emitting sphere lights, each sampled on its own by the light samples of the
+    /// path transport and of rough surfaces (when `gloss_lights` would be filled).
+    pub sphere_lights: Vec<u32>,
     /// `gloss_lights` as columns for the path transport's light samples on lanes.
     pub area_lights: AreaLights,
     /// The rough plastics' coating transmittance tables ([`Material::Plastic`]'s `table`).

@@ -17,7 +17,7 @@ use crate::bsdf::microfacet::{
     rough_dielectric_split, tangents, Microfacet,
 };
 use crate::bsdf::plastic::{Plastic, TABLE_RES};
-use crate::light::{gloss_light_sample, SHADOW_TMAX_SCALE};
+use crate::light::{gloss_light_sample, light_seed, sphere_sample, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, HitQueue, IndexQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
 use crate::scene::{Light, Material, ReflectRatio, Scene};
@@ -274,7 +274,10 @@ impl GlossyHit {
             sample: rays.sample[i],
             key1: hash(&[key, 1]),
             u: sobol_owen(rays.sample[i], hash(&[key, dim::GLOSS])),
-            mis: !scene.gloss_lights.is_empty() || scene.samples_environment() || delta,
+            mis: !scene.gloss_lights.is_empty()
+                || !scene.sphere_lights.is_empty()
+                || scene.samples_environment()
+                || delta,
             delta,
         }
     }
@@ -299,7 +302,7 @@ impl GlossyHit {
                     (to / d2.sqrt(), d2.sqrt() * SHADOW_TMAX_SCALE, intensity / d2)
                 }
                 Light::Directional { direction, irradiance } => (-direction, f32::MAX, irradiance),
-                Light::Quad { .. } | Light::Triangle { .. } => continue,
+                Light::Quad { .. } | Light::Triangle { .. } | Light::Sphere { .. } => continue,
             };
             let c = self.w * bsdf(frame.to_local(wi)).0 * l;
             if c != Vec3::ZERO && c.is_finite() {
@@ -311,6 +314,17 @@ impl GlossyHit {
             let c = self.w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
             if c != Vec3::ZERO {
                 shadow.push(self.origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, self.slot, c, self.carried);
+            }
+        }
+        // Each sphere light, one direction in the cone it subtends.
+        for &li in &scene.sphere_lights {
+            let Light::Sphere { center, radius, radiance } = scene.lights[li as usize] else { continue };
+            let u = sobol_owen(self.sample, light_seed(self.key, li as usize));
+            let Some(s) = sphere_sample(center, radius, self.x, u) else { continue };
+            let (f, pdf) = bsdf(frame.to_local(s.wi));
+            let c = self.w * f * radiance * (power_heuristic(s.pdf, pdf) / s.pdf);
+            if c != Vec3::ZERO {
+                shadow.push(self.origin(s.wi), s.wi, s.dist * SHADOW_TMAX_SCALE, self.slot, c, self.carried);
             }
         }
         // The environment, under the path transport: a sample of its own beside the area

@@ -11,9 +11,14 @@ use crate::{error_of, load_file, try_load, xml_scene, Files};
 fn unsupported_plugins_name_the_place_and_the_supported_list() {
     let f = Files::temp();
     let cases = [
-        ("<bsdf type=\"roughplastic\" id=\"a\"/>", "<bsdf type=\"roughplastic\">: not supported; wavetrace imports bsdf types diffuse, twosided"),
+        ("<bsdf type=\"principled\" id=\"a\"/>", "<bsdf type=\"principled\">: not supported; wavetrace imports bsdf types diffuse, twosided"),
         ("<shape type=\"disk\"/>", "<shape type=\"disk\">: not supported; wavetrace imports shape types obj, ply, rectangle"),
-        ("<emitter type=\"envmap\"/>", "<emitter type=\"envmap\">: not supported; wavetrace imports emitter types area"),
+        ("<emitter type=\"spot\"/>", "<emitter type=\"spot\">: not supported; wavetrace imports emitter types area"),
+        ("<emitter type=\"envmap\"/>", "<emitter type=\"envmap\">: lacks `filename`"),
+        (
+            "<emitter type=\"constant\"/><emitter type=\"constant\"/>",
+            "a second environment",
+        ),
         ("<texture type=\"bitmap\"/>", "<texture type=\"bitmap\">: a texture at the top level needs an id"),
         (
             "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"wood\" name=\"reflectance\"/></bsdf></shape>",
@@ -33,8 +38,8 @@ fn unsupported_plugins_name_the_place_and_the_supported_list() {
             "to_world must be a uniform scale",
         ),
         (
-            "<shape type=\"sphere\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>",
-            "wavetrace lights are planar",
+            "<shape type=\"sphere\"><boolean name=\"flip_normals\" value=\"true\"/></shape>",
+            "flip_normals is not supported",
         ),
     ];
     for (body, needle) in cases {
@@ -166,26 +171,30 @@ fn cube_is_six_outward_faces_and_instances_are_flattened() {
 }
 
 #[test]
-fn emitters_rectangle_point_and_constant() {
+fn emitters_rectangle_point_constant_sphere_and_directional() {
     let f = Files::temp();
     // A mirroring to_world keeps Mitsuba's normal (+z through the inverse transpose):
     // the edges swap so the light still emits towards +z.
     let body = "<shape type=\"rectangle\"><transform name=\"to_world\"><scale x=\"-1\"/></transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"1, 2, 3\"/></emitter></shape>\n\
         <shape type=\"rectangle\"><boolean name=\"flip_normals\" value=\"true\"/><emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>\n\
         <emitter type=\"point\"><transform name=\"to_world\"><translate x=\"1\" y=\"2\" z=\"3\"/></transform><float name=\"intensity\" value=\"5\"/></emitter>\n\
-        <emitter type=\"constant\"><rgb name=\"radiance\" value=\"0.1, 0.2, 0.3\"/></emitter>";
+        <emitter type=\"constant\"><rgb name=\"radiance\" value=\"0.1, 0.2, 0.3\"/></emitter>\n\
+        <shape type=\"sphere\"><float name=\"radius\" value=\"0.5\"/><transform name=\"to_world\"><scale value=\"2\"/><translate x=\"1\"/></transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"7\"/></emitter></shape>\n\
+        <emitter type=\"directional\"><transform name=\"to_world\"><rotate x=\"1\" angle=\"90\"/></transform><rgb name=\"irradiance\" value=\"2\"/></emitter>";
     let scene = load_file(&f.write("e.xml", xml_scene(body)));
     match scene.lights[..] {
-        [Light::Quad { normal: n0, radiance, area, .. }, Light::Quad { normal: n1, .. }, Light::Point { position, intensity }] =>
+        [Light::Quad { normal: n0, radiance, area, .. }, Light::Quad { normal: n1, .. }, Light::Point { position, intensity }, Light::Sphere { center, radius, radiance: r }, Light::Directional { direction, irradiance }] =>
         {
             assert_eq!((n0, radiance, area), (Vec3::Z, Vec3::new(1.0, 2.0, 3.0), 4.0));
             assert_eq!(n1, Vec3::NEG_Z);
             assert_eq!((position, intensity), (Vec3::new(1.0, 2.0, 3.0), Vec3::splat(5.0)));
+            assert_eq!((center, radius, r), (Vec3::X, 1.0, Vec3::splat(7.0)));
+            // Mitsuba's local +z turned 90° about x: −y.
+            assert!((direction - Vec3::NEG_Y).length() < 1e-6 && irradiance == Vec3::splat(2.0), "{direction}");
         }
         _ => panic!("{:?}", scene.lights),
     }
-    assert_eq!(scene.background, Vec3::new(0.1, 0.2, 0.3));
-    assert!(scene.info.notes.iter().any(|n| n.contains("lights nothing")), "{:?}", scene.info.notes);
+    assert_eq!(scene.background.eval(Vec3::Y), Vec3::new(0.1, 0.2, 0.3));
 }
 
 #[test]
@@ -290,7 +299,7 @@ fn a_dash_d_no_parameter_uses_is_refused_naming_the_parameters() {
 fn every_unsupported_element_is_reported_in_one_run() {
     let f = Files::temp();
     let body = "<shape type=\"disk\"/>\n<emitter type=\"envmap\"/>\n<texture type=\"bitmap\"/>\n\
-                <bsdf type=\"roughplastic\" id=\"rp\"/>\n<shape type=\"cylinder\"><ref id=\"rp\"/></shape>\n\
+                <bsdf type=\"principled\" id=\"rp\"/>\n<shape type=\"cylinder\"><ref id=\"rp\"/></shape>\n\
                 <shape type=\"sphere\"><ref id=\"rp\"/></shape>";
     let msg = error_of(&f.write("five.xml", xml_scene(body)), &[]);
     assert!(msg.starts_with("5 problems in the scene:"), "{msg}");
@@ -298,7 +307,7 @@ fn every_unsupported_element_is_reported_in_one_run() {
         "five.xml:7:1: <shape type=\"disk\">",
         "five.xml:8:1: <emitter type=\"envmap\">",
         "five.xml:9:1: <texture type=\"bitmap\">",
-        "five.xml:10:1: <bsdf type=\"roughplastic\">",
+        "five.xml:10:1: <bsdf type=\"principled\">",
         "five.xml:11:1: <shape type=\"cylinder\">",
     ] {
         assert!(msg.contains(needle), "`{needle}` not in: {msg}");

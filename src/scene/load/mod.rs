@@ -394,9 +394,13 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     let lights = built.lights.clone();
     let rough = built.prims.iter().any(|p| p.light == NO_LIGHT && materials[p.material as usize].samples_lights());
     // The path transport weighs every surface's light samples against its BSDF's rays.
-    let gloss_lights = match (settings.gloss_mis && rough) || settings.path() {
-        true => (0..lights.len() as u32).filter(|&li| lights[li as usize].lit_area()).collect(),
-        false => Vec::new(),
+    let sampled = (settings.gloss_mis && rough) || settings.path();
+    let (gloss_lights, sphere_lights) = match sampled {
+        true => (
+            (0..lights.len() as u32).filter(|&li| lights[li as usize].lit_area()).collect(),
+            (0..lights.len() as u32).filter(|&li| lights[li as usize].lit_sphere()).collect(),
+        ),
+        false => (Vec::new(), Vec::new()),
     };
     let (light_pick, light_cdf) = match settings.path() {
         true => light_choice(&lights, &gloss_lights),
@@ -423,6 +427,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         has_specular,
         area_lights,
         transmittance: textures.tables.iter().map(|t| t.2).collect(),
+        sphere_lights,
         light_pick,
         light_cdf,
         gloss_lights,

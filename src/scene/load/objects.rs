@@ -179,6 +179,15 @@ fn light(ctx: &Ctx, path: &str, l: &LightDesc, b: &mut Built) -> Result<()> {
             position: coord(ctx, &format!("{path}.position"), vec3(*position))?,
             intensity: color(ctx, &format!("{path}.intensity"), *intensity)?,
         }),
+        LightDesc::Sphere { center, radius, radiance } => {
+            let center = coord(ctx, &format!("{path}.center"), vec3(*center))?;
+            if !(*radius > 0.0 && *radius <= MAX_COORD) {
+                return Err(ctx.fail(&format!("{path}.radius"), format!("{radius} must be in (0, {MAX_COORD:e}]")));
+            }
+            let radiance = color(ctx, &format!("{path}.radiance"), *radiance)?;
+            b.push(Primitive { shape: Shape::Sphere { center, radius: *radius }, material: 0, light: li }, None, None);
+            b.lights.push(Light::Sphere { center, radius: *radius, radiance });
+        }
         LightDesc::Directional { direction, irradiance } => {
             let direction = vec3(*direction)
                 .try_normalize()

@@ -33,7 +33,7 @@ pub const BSDFS: &str =
 pub const TEXTURES: &str = "bitmap, checkerboard (as a diffuse `reflectance`, a plastic's `diffuse_reflectance` or a \
                              conductor's `specular_reflectance`)";
 /// Emitter types imported.
-pub const EMITTERS: &str = "area (on a rectangle, cube, obj or ply), point, directional, constant, envmap";
+pub const EMITTERS: &str = "area (on a rectangle, cube, sphere, obj or ply), point, directional, constant, envmap";
 /// Sensor types imported.
 pub const SENSORS: &str = "perspective, thinlens";
 

@@ -148,11 +148,7 @@ impl<'a> Converter<'a> {
     fn sphere(&mut self, el: &El, outer: &[TransformOp]) -> Result<()> {
         let idx = self.out.file.objects.len();
         let p = Params::of(el, &["center", "radius", "to_world", "flip_normals"], &SHAPE_NESTED)?;
-        if self.area_emitter(el)?.is_some() {
-            return Err(el.loc.err(
-                "<shape type=\"sphere\"> with an area emitter: wavetrace lights are planar (rectangle, cube, or mesh triangles)",
-            ));
-        }
+        let emission = self.area_emitter(el)?;
         if p.boolean("flip_normals")? == Some(true) {
             return Err(el.loc.err("<shape type=\"sphere\">: flip_normals is not supported"));
         }
@@ -164,9 +160,18 @@ impl<'a> Converter<'a> {
                 .loc
                 .err("<shape type=\"sphere\">: to_world must be a uniform scale with rotations and translations"));
         }
-        let material = self.shape_material(el)?;
         let center = p.point("center")?.unwrap_or([0.0; 3]);
         let radius = p.num("radius")?.unwrap_or(1.0) as f32;
+        if let Some(radiance) = emission {
+            // A sphere light: its centre and radius through to_world (a uniform scale).
+            let center = t.point(glam::Vec3::from_array(center)).to_array();
+            let radius = radius * t.uniform_scale().unwrap_or(1.0);
+            let li = self.out.file.lights.len();
+            self.out.file.lights.push(LightDesc::Sphere { center, radius, radiance });
+            self.place(format!("lights.{li}"), el);
+            return Ok(());
+        }
+        let material = self.shape_material(el)?;
         let transform = (!ops.is_empty()).then_some(ops);
         self.out.file.objects.push(ObjectDesc::Sphere { center, radius, material, transform, transform_end: None });
         self.place(format!("objects.{idx}"), el);

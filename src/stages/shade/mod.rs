@@ -15,7 +15,7 @@ use path::path_lights;
 
 use crate::accel::NO_LIGHT;
 use crate::light::{
-    emitted, gloss_light_pdf, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes,
+    emitted, hit_light_pdf, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes,
     SHADOW_TMAX_SCALE,
 };
 use crate::queue::{
@@ -117,12 +117,12 @@ fn sort_hits(
             if hidden(i) {
                 continue;
             }
-            if let Some(radiance) = emitted(&scene.lights[light as usize], rays.dir(i)) {
+            if let Some(radiance) = emitted(&scene.lights[light as usize], rays.origin(i), rays.dir(i)) {
                 // A surface's ray shares this light with its light samples (MIS), or
                 // leaves it to them (a negative density: weight 0).
                 let pdf = rays.pdf[i];
                 let mis = if pdf != 0.0 {
-                    power_heuristic(pdf, gloss_light_pdf(scene, light, rays.dir(i), hits.t[i]))
+                    power_heuristic(pdf, hit_light_pdf(scene, light, rays.origin(i), rays.dir(i), hits.t[i]))
                 } else {
                     1.0
                 };
@@ -252,7 +252,7 @@ impl LightLanes {
         let params = |li: u32| match scene.lights[li as usize] {
             Light::Quad { corner, u, v, normal, area, radiance } => (corner, u, v, normal, area / n, radiance),
             // Not reached: lanes run only when every light is a quad.
-            Light::Point { .. } | Light::Directional { .. } | Light::Triangle { .. } => {
+            Light::Point { .. } | Light::Directional { .. } | Light::Sphere { .. } | Light::Triangle { .. } => {
                 (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, Vec3::ZERO)
             }
         };

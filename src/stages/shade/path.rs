@@ -6,7 +6,7 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::light::{pick_light, uniform_shadow_rays, SHADOW_TMAX_SCALE};
+use crate::light::{light_seed, pick_light, sphere_sample, uniform_shadow_rays, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen, sobol_owen_lanes};
 use crate::scene::{AreaLights, Light, Scene};
@@ -31,6 +31,9 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
     }
     if scene.samples_environment() {
         environment_lights(scene, surfaces, shadow);
+    }
+    for &li in &scene.sphere_lights {
+        sphere_lights(scene, li, surfaces, shadow);
     }
     if scene.gloss_lights.is_empty() {
         return;
@@ -71,6 +74,33 @@ fn environment_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shado
             let c = surf.w * brdf * s.radiance * (cos * mis / light_pdf);
             if c != Vec3::ZERO {
                 shadow.push(surf.o, s.wi, f32::MAX, surf.slot, c, time);
+            }
+        }
+    }
+}
+
+/// Next-event estimation of sphere light `li` at every point of `surfaces`:
+/// `shadows.samples` directions each in the cone it subtends (stratified as the area
+/// lights' samples), weighted by the power heuristic against the bounce ray.
+fn sphere_lights(scene: &Scene, li: u32, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
+    let Light::Sphere { center, radius, radiance } = scene.lights[li as usize] else { return };
+    let n = scene.settings.shadow_samples;
+    for p in 0..surfaces.len() {
+        let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
+        let seed = light_seed(surf.key, li as usize);
+        for j in 0..n {
+            let u = sobol_owen(surf.sample.wrapping_mul(n).wrapping_add(j), seed);
+            let Some(s) = sphere_sample(center, radius, surf.o, u) else { break };
+            let cos = surf.n.dot(s.wi);
+            if cos <= 0.0 {
+                continue;
+            }
+            let light_pdf = s.pdf * n as f32;
+            let mis = power_heuristic(light_pdf, cos * FRAC_1_PI);
+            let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, s.wi, surf.wo);
+            let c = surf.w * brdf * radiance * (cos * mis / light_pdf);
+            if c != Vec3::ZERO {
+                shadow.push(surf.o, s.wi, s.dist * SHADOW_TMAX_SCALE, surf.slot, c, time);
             }
         }
     }
