@@ -11,7 +11,7 @@ use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen, sobol_owen_lanes};
 use crate::scene::{AreaLights, Light, Scene};
 use crate::simd::{LaneIds, Word, LANES, V3};
-use crate::surface::{diffuse_brdf, queued_surface};
+use crate::surface::{diffuse_brdf, queued_surface, Surface};
 
 /// Next-event estimation at every point of `surfaces`: a ray to each point light, and
 /// `shadows.samples` points on the area lights (light sample j of the path's camera
@@ -54,26 +54,17 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
 
 /// Next-event estimation of the environment at every point of `surfaces`:
 /// `shadows.samples` directions each (sample j of camera sample i is point i·n + j of the
-/// path's [`dim::ENVIRONMENT`] sequence), beside the area lights' samples, weighted by
-/// the power heuristic against the bounce ray's cosine density. The shadow rays reach to
-/// infinity.
+/// path's [`dim::ENVIRONMENT`] sequence), beside the area lights' samples. The shadow
+/// rays reach to infinity.
 fn environment_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
     let n = scene.settings.shadow_samples;
     for p in 0..surfaces.len() {
         let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
         for j in 0..n {
             let u = sobol_owen(surf.sample * n + j, hash(&[surf.key, dim::ENVIRONMENT]));
-            let Some(s) = scene.background.sample(u) else { continue };
-            let cos = surf.n.dot(s.wi);
-            if cos <= 0.0 {
-                continue;
-            }
-            let light_pdf = s.pdf * n as f32;
-            let mis = power_heuristic(light_pdf, cos * FRAC_1_PI);
-            let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, s.wi, surf.wo);
-            let c = surf.w * brdf * s.radiance * (cos * mis / light_pdf);
-            if c != Vec3::ZERO {
-                shadow.push(surf.o, s.wi, f32::MAX, surf.slot, c, time);
+            if let Some(s) = scene.background.sample(u) {
+                let sample = DirectionSample { wi: s.wi, tmax: f32::MAX, radiance: s.radiance, pdf: s.pdf * n as f32 };
+                weighted_shadow_ray(&surf, sample, time, shadow);
             }
         }
     }
@@ -81,7 +72,7 @@ fn environment_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shado
 
 /// Next-event estimation of sphere light `li` at every point of `surfaces`:
 /// `shadows.samples` directions each in the cone it subtends (stratified as the area
-/// lights' samples), weighted by the power heuristic against the bounce ray.
+/// lights' samples).
 fn sphere_lights(scene: &Scene, li: u32, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
     let Light::Sphere { center, radius, radiance } = scene.lights[li as usize] else { return };
     let n = scene.settings.shadow_samples;
@@ -91,18 +82,40 @@ fn sphere_lights(scene: &Scene, li: u32, surfaces: &SurfaceQueue, shadow: &mut S
         for j in 0..n {
             let u = sobol_owen(surf.sample.wrapping_mul(n).wrapping_add(j), seed);
             let Some(s) = sphere_sample(center, radius, surf.o, u) else { break };
-            let cos = surf.n.dot(s.wi);
-            if cos <= 0.0 {
-                continue;
-            }
-            let light_pdf = s.pdf * n as f32;
-            let mis = power_heuristic(light_pdf, cos * FRAC_1_PI);
-            let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, s.wi, surf.wo);
-            let c = surf.w * brdf * radiance * (cos * mis / light_pdf);
-            if c != Vec3::ZERO {
-                shadow.push(surf.o, s.wi, s.dist * SHADOW_TMAX_SCALE, surf.slot, c, time);
-            }
+            let tmax = s.dist * SHADOW_TMAX_SCALE;
+            weighted_shadow_ray(
+                &surf,
+                DirectionSample { wi: s.wi, tmax, radiance, pdf: s.pdf * n as f32 },
+                time,
+                shadow,
+            );
         }
+    }
+}
+
+/// A light sample drawn as a direction.
+struct DirectionSample {
+    wi: Vec3,
+    /// The shadow ray's reach.
+    tmax: f32,
+    radiance: Vec3,
+    /// Its density per solid angle times the samples per point.
+    pdf: f32,
+}
+
+/// The shadow ray of light sample `s` at diffuse point `surf`, weighted by the power
+/// heuristic against the density of the point's cosine bounce ray; none below the
+/// surface or for no light.
+fn weighted_shadow_ray(surf: &Surface, s: DirectionSample, time: Option<f32>, shadow: &mut ShadowQueue) {
+    let cos = surf.n.dot(s.wi);
+    if cos <= 0.0 {
+        return;
+    }
+    let mis = power_heuristic(s.pdf, cos * FRAC_1_PI);
+    let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, s.wi, surf.wo);
+    let c = surf.w * brdf * s.radiance * (cos * mis / s.pdf);
+    if c != Vec3::ZERO {
+        shadow.push(surf.o, s.wi, s.tmax, surf.slot, c, time);
     }
 }
 
