@@ -241,7 +241,7 @@ fn gloss_light_samples_have_the_density_they_claim() {
                 polygon_irradiance(x, n, &[corner, corner + u, corner + u + v, corner + v])
             }
             Light::Triangle { v0, e1, e2, .. } => polygon_irradiance(x, n, &[v0, v0 + e1, v0 + e2]),
-            Light::Point { .. } => unreachable!(),
+            Light::Point { .. } | Light::Directional { .. } | Light::Sphere { .. } => unreachable!(),
         })
         .sum();
     let count = 1 << 16;
@@ -266,7 +266,7 @@ fn on_light(light: &wavetrace::scene::Light, p: Vec3) -> bool {
     let (o, u, v, tri) = match *light {
         Light::Quad { corner, u, v, .. } => (corner, u, v, false),
         Light::Triangle { v0, e1, e2, .. } => (v0, e1, e2, true),
-        Light::Point { .. } => return false,
+        Light::Point { .. } | Light::Directional { .. } | Light::Sphere { .. } => return false,
     };
     let q = p - o;
     let n = u.cross(v);

@@ -284,7 +284,9 @@ fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32
                     );
                 }
             }
-            Material::Diffuse { .. } | Material::Conductor { .. } => unreachable!("only smooth mirrors and glass here"),
+            Material::Diffuse { .. } | Material::Conductor { .. } | Material::Plastic { .. } => {
+                unreachable!("only smooth mirrors and glass here")
+            }
         }
     }
     next
