@@ -532,6 +532,9 @@ pub struct Scene {
     pub light_pick: Vec<f32>,
     /// The running sums of `light_pick` over `gloss_lights`, the last 1; empty with it.
     pub light_cdf: Vec<f32>,
+    /// The point and directional lights (indices into `lights`): one ray each wherever
+    /// they are sampled.
+    pub delta_lights: Vec<u32>,
     /// The emitting sphere lights, each sampled on its own by the light samples of the
     /// path transport and of rough surfaces (when `gloss_lights` would be filled).
     pub sphere_lights: Vec<u32>,

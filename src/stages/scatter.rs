@@ -257,8 +257,7 @@ impl GlossyHit {
         let carried = sparse_opt(&rays.time, i);
         let key = rays.key[i];
         // Under the path transport, delta lights light glossy surfaces too.
-        let delta = scene.settings.path()
-            && scene.lights.iter().any(|l| matches!(l, Light::Point { .. } | Light::Directional { .. }));
+        let delta = scene.settings.path() && !scene.delta_lights.is_empty();
         GlossyHit {
             prim: hits.prim[i] as usize,
             d: rays.dir(i),
@@ -294,8 +293,8 @@ impl GlossyHit {
             return;
         }
         // Delta lights, one ray each: the BSDF's rays never find them.
-        for light in scene.lights.iter().filter(|_| self.delta) {
-            let (wi, tmax, l) = match *light {
+        for &li in scene.delta_lights.iter().filter(|_| self.delta) {
+            let (wi, tmax, l) = match scene.lights[li as usize] {
                 Light::Point { position, intensity } => {
                     let to = position - self.x;
                     let d2 = to.length_squared();

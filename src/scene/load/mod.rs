@@ -407,6 +407,9 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         false => (Vec::new(), Vec::new()),
     };
     let area_lights = AreaLights::new(&lights, &gloss_lights, &light_pick);
+    let delta_lights = (0..lights.len() as u32)
+        .filter(|&li| matches!(lights[li as usize], Light::Point { .. } | Light::Directional { .. }))
+        .collect();
     if f.render.bvh == BvhDesc::Auto {
         settings.bvh = BvhQuality::for_budget(ray_budget(&settings, lights.len()), built.prims.len());
     }
@@ -427,6 +430,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         has_specular,
         area_lights,
         transmittance: textures.tables.iter().map(|t| t.2).collect(),
+        delta_lights,
         sphere_lights,
         light_pick,
         light_cdf,

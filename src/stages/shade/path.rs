@@ -21,9 +21,7 @@ use crate::surface::{diffuse_brdf, queued_surface, Surface};
 /// ray (stage `bounce`) could have found the same point.
 pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
     // Delta lights (points, directions) get one ray each: no other strategy finds them.
-    let points = (0..scene.lights.len())
-        .filter(|&li| matches!(scene.lights[li], Light::Point { .. } | Light::Directional { .. }));
-    for li in points {
+    for li in scene.delta_lights.iter().map(|&li| li as usize) {
         for p in 0..surfaces.len() {
             let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
             uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| shadow.push(surf.o, wi, tmax, surf.slot, l, time));
