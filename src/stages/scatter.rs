@@ -293,7 +293,8 @@ impl GlossyHit {
             return;
         }
         // Delta lights, one ray each: the BSDF's rays never find them.
-        for &li in scene.delta_lights.iter().filter(|_| self.delta) {
+        let delta = if self.delta { scene.delta_lights.as_slice() } else { &[] };
+        for &li in delta {
             let (wi, tmax, l) = match scene.lights[li as usize] {
                 Light::Point { position, intensity } => {
                     let to = position - self.x;
@@ -309,21 +310,14 @@ impl GlossyHit {
             }
         }
         if let Some(l) = gloss_light_sample(scene, self.x, self.key, self.sample) {
-            let (f, pdf) = bsdf(frame.to_local(l.wi));
-            let c = self.w * f * l.radiance * (power_heuristic(l.pdf, pdf) / l.pdf);
-            if c != Vec3::ZERO {
-                shadow.push(self.origin(l.wi), l.wi, l.dist * SHADOW_TMAX_SCALE, self.slot, c, self.carried);
-            }
+            self.weighted(frame, bsdf, (l.wi, l.dist * SHADOW_TMAX_SCALE, l.radiance, l.pdf), shadow);
         }
         // Each sphere light, one direction in the cone it subtends.
         for &li in &scene.sphere_lights {
             let Light::Sphere { center, radius, radiance } = scene.lights[li as usize] else { continue };
             let u = sobol_owen(self.sample, light_seed(self.key, li as usize));
-            let Some(s) = sphere_sample(center, radius, self.x, u) else { continue };
-            let (f, pdf) = bsdf(frame.to_local(s.wi));
-            let c = self.w * f * radiance * (power_heuristic(s.pdf, pdf) / s.pdf);
-            if c != Vec3::ZERO {
-                shadow.push(self.origin(s.wi), s.wi, s.dist * SHADOW_TMAX_SCALE, self.slot, c, self.carried);
+            if let Some(s) = sphere_sample(center, radius, self.x, u) {
+                self.weighted(frame, bsdf, (s.wi, s.dist * SHADOW_TMAX_SCALE, radiance, s.pdf), shadow);
             }
         }
         // The environment, under the path transport: a sample of its own beside the area
@@ -333,11 +327,24 @@ impl GlossyHit {
         }
         let u = sobol_owen(self.sample, hash(&[self.key, dim::ENVIRONMENT]));
         if let Some(s) = scene.background.sample(u) {
-            let (f, pdf) = bsdf(frame.to_local(s.wi));
-            let c = self.w * f * s.radiance * (power_heuristic(s.pdf, pdf) / s.pdf);
-            if c != Vec3::ZERO {
-                shadow.push(self.origin(s.wi), s.wi, f32::MAX, self.slot, c, self.carried);
-            }
+            self.weighted(frame, bsdf, (s.wi, f32::MAX, s.radiance, s.pdf), shadow);
+        }
+    }
+
+    /// The shadow ray of a light sample `(wi, tmax, radiance, pdf)`, weighted by the power
+    /// heuristic against the BSDF's density for wi.
+    fn weighted(
+        &self,
+        frame: &Frame,
+        bsdf: &dyn Fn(Vec3) -> (Vec3, f32),
+        sample: (Vec3, f32, Vec3, f32),
+        shadow: &mut ShadowQueue,
+    ) {
+        let (wi, tmax, radiance, light_pdf) = sample;
+        let (f, pdf) = bsdf(frame.to_local(wi));
+        let c = self.w * f * radiance * (power_heuristic(light_pdf, pdf) / light_pdf);
+        if c != Vec3::ZERO {
+            shadow.push(self.origin(wi), wi, tmax, self.slot, c, self.carried);
         }
     }
 }
