@@ -2,12 +2,16 @@
 //! (parallelogram, triangle, point): the stratified samples of uniform mode and of the
 //! penumbra, the exact irradiance of the adaptive test's lit points, its probe rays, what
 //! a ray that hits an emitter sees, and where shadow rays stop. Stages call these and
-//! never match on a light's shape themselves.
+//! never match on a light's shape themselves. The geometry of each shape (a sample,
+//! its density, the exact irradiance) is in the emitter module (`emitter/area.rs`,
+//! `emitter/sphere.rs`).
 
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
-use crate::sampling::{cmj_grid, dim, hash, hash_lanes, sobol_owen, sobol_owen_lanes, to_unit};
+use crate::emitter::area::{polygon_irradiance, quad_irradiance, quad_sample, QuadLanes, QuadSample};
+use crate::emitter::sphere::{sphere_pdf, sphere_sample};
+use crate::sampling::{cmj_grid, dim, hash, hash_lanes, sobol_owen, to_unit};
 use crate::scene::{AreaLights, Light, Probe, Scene};
 use crate::simd::{LaneIds, Real, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, Surface};
@@ -160,74 +164,6 @@ pub fn gloss_light_pdf(scene: &Scene, li: u32, d: Vec3, t: f32) -> f32 {
     }
 }
 
-/// A planar light's origin, edges and normal on lanes (a parallelogram's corner and edges,
-/// or a triangle's first vertex and edges): one light on every lane, or a light per lane.
-#[derive(Clone, Copy, Debug)]
-pub struct QuadLanes<R> {
-    /// Corner.
-    pub corner: V3<R>,
-    /// First edge.
-    pub u: V3<R>,
-    /// Second edge.
-    pub v: V3<R>,
-    /// Unit normal of the emitting side.
-    pub normal: V3<R>,
-}
-
-impl<R: Real> QuadLanes<R> {
-    /// The same light on every lane.
-    #[inline(always)]
-    pub fn splat(corner: Vec3, u: Vec3, v: Vec3, normal: Vec3) -> Self {
-        QuadLanes { corner: V3::splat(corner), u: V3::splat(u), v: V3::splat(v), normal: V3::splat(normal) }
-    }
-}
-
-/// One light sample of a quad, on lanes: what [`quad_sample`] computes.
-#[derive(Clone, Copy, Debug)]
-pub struct QuadSample<R> {
-    /// The sample's position in [0,1)² over the quad.
-    pub uv: (R, R),
-    /// Unit direction from the shading point to the sample.
-    pub wi: V3<R>,
-    /// Distance to the sample.
-    pub dist: R,
-    /// Its square.
-    pub dist2: R,
-    /// Cosine at the shading point (n · wi).
-    pub cos_x: R,
-    /// Cosine at the light (−normal · wi).
-    pub cos_y: R,
-}
-
-/// Sample `index` of the Owen-scrambled Sobol sequence `seed` on `quad`, seen from origin
-/// `o` with normal `n`: the one formula behind every area-light sample, for one ray
-/// ([`area_light_samples`]) and for 16 (the shade stage's lanes), with the same bits. A
-/// `triangle` (the half of the parallelogram below its diagonal) folds the unit square
-/// onto itself along the diagonal first; [`QuadSample::uv`] stays unfolded.
-#[inline(always)]
-pub fn quad_sample<W: Word>(
-    quad: &QuadLanes<W::Real>,
-    o: V3<W::Real>,
-    n: V3<W::Real>,
-    index: W,
-    seed: W,
-    triangle: bool,
-) -> QuadSample<W::Real> {
-    let uv = sobol_owen_lanes(index, seed);
-    let (mut x, mut y) = uv;
-    if triangle {
-        // x + y > 1 exactly when 1 − (x + y) < 0 (the sign of a rounded difference is exact).
-        let one = W::Real::splat(1.0);
-        let over = one - (x + y);
-        (x, y) = (W::Real::if_negative(over, one - x, x), W::Real::if_negative(over, one - y, y));
-    }
-    let to = quad.corner + quad.u.scale(x) + quad.v.scale(y) - o;
-    let dist2 = to.dot(to);
-    let dist = dist2.sqrt();
-    let wi = to.over(dist);
-    QuadSample { uv, wi, dist, dist2, cos_x: n.dot(wi), cos_y: -quad.normal.dot(wi) }
-}
-
 /// What [`AreaLights::sample`] gives per lane besides the sample: the picked light's area
 /// over its pick probability, and its radiance.
 pub struct PickedLights {
@@ -280,50 +216,6 @@ impl AreaLights {
         };
         (s, picked)
     }
-}
-
-/// Irradiance at `o` (unit normal `n`) from a parallelogram of unit radiance with
-/// corners `c, c+u, c+u+v, c+v`: [`polygon_irradiance`] of its four corners.
-pub fn quad_irradiance(o: Vec3, n: Vec3, c: Vec3, u: Vec3, v: Vec3) -> f32 {
-    polygon_irradiance(o, n, &[c, c + u, c + u + v, c + v])
-}
-
-/// Irradiance at `o` (unit normal `n`) from a planar convex polygon of unit radiance with
-/// 3 or 4 vertices `verts` (in order around it), by Lambert's polygon formula
-/// E = ½ Σ θ_k (n · γ_k), with the polygon first clipped to the hemisphere above `o`.
-/// Angles come from atan2, which keeps its precision for small, distant lights.
-pub fn polygon_irradiance(o: Vec3, n: Vec3, verts: &[Vec3]) -> f32 {
-    debug_assert!((3..=4).contains(&verts.len()));
-    let mut rel = [Vec3::ZERO; 4];
-    for (r, &p) in rel.iter_mut().zip(verts) {
-        *r = p - o;
-    }
-    let m = verts.len();
-    // Sutherland–Hodgman against the tangent plane: at most m + 1 vertices remain.
-    let mut poly = [Vec3::ZERO; 5];
-    let mut len = 0;
-    for k in 0..m {
-        let (a, b) = (rel[k], rel[(k + 1) % m]);
-        let (da, db) = (n.dot(a), n.dot(b));
-        if da > 0.0 {
-            poly[len] = a;
-            len += 1;
-        }
-        if (da > 0.0) != (db > 0.0) {
-            poly[len] = a + (b - a) * (da / (da - db));
-            len += 1;
-        }
-    }
-    let mut sum = 0.0;
-    for k in 0..len {
-        let (a, b) = (poly[k].normalize(), poly[(k + 1) % len].normalize());
-        let cross = a.cross(b);
-        let sin = cross.length();
-        if sin > 0.0 {
-            sum += sin.atan2(a.dot(b)) * n.dot(cross / sin);
-        }
-    }
-    0.5 * sum.abs()
 }
 
 /// The unoccluded direct light at `surf` from area light `li`, which the adaptive shadow
@@ -522,58 +414,4 @@ pub fn uniform_shadow_rays(scene: &Scene, surf: &Surface, li: usize, mut f: impl
             }
         }
     }
-}
-
-/// A direction from `x` towards a sphere light, drawn uniformly in the cone the sphere
-/// subtends (pbrt's and Mitsuba's choice for a sphere seen from outside).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SphereSample {
-    /// Unit direction.
-    pub wi: Vec3,
-    /// Distance to the sphere's near side along it.
-    pub dist: f32,
-    /// Density per unit solid angle: 1 / (2π (1 − cos θmax)).
-    pub pdf: f32,
-}
-
-/// [`SphereSample`] for the square sample `u`; `None` from inside the sphere (it emits
-/// outwards only: nothing reaches an inside point).
-#[inline]
-pub fn sphere_sample(center: Vec3, radius: f32, x: Vec3, u: glam::Vec2) -> Option<SphereSample> {
-    let to = center - x;
-    let d2 = to.length_squared();
-    let r2 = radius * radius;
-    if d2 <= r2 {
-        return None;
-    }
-    let d = d2.sqrt();
-    let axis = to / d;
-    // 1 − cos θmax without cancellation for small, far spheres.
-    let sin2_max = r2 / d2;
-    let one_minus_max = sin2_max / (1.0 + (1.0 - sin2_max).max(0.0).sqrt());
-    let one_minus_cos = u.x * one_minus_max;
-    let cos = 1.0 - one_minus_cos;
-    let sin = (one_minus_cos * (2.0 - one_minus_cos)).max(0.0).sqrt();
-    let (sp, cp) = (2.0 * std::f32::consts::PI * u.y).sin_cos();
-    let (s, t) = crate::bsdf::microfacet::tangents(axis);
-    let wi = (s * (sin * cp) + t * (sin * sp) + axis * cos).normalize();
-    // The near intersection with the sphere; at the cone's rim the root is 0.
-    let b = wi.dot(to);
-    let disc = (r2 - (d2 - b * b)).max(0.0);
-    let dist = b - disc.sqrt();
-    Some(SphereSample { wi, dist: dist.max(0.0), pdf: 1.0 / (2.0 * std::f32::consts::PI * one_minus_max) })
-}
-
-/// The density [`sphere_sample`] gives any direction in the cone of the sphere seen from
-/// `x`: 0 from inside.
-#[inline]
-pub fn sphere_pdf(center: Vec3, radius: f32, x: Vec3) -> f32 {
-    let d2 = (center - x).length_squared();
-    let r2 = radius * radius;
-    if d2 <= r2 {
-        return 0.0;
-    }
-    let sin2_max = r2 / d2;
-    let one_minus_max = sin2_max / (1.0 + (1.0 - sin2_max).max(0.0).sqrt());
-    1.0 / (2.0 * std::f32::consts::PI * one_minus_max)
 }

@@ -221,7 +221,8 @@ fn mis_scene(alpha: f32) -> String {
 /// the sum of each lit light's ∫cos dω (its polygon irradiance at unit radiance).
 #[test]
 fn gloss_light_samples_have_the_density_they_claim() {
-    use wavetrace::light::{gloss_light_pdf, gloss_light_sample, polygon_irradiance};
+    use wavetrace::emitter::area::polygon_irradiance;
+    use wavetrace::light::{gloss_light_pdf, gloss_light_sample};
     use wavetrace::scene::Light;
     let scene = scene(&mis_scene(0.3), &[]);
     // The lit area lights, the dark quad and the point light left out.

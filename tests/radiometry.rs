@@ -46,8 +46,9 @@ fn analytic_irradiance_clips_at_the_horizon() {
     // on the plane beside it... here, a quad crossing the tangent plane of the point.
     let (o, n) = (Vec3::ZERO, Vec3::Y);
     let (c, u, v) = (Vec3::new(-0.5, -1.0, -2.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0));
-    let clipped = wavetrace::light::quad_irradiance(o, n, c, u, v);
-    let upper = wavetrace::light::quad_irradiance(o, n, Vec3::new(-0.5, 0.0, -2.0), u, Vec3::new(0.0, 1.0, 0.0));
+    let clipped = wavetrace::emitter::area::quad_irradiance(o, n, c, u, v);
+    let upper =
+        wavetrace::emitter::area::quad_irradiance(o, n, Vec3::new(-0.5, 0.0, -2.0), u, Vec3::new(0.0, 1.0, 0.0));
     assert!((clipped - upper).abs() < 1e-6 * upper, "{clipped} vs {upper}");
     let verts =
         [Vec3::new(-0.5, 0.0, -2.0), Vec3::new(0.5, 0.0, -2.0), Vec3::new(0.5, 1.0, -2.0), Vec3::new(-0.5, 1.0, -2.0)];

@@ -2,9 +2,14 @@
 //! ask of a light: its radiance along a direction, a sampled direction, and the density
 //! of that sample.
 //!
+//! - [`area`]: parallelograms and triangles, sampled by area; their exact irradiance.
+//! - [`sphere`]: spheres, sampled in the cone they subtend.
 //! - [`environment`]: the background, constant or a lat-long map (Mitsuba's `constant`
 //!   and `envmap`), a light at infinity under the path transport.
 //!
-//! Area and point lights, which the paper's shadow stages sample, are in `light.rs`.
+//! How the stages sample the scene's lights (which light, how many samples, probes, the
+//! seeds that keep a pixel's samples stratified) is `light.rs`, which calls these.
 
+pub mod area;
 pub mod environment;
+pub mod sphere;

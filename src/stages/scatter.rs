@@ -17,7 +17,8 @@ use crate::bsdf::microfacet::{
     rough_dielectric_split, tangents, Microfacet,
 };
 use crate::bsdf::plastic::{Plastic, TABLE_RES};
-use crate::light::{gloss_light_sample, light_seed, sphere_sample, SHADOW_TMAX_SCALE};
+use crate::emitter::sphere::sphere_sample;
+use crate::light::{gloss_light_sample, light_seed, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, HitQueue, IndexQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
 use crate::scene::{Light, Material, ReflectRatio, Scene};

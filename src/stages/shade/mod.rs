@@ -14,9 +14,9 @@ mod path;
 use path::path_lights;
 
 use crate::accel::NO_LIGHT;
+use crate::emitter::area::{quad_sample, QuadLanes};
 use crate::light::{
-    emitted, hit_light_pdf, light_seed_lanes, probes_light, quad_sample, uniform_shadow_rays, unoccluded, QuadLanes,
-    SHADOW_TMAX_SCALE,
+    emitted, hit_light_pdf, light_seed_lanes, probes_light, uniform_shadow_rays, unoccluded, SHADOW_TMAX_SCALE,
 };
 use crate::queue::{
     sparse_opt, FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS,

@@ -6,7 +6,8 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::light::{light_seed, pick_light, sphere_sample, uniform_shadow_rays, SHADOW_TMAX_SCALE};
+use crate::emitter::sphere::sphere_sample;
+use crate::light::{light_seed, pick_light, uniform_shadow_rays, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen, sobol_owen_lanes};
 use crate::scene::{AreaLights, Light, Scene};
