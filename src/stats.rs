@@ -285,6 +285,12 @@ pub struct Report {
     pub height: u32,
     /// Worker threads.
     pub threads: usize,
+    /// The light transport (`render.transport`): `"whitted"` or `"path"` (`direct` is
+    /// `path` with `max_depth` 1).
+    pub transport: &'static str,
+    /// Bounces after the camera ray: mirror and glass chains under `whitted`, every
+    /// scattering under `path`.
+    pub max_depth: u32,
     /// Wall-clock seconds of the render (BVH build and file output excluded).
     pub seconds: f64,
     /// Rays traced, all kinds.
@@ -383,7 +389,7 @@ pub struct SceneReport {
     /// Mesh files outside the scene's folder (reached through `..` or a symlink).
     pub outside_paths: Vec<String>,
     /// What an imported scene asks for that is ignored or rendered differently (Mitsuba
-    /// XML: the integrator read for `max_depth` only, a one-sided BSDF, …), one line each.
+    /// XML: a plugin's parameter wavetrace does not read, …), one line each.
     pub notes: Vec<String>,
 }
 
@@ -432,6 +438,8 @@ impl Report {
             width,
             height,
             threads: per_thread.len(),
+            transport: if settings.path() { "path" } else { "whitted" },
+            max_depth: settings.max_depth,
             seconds,
             total_rays,
             mrays_per_s: if seconds > 0.0 { total_rays as f64 / seconds / 1e6 } else { 0.0 },
@@ -501,9 +509,11 @@ impl Report {
     pub fn summary(&self) -> String {
         let kinds: Vec<String> = self.rays.iter().filter(|(_, &n)| n > 0).map(|(k, n)| format!("{k} {n}")).collect();
         format!(
-            "{}x{}: {} rays ({}) in {:.3} s on {} threads = {:.2} Mrays/s",
+            "{}x{} {} (max_depth {}): {} rays ({}) in {:.3} s on {} threads = {:.2} Mrays/s",
             self.width,
             self.height,
+            self.transport,
+            self.max_depth,
             self.total_rays,
             kinds.join(", "),
             self.seconds,
