@@ -98,8 +98,9 @@ impl Environment {
         }
         let wi = (self.to_world * local).normalize();
         let pdf = density / (2.0 * PI * PI * sin_theta);
-        // The radiance a ray along wi would find, to its last bit.
-        Some(EnvSample { wi, radiance: self.eval(wi), pdf })
+        // The map at the drawn point itself: what a ray along wi finds up to the rounding
+        // of the round trip through the direction, without its two arc tangents.
+        Some(EnvSample { wi, radiance: self.radiance * map.eval(uv), pdf })
     }
 
     /// The density with which [`Environment::sample`] draws world direction `d` (unit).
@@ -180,7 +181,17 @@ impl LatLong {
         let y = v * (h - 1) as f32;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let col = |c: f32| (c as i64).rem_euclid(w as i64) as usize;
+        // x0 is at least −1 and x0 + 1 at most w (u < 1): one wrap each way at most.
+        let col = |c: f32| {
+            let c = c as isize;
+            (if c < 0 {
+                c + w as isize
+            } else if c >= w as isize {
+                c - w as isize
+            } else {
+                c
+            }) as usize
+        };
         let row = |r: f32| (r.max(0.0) as usize).min(h - 1);
         let at = |c: f32, r: f32| self.texels[row(r) * w + col(c)];
         let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1.0, y0) * fx;
