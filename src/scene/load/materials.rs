@@ -25,9 +25,26 @@ pub(super) struct Textures {
     descs: Vec<TextureDesc>,
     /// The image files read, each with the field that names it.
     pub(super) files: Vec<(String, PathBuf)>,
-    /// Rough plastics' coating transmittances, indexed by their `table`, each with the
-    /// coating it was computed for and its internal reflectance.
-    pub(super) tables: Vec<(Microfacet, f32, Transmittance, f32)>,
+    /// Rough plastics' coatings (roughness, index), indexed by their `table`. Their
+    /// tables are computed by [`coating_tables`] while the objects load.
+    pub(super) coatings: Vec<(Microfacet, f32)>,
+}
+
+/// Each rough coating's transmittance table and internal reflectance, in `coatings` order.
+pub(super) fn coating_tables(coatings: &[(Microfacet, f32)]) -> Vec<(Transmittance, f32)> {
+    coatings
+        .iter()
+        .map(|(mf, eta)| (plastic::rough_transmittance(mf, *eta), plastic::rough_internal(mf, *eta)))
+        .collect()
+}
+
+/// Gives each rough plastic the internal reflectance of its coating's table.
+pub(super) fn set_internal(materials: &mut [Material], tables: &[(Transmittance, f32)]) {
+    for m in materials {
+        if let Material::Plastic { roughness: Some(_), internal, table, .. } = m {
+            *internal = tables[*table as usize].1;
+        }
+    }
 }
 
 /// Material `name` validated; its textures are added to `textures`.
@@ -79,7 +96,8 @@ pub(super) fn material(name: &str, m: &MaterialDesc, ctx: &Ctx, textures: &mut T
 }
 
 /// A plastic: its colours, and the coating's internal reflectance and sampling weight
-/// (and, rough, its transmittance table) computed once.
+/// (rough: its coating, whose table and internal reflectance come later, once per
+/// coating).
 fn plastic(
     ctx: &Ctx,
     name: &str,
@@ -105,13 +123,13 @@ fn plastic(
     let (internal, table) = match &roughness {
         None => (plastic::smooth_internal(ior), 0),
         Some(mf) => {
-            let known = textures.tables.iter().position(|(m, eta, ..)| m == mf && *eta == ior);
+            let known = textures.coatings.iter().position(|(m, eta)| m == mf && *eta == ior);
             let i = known.unwrap_or_else(|| {
-                let t = plastic::rough_transmittance(mf, ior);
-                textures.tables.push((*mf, ior, t, plastic::rough_internal(mf, ior)));
-                textures.tables.len() - 1
+                textures.coatings.push((*mf, ior));
+                textures.coatings.len() - 1
             });
-            (textures.tables[i].3, i as u32)
+            // Set with the table ([`set_internal`]).
+            (f32::NAN, i as u32)
         }
     };
     Ok(Material::Plastic {

@@ -384,7 +384,14 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         materials.push(materials::material(name, m, ctx, &mut textures)?);
     }
     info.inputs.append(&mut textures.files);
-    let built = objects::objects(f, ctx, &names, &materials, &mut info)?;
+    // The rough coatings' tables (tens of milliseconds each) while the meshes are read.
+    let (built, tables) = std::thread::scope(|s| {
+        let tables = (!textures.coatings.is_empty()).then(|| s.spawn(|| materials::coating_tables(&textures.coatings)));
+        let built = objects::objects(f, ctx, &names, &materials, &mut info);
+        (built, tables.map_or(Vec::new(), |t| t.join().unwrap_or_else(|e| std::panic::resume_unwind(e))))
+    });
+    let built = built?;
+    materials::set_internal(&mut materials, &tables);
     // Only specular materials that some object uses give the scatter stage work.
     let has_specular = built
         .prims
@@ -429,7 +436,7 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
         uv_frames: frames,
         has_specular,
         area_lights,
-        transmittance: textures.tables.iter().map(|t| t.2).collect(),
+        transmittance: tables.iter().map(|t| t.0).collect(),
         delta_lights,
         sphere_lights,
         light_pick,
