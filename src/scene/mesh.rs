@@ -3,7 +3,6 @@
 //! vertex normals Mitsuba 3 computes for a mesh whose file has none.
 
 use glam::{Vec2, Vec3};
-use std::collections::HashMap;
 use std::path::Path;
 
 /// An indexed triangle mesh in object space.
@@ -138,7 +137,7 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
     }
     // tobj gives every object read after the first `vt` line a coordinate per corner.
     let with_uvs = models.iter().any(|m| !m.mesh.texcoords.is_empty());
-    let mut ids: HashMap<(usize, u32, u32, u32), u32> = HashMap::new();
+    let mut ids: rustc_hash::FxHashMap<(usize, u32, u32, u32), u32> = Default::default();
     for (mi, model) in models.iter().enumerate() {
         let m = &model.mesh;
         let (p, nrm, tc) = (&m.positions, &m.normals, &m.texcoords);
@@ -195,8 +194,10 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
 /// does, so no valid file is refused here.
 fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
     let text = String::from_utf8_lossy(bytes);
-    let first = |l: &str| l.split_whitespace().next().map(str::to_owned);
-    let kind = |l: &str| match first(l).as_deref() {
+    fn first(l: &str) -> Option<&str> {
+        l.split_whitespace().next()
+    }
+    let kind = |l: &str| match first(l) {
         Some("v") => Some(0),
         Some("vt") => Some(1),
         Some("vn") => Some(2),
@@ -217,7 +218,7 @@ fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
         }
         // tobj reads `l` (polyline) corners as it reads faces: a polyline of three or more
         // corners becomes triangles, so its indices need the same check.
-        let what = match first(line).as_deref() {
+        let what = match first(line) {
             Some("f") => "face",
             Some("l") => "line element",
             _ => continue,
