@@ -16,10 +16,12 @@
 //! Mitsuba's χ² procedure and values against numbers read off Mitsuba's Python module.
 
 mod conductors;
+mod lanes;
 #[cfg(test)]
 pub(crate) mod tests;
 
 pub use conductors::{named_conductor, CONDUCTORS};
+pub(crate) use lanes::fresnel_dielectric_lanes;
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_2_SQRT_PI, PI};
@@ -212,60 +214,54 @@ fn poly(x: f32, c: &[f32]) -> f32 {
 fn erf(x: f32) -> f32 {
     let xa = x.abs();
     if xa < 1.0 {
-        let c0 = [FRAC_2_SQRT_PI, -0.376_123_22, 0.112_801_746, -0.026_711_274, 0.004_917_544_3, -0.000_563_142_24];
-        x * poly(x * x, &c0)
+        x * poly(x * x, &ERF_SMALL)
     } else {
-        let c1 = [
-            -1.628_282_2,
-            -0.916_246_24,
-            -0.153_595_54,
-            0.034_695_32,
-            -0.005_498_334_3,
-            0.000_534_170_25,
-            -2.364_301_1e-5,
-        ];
-        let xb = 1.0 - (poly(xa, &c1) * xa).exp2();
+        let xb = 1.0 - (poly(xa, &ERF_LARGE) * xa).exp2();
         let xb = if xb.is_finite() { xb } else { 1.0 };
         xb.copysign(x)
     }
 }
 
+/// [`erf`]'s fit for |x| < 1, a polynomial in x².
+const ERF_SMALL: [f32; 6] =
+    [FRAC_2_SQRT_PI, -0.376_123_22, 0.112_801_746, -0.026_711_274, 0.004_917_544_3, -0.000_563_142_24];
+
+/// [`erf`]'s fit for |x| ≥ 1: 1 − 2^(x·p(x)).
+const ERF_LARGE: [f32; 7] =
+    [-1.628_282_2, -0.916_246_24, -0.153_595_54, 0.034_695_32, -0.005_498_334_3, 0.000_534_170_25, -2.364_301_1e-5];
+
 /// The inverse error function, Giles' approximation as Dr.Jit implements it.
 fn erfinv(x: f32) -> f32 {
     let w = -((1.0 - x) * (1.0 + x)).ln();
-    let p = if w < 5.0 {
-        poly(
-            w - 2.5,
-            &[
-                1.501_409_4,
-                0.246_640_73,
-                -0.004_177_681_6,
-                -0.001_253_725,
-                0.000_218_580_87,
-                -4.391_506_5e-6,
-                -3.523_387_7e-6,
-                3.432_739_4e-7,
-                2.810_226_4e-8,
-            ],
-        )
-    } else {
-        poly(
-            w.sqrt() - 3.0,
-            &[
-                2.832_976_8,
-                1.001_674,
-                0.009_438_870_5,
-                -0.007_622_461_3,
-                0.005_739_507_7,
-                -0.003_673_428_4,
-                0.001_349_343_2,
-                0.000_100_950_56,
-                -0.000_200_214_26,
-            ],
-        )
-    };
+    let p = if w < 5.0 { poly(w - 2.5, &ERFINV_CENTRAL) } else { poly(w.sqrt() - 3.0, &ERFINV_TAIL) };
     p * x
 }
+
+/// [`erfinv`]'s fit for w = −ln(1 − x²) < 5, a polynomial in w − 2.5.
+const ERFINV_CENTRAL: [f32; 9] = [
+    1.501_409_4,
+    0.246_640_73,
+    -0.004_177_681_6,
+    -0.001_253_725,
+    0.000_218_580_87,
+    -4.391_506_5e-6,
+    -3.523_387_7e-6,
+    3.432_739_4e-7,
+    2.810_226_4e-8,
+];
+
+/// [`erfinv`]'s fit for w ≥ 5, a polynomial in √w − 3.
+const ERFINV_TAIL: [f32; 9] = [
+    2.832_976_8,
+    1.001_674,
+    0.009_438_870_5,
+    -0.007_622_461_3,
+    0.005_739_507_7,
+    -0.003_673_428_4,
+    0.001_349_343_2,
+    0.000_100_950_56,
+    -0.000_200_214_26,
+];
 
 /// An orthonormal tangent pair (s, t) for a unit normal n, with s × t = n (Mitsuba's
 /// `coordinate_system`, Duff et al. 2017), so anisotropic roughness has the same axes as
