@@ -105,16 +105,23 @@ impl Environment {
 
     /// The density with which [`Environment::sample`] draws world direction `d` (unit).
     pub fn pdf(&self, d: Vec3) -> f32 {
-        if self.is_black() {
-            return 0.0;
-        }
-        let Some(map) = &self.map else { return 0.25 * FRAC_1_PI };
+        self.eval_pdf(d).1
+    }
+
+    /// [`Environment::eval`] and [`Environment::pdf`] of `d` together, the map's (u, v)
+    /// found once (what a ray that escapes needs under multiple importance sampling).
+    pub fn eval_pdf(&self, d: Vec3) -> (Vec3, f32) {
+        let Some(map) = &self.map else {
+            return (self.radiance, if self.is_black() { 0.0 } else { 0.25 * FRAC_1_PI });
+        };
         let local = self.to_local * d;
+        let uv = direction_to_uv(local);
+        let radiance = self.radiance * map.eval(uv);
         let sin_theta = (local.x * local.x + local.z * local.z).sqrt();
-        if sin_theta <= 0.0 {
-            return 0.0;
+        if self.is_black() || sin_theta <= 0.0 {
+            return (radiance, 0.0);
         }
-        map.density_at(direction_to_uv(local)) / (2.0 * PI * PI * sin_theta)
+        (radiance, map.density_at(uv) / (2.0 * PI * PI * sin_theta))
     }
 }
 

@@ -95,8 +95,13 @@ fn sort_hits(
                 // adaptive-shadow bounce (negative density) has no environment sample
                 // beside it, and takes all.
                 let pdf = rays.pdf[i];
-                let mis = if sampled && pdf > 0.0 { power_heuristic(pdf, scene.background.pdf(d)) } else { 1.0 };
-                film.push(rays.slot[i], rays.weight(i) * scene.background.eval(d) * mis);
+                let (radiance, mis) = if sampled && pdf > 0.0 {
+                    let (radiance, env_pdf) = scene.background.eval_pdf(d);
+                    (radiance, power_heuristic(pdf, env_pdf))
+                } else {
+                    (scene.background.eval(d), 1.0)
+                };
+                film.push(rays.slot[i], rays.weight(i) * radiance * mis);
             }
             continue;
         }
