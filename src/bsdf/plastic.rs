@@ -271,7 +271,7 @@ impl Quadrature {
     /// [−1, 1] to [0, 1], each weight halved), points in single precision as Mitsuba's,
     /// `f` taking 16 of a row's points at a time (the rules used have 32 to 128 nodes).
     fn integrate(&self, mut f: impl FnMut([f32x16; 2]) -> f32x16) -> f64 {
-        debug_assert!(self.nodes.len() % LANES == 0);
+        debug_assert!(self.nodes.len().is_multiple_of(LANES));
         let points: Vec<f32> = self.nodes.iter().map(|x| (x * 0.5 + 0.5) as f32).collect();
         let mut sum = 0.0;
         for (&y, wy) in points.iter().zip(&self.weights) {

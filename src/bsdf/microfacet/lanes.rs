@@ -66,7 +66,7 @@ impl Microfacet {
                     let slope = erfinv_lanes(x);
                     let value = one + x + c * tan_v * (-slope * slope).exp() - target;
                     let derivative = one - slope * tan_v;
-                    x = x - value / derivative;
+                    x -= value / derivative;
                 }
                 (erfinv_lanes(x), erfinv_lanes(F::splat(2.0) * uy - one))
             }

@@ -3,6 +3,7 @@
 //! description become primitives in `objects`.
 
 mod materials;
+mod meshes;
 mod motion;
 mod objects;
 

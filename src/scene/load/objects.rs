@@ -6,16 +6,16 @@ use glam::{Mat3, Vec2, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use super::meshes::Meshes;
 use super::motion;
 use crate::accel::{Accel, Primitive, Shape, NO_LIGHT};
 use crate::accel::{BvhQuality, MAX_LEAF};
 use crate::motion::Motion;
 use crate::scene::format::*;
-use crate::scene::mesh::{self, MeshData};
+use crate::scene::mesh;
 use crate::scene::transform::Transform;
 use crate::scene::values::{color, coord, edges, in_range, transform, vec3, Ctx, MAX_COORD};
 use crate::scene::{Color, Light, Material, SceneInfo};
-use crate::system::available_memory;
 use crate::texture::uv;
 use crate::Result;
 
@@ -62,32 +62,50 @@ pub(super) fn objects(
         light(ctx, &format!("lights.{i}"), l, &mut b)?;
     }
     let shutter = f.camera.shutter;
+    let mut meshes = Meshes::new(f.objects.iter().filter_map(|o| match o {
+        ObjectDesc::Mesh { file, .. } => Some(ctx.src.dir.join(file)),
+        _ => None,
+    }));
+    let mut out = Out { b: &mut b, info, meshes: &mut meshes };
     for (i, o) in f.objects.iter().enumerate() {
         let path = format!("objects.{i}");
         match motion::object(ctx, &path, o, shutter)? {
-            motion::Placed::AsIs => object(ctx, &path, o, names, materials, &mut b, info)?,
-            motion::Placed::Still(o) => object(ctx, &path, &o, names, materials, &mut b, info)?,
+            motion::Placed::AsIs => object(ctx, &path, o, (names, materials), &mut out)?,
+            motion::Placed::Still(o) => object(ctx, &path, &o, (names, materials), &mut out)?,
             motion::Placed::Moving(m, o) => {
                 let mut own = Built::default();
-                object(ctx, &path, &o, names, materials, &mut own, info)?;
-                b.moving.push((*m, own));
+                object(
+                    ctx,
+                    &path,
+                    &o,
+                    (names, materials),
+                    &mut Out { b: &mut own, info: out.info, meshes: out.meshes },
+                )?;
+                out.b.moving.push((*m, own));
             }
         }
     }
     Ok(b)
 }
 
-/// One `[[objects]]` entry (its `transform` already the one it is placed with) into `b`.
-#[allow(clippy::too_many_arguments)] // the entry, the names and materials it refers to, and what it adds to
+/// What the objects add to: the primitives, the scene's report, and the mesh files read
+/// ahead of them.
+struct Out<'a> {
+    b: &'a mut Built,
+    info: &'a mut SceneInfo,
+    meshes: &'a mut Meshes,
+}
+
+/// One `[[objects]]` entry (its `transform` already the one it is placed with) into `out`,
+/// its material looked up in `names` and `materials`.
 fn object(
     ctx: &Ctx,
     path: &str,
     o: &ObjectDesc,
-    names: &BTreeMap<&str, u32>,
-    materials: &[Material],
-    b: &mut Built,
-    info: &mut SceneInfo,
+    (names, materials): (&BTreeMap<&str, u32>, &[Material]),
+    out: &mut Out,
 ) -> Result<()> {
+    let b = &mut *out.b;
     let lookup = |name: &str| {
         names.get(name).copied().ok_or_else(|| {
             let known: Vec<&str> = names.keys().copied().collect();
@@ -122,7 +140,7 @@ fn object(
             let emission = emission.map(|e| color(ctx, &format!("{path}.emission"), e)).transpose()?;
             let material = if emission.is_some() { 0 } else { lookup(material)? };
             let textured = emission.is_none() && has_texture(&materials[material as usize]);
-            mesh_object(ctx, path, o, (material, emission, textured), b, info)?;
+            mesh_object(ctx, path, o, (material, emission, textured), out)?;
         }
     }
     Ok(())
@@ -250,9 +268,9 @@ fn mesh_object(
     path: &str,
     o: &ObjectDesc,
     (material, emission, textured): (u32, Option<Vec3>, bool),
-    b: &mut Built,
-    info: &mut SceneInfo,
+    out: &mut Out,
 ) -> Result<()> {
+    let Out { b, info, meshes } = out;
     let ObjectDesc::Mesh { file, scale, rotate_y, translate, transform, smooth, flip_normals, .. } = o else {
         unreachable!("called for meshes only")
     };
@@ -261,12 +279,11 @@ fn mesh_object(
     }
     let mesh_path = ctx.src.dir.join(file);
     info.inputs.push((format!("the mesh of `{path}`"), mesh_path.clone()));
-    let fail = |e: String| ctx.fail(&format!("{path}.file"), e);
-    check_mesh_size(&mesh_path).map_err(fail)?;
+    let loaded = meshes.take(&mesh_path);
+    let mesh = loaded.as_ref().as_ref().map_err(|e| ctx.fail(&format!("{path}.file"), e))?;
     if outside_folder(&ctx.src.dir, &mesh_path) {
         info.outside_paths.push(mesh_path.display().to_string());
     }
-    let mesh = load_mesh(&mesh_path).map_err(fail)?;
     let rot = glam::Quat::from_rotation_y(rotate_y.to_radians());
     let t = coord(ctx, &format!("{path}.translate"), vec3(*translate))?;
     let after = transform_opt(ctx, path, transform)?;
@@ -352,28 +369,6 @@ fn quad_geometry(
     let tp = format!("{path}.transform");
     let (u, v) = edges(ctx, &tp, u.to_array(), v.to_array())?;
     Ok((coord(ctx, &tp, c)?, u, v))
-}
-
-/// Memory a mesh costs per byte of OBJ text: tobj's buffers, our triangles (36 bytes
-/// per 3 indices of about 10 text bytes) and about two 48-byte BVH nodes per triangle,
-/// with margin.
-const MESH_BYTES_PER_TEXT_BYTE: u64 = 16;
-
-/// Refuses, before reading it, a mesh whose file is too large for the memory available.
-fn check_mesh_size(path: &Path) -> std::result::Result<(), String> {
-    let Ok(meta) = std::fs::metadata(path) else { return Ok(()) }; // load_obj reports it
-    let need = meta.len().saturating_mul(MESH_BYTES_PER_TEXT_BYTE);
-    let have = available_memory();
-    if need > have / 2 {
-        return Err(format!(
-            "mesh `{}` ({:.1} MiB of text) would need about {:.1} GiB of memory; {:.1} GiB is available (at most half may be used)",
-            path.display(),
-            meta.len() as f64 / (1u64 << 20) as f64,
-            need as f64 / (1u64 << 30) as f64,
-            have as f64 / (1u64 << 30) as f64
-        ));
-    }
-    Ok(())
 }
 
 /// True when `path` resolves (following `..` and symlinks) outside `dir`.
@@ -464,15 +459,4 @@ fn build_tracked(mut prims: Vec<Primitive>, quality: BvhQuality, track: bool) ->
         order.push(i);
     }
     (accel, order)
-}
-
-/// Reads a mesh file, OBJ or PLY by its extension (`.ply`, case-insensitive; anything
-/// else is read as OBJ).
-fn load_mesh(path: &Path) -> std::result::Result<MeshData, String> {
-    let ply = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ply"));
-    if ply {
-        crate::scene::ply::load_ply(path)
-    } else {
-        mesh::load_obj_mesh(path)
-    }
 }
