@@ -103,6 +103,10 @@ fn good_scene_renders_and_writes_stats_json() {
     for key in ["width", "height", "seconds", "total_rays", "mrays_per_s", "rays", "stages"] {
         assert!(json.get(key).is_some(), "stats JSON lacks {key}");
     }
+    // A TOML scene keeps the paper's transport, and says so.
+    let depth = json["max_depth"].as_u64().expect("max_depth");
+    assert_eq!(json["transport"].as_str(), Some("whitted"));
+    assert!(stdout.contains(&format!("8x6 whitted (max_depth {depth}): ")), "{stdout}");
     let rays = &json["rays"];
     let sum = rays["camera"].as_u64().unwrap() + rays["shadow"].as_u64().unwrap() + rays["secondary"].as_u64().unwrap();
     assert_eq!(sum, json["total_rays"].as_u64().unwrap(), "ray kinds must sum to the total");

@@ -38,6 +38,10 @@ fn xml_renders_with_defines_and_notes() {
         serde_json::from_str(&std::fs::read_to_string(f.dir().join("s.json")).unwrap()).unwrap();
     let notes = json["scene"]["notes"].as_array().expect("scene.notes");
     assert!(notes.iter().any(|n| n.as_str().unwrap().contains("named by no <ref>")), "{notes:?}");
+    // The transport the integrator asked for, named by the summary and the JSON
+    // (Mitsuba's unbounded depth imports as 64 bounces).
+    assert!(table.contains(" path (max_depth 64): "), "{table}");
+    assert_eq!((json["transport"].as_str(), json["max_depth"].as_u64()), (Some("path"), Some(64)), "{json}");
 }
 
 #[test]

@@ -90,6 +90,7 @@ fn samples_carry_their_radiance_and_density() {
             let s = env.sample(rng.next_vec2()).unwrap();
             assert!((s.wi.length() - 1.0).abs() < 1e-5);
             let (l, p) = (env.eval(s.wi), env.pdf(s.wi));
+            assert_eq!(env.eval_pdf(s.wi), (l, p), "one lookup gives both");
             // The sample's radiance is the map at its own (u, v), the lookup's at wi's:
             // the round trip moves (u, v) by ~1e-6, which the sun's steep texel-to-texel
             // gradients turn into up to ~7e-4 of the value.
