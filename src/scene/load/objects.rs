@@ -39,6 +39,14 @@ pub(super) struct Built {
 }
 
 impl Built {
+    /// Room for `n` more primitives, so that a large mesh is not copied as it grows.
+    fn reserve(&mut self, n: usize) {
+        self.prims.reserve(n);
+        self.normals.reserve(n);
+        self.uvs.reserve(n);
+        self.frames.reserve(n);
+    }
+
     /// Adds a primitive with its per-corner data.
     fn push(&mut self, prim: Primitive, normals: Option<[Vec3; 3]>, uvs: Option<[Vec2; 3]>) {
         self.prims.push(prim);
@@ -320,6 +328,7 @@ fn mesh_object(
         }
     });
     let uvs = (textured && !mesh.uvs.is_empty()).then_some(&mesh.uvs);
+    b.reserve(tris.len());
     for tri in &tris {
         let [v0, v1, v2] = tri.map(|k| positions[k as usize]);
         if (v1 - v0).cross(v2 - v0).length_squared() == 0.0 {
