@@ -457,6 +457,22 @@ impl V3<f32x16> {
     pub fn lanes(self) -> [[f32; LANES]; 3] {
         [self.x.to_array(), self.y.to_array(), self.z.to_array()]
     }
+    /// Lane k is `f(k)`.
+    #[inline(always)]
+    pub fn from_fn(f: impl Fn(usize) -> glam::Vec3) -> Self {
+        let v: [glam::Vec3; LANES] = std::array::from_fn(f);
+        V3 { x: f32x16::from(v.map(|v| v.x)), y: f32x16::from(v.map(|v| v.y)), z: f32x16::from(v.map(|v| v.z)) }
+    }
+    /// Lane-wise `mask ? a : b` (`mask` all ones or all zeros per lane).
+    #[inline(always)]
+    pub fn select(mask: f32x16, a: Self, b: Self) -> Self {
+        V3 { x: mask.select(a.x, b.x), y: mask.select(a.y, b.y), z: mask.select(a.z, b.z) }
+    }
+    /// Component-wise product, as `Vec3 * Vec3`.
+    #[inline(always)]
+    pub fn times(self, o: Self) -> Self {
+        V3 { x: self.x * o.x, y: self.y * o.y, z: self.z * o.z }
+    }
 }
 
 impl V3<f32> {

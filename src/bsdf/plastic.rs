@@ -297,5 +297,8 @@ fn legendre(n: usize, x: f64) -> (f64, f64) {
     (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
 }
 
+mod lanes;
 #[cfg(test)]
 mod tests;
+
+pub use lanes::SampleLanes;

@@ -12,10 +12,11 @@ use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 use wide::{f32x16, u32x16};
 
+use crate::bsdf::microfacet::tangents_lanes;
 use crate::queue::{RayQueue, SurfaceQueue};
 use crate::sampling::{concentric_disk_lanes, dim, hash_lanes, sobol_owen_lanes};
 use crate::scene::{Scene, ShadowMode};
-use crate::simd::{LaneIds, Real, LANES, V3};
+use crate::simd::{LaneIds, LANES, V3};
 use crate::surface::diffuse_brdf;
 
 /// Appends to `next` the bounce ray of every point of `surfaces` (the diffuse hits of
@@ -30,18 +31,6 @@ pub fn bounce(scene: &Scene, rays: &RayQueue, surfaces: &SurfaceQueue, next: &mu
         bounce_lanes(scene, rays, surfaces, &ids, count, next);
         start += count;
     }
-}
-
-/// The orthonormal tangents of unit normals `n` on lanes (Duff et al.'s frame, as
-/// [`tangents`](crate::bsdf::microfacet::tangents)).
-#[inline(always)]
-fn tangents_lanes(n: V3<f32x16>) -> (V3<f32x16>, V3<f32x16>) {
-    let sign = f32x16::if_negative(n.z, f32x16::splat(-1.0), f32x16::ONE);
-    let a = f32x16::splat(-1.0) / (sign + n.z);
-    let b = n.x * n.y * a;
-    let s = V3 { x: n.x * n.x * a * sign + f32x16::ONE, y: b * sign, z: -n.x * sign };
-    let t = V3 { x: b, y: n.y * n.y * a + sign, z: -n.y };
-    (s, t)
 }
 
 /// The bounce rays of surface points `ids` (the first `count` real).

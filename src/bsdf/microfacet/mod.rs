@@ -22,6 +22,7 @@ pub(crate) mod tests;
 
 pub use conductors::{named_conductor, CONDUCTORS};
 pub(crate) use lanes::fresnel_dielectric_lanes;
+pub use lanes::tangents_lanes;
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_2_SQRT_PI, PI};

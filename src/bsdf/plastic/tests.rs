@@ -258,3 +258,59 @@ fn internal_reflectance_on_fewer_points_stays_mitsubas() {
         assert!((ours - mitsuba).abs() < 1e-4, "{d:?} {a} {eta}: {ours} vs {mitsuba}");
     }
 }
+
+/// 16 random directions of the sphere (some below the surface) as lanes and as vectors.
+fn random_lanes(rng: &mut Pcg32) -> (V3<f32x16>, [Vec3; LANES]) {
+    let v: [Vec3; LANES] = std::array::from_fn(|_| {
+        let u = rng.next_vec2();
+        let z = 1.0 - 2.0 * u.y;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * std::f32::consts::PI * u.x;
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    });
+    (V3::from_fn(|k| v[k]), v)
+}
+
+fn lane(v: &V3<f32x16>, k: usize) -> Vec3 {
+    Vec3::new(v.x.to_array()[k], v.y.to_array()[k], v.z.to_array()[k])
+}
+
+#[test]
+fn lanes_agree_with_the_scalar_code() {
+    let mut rng = Pcg32::new(9, 4);
+    for p in cases() {
+        let bsdf = p.bsdf();
+        for _ in 0..64 {
+            // A base reflectance per lane, as a texture gives.
+            let diffuse: [Vec3; LANES] = std::array::from_fn(|_| Vec3::new(rng.next_f32(), rng.next_f32(), 0.5));
+            let (wi, wis) = random_lanes(&mut rng);
+            let (wo, wos) = random_lanes(&mut rng);
+            let lanes_diffuse = V3::from_fn(|k| diffuse[k]);
+            let (f, pdf) = bsdf.eval_pdf_lanes(lanes_diffuse, wi, wo);
+            let u1: [f32; LANES] = std::array::from_fn(|_| rng.next_f32());
+            let u2: [Vec2; LANES] = std::array::from_fn(|_| rng.next_vec2());
+            let s = bsdf.sample_lanes(
+                lanes_diffuse,
+                wi,
+                f32x16::from(u1),
+                [f32x16::from(u2.map(|u| u.x)), f32x16::from(u2.map(|u| u.y))],
+            );
+            for k in 0..LANES {
+                let one = Plastic { diffuse: diffuse[k], ..bsdf };
+                let (fs, pdfs) = one.eval_pdf(wis[k], wos[k]);
+                let what = format!("{:?} wi {} wo {}", p.roughness, wis[k], wos[k]);
+                assert!((fs - lane(&f, k)).abs().max_element() <= 2e-5 * fs.max_element().max(1.0), "{what}: f");
+                assert!((pdfs - pdf.to_array()[k]).abs() <= 2e-5 * pdfs.max(1.0), "{what}: pdf {pdfs}");
+                let scalar = one.sample(wis[k], u1[k], u2[k]);
+                assert_eq!(scalar.is_some(), s.valid & (1 << k) != 0, "{what}: sampled");
+                if let Some(t) = scalar {
+                    let (wo, weight, pdf) = (lane(&s.wo, k), lane(&s.weight, k), s.pdf.to_array()[k]);
+                    assert!((t.wo - wo).abs().max_element() < 1e-4, "{what}: wo {} vs {wo}", t.wo);
+                    let tol = 1e-3 * t.weight.max_element().max(1.0);
+                    assert!((t.weight - weight).abs().max_element() <= tol, "{what}: weight {} vs {weight}", t.weight);
+                    assert!((t.pdf - pdf).abs() <= 1e-3 * t.pdf.max(1.0), "{what}: pdf {} vs {pdf}", t.pdf);
+                }
+            }
+        }
+    }
+}

@@ -16,7 +16,6 @@ use crate::bsdf::microfacet::{
     fresnel_conductor, rough_conductor_eval, rough_conductor_pdf, rough_dielectric_eval, rough_dielectric_pdf,
     rough_dielectric_split, tangents, Microfacet,
 };
-use crate::bsdf::plastic::{Plastic, TABLE_RES};
 use crate::emitter::sphere::sphere_sample;
 use crate::light::{gloss_light_sample, light_seed, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, HitQueue, IndexQueue, RayQueue, ShadowQueue};
@@ -24,6 +23,8 @@ use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
 use crate::scene::{Light, Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
 use crate::surface::{color_at, hit_lanes, hit_point, shading_lanes, shading_normal, HitLanes};
+
+mod plastic;
 
 /// Mirror direction of `d` about the unit normal `n`.
 #[inline]
@@ -118,7 +119,8 @@ fn fresnel_lanes<R: Real>(cos_i: R, eta: R) -> (R, R) {
 /// first). Smooth mirrors and glass go 16 hits at a time on lanes, in list order: a
 /// hit's reflection ray, then its refraction ray. Conductors and rough glass
 /// ([`is_glossy`]) are sampled one hit at a time, one ray each ([`glossy`]); in a group
-/// of 16 listed hits, their rays come first.
+/// of 16 listed hits, their rays come first. Plastics go last, 16 hits of one material at
+/// a time on lanes, material by material (`plastic.rs`).
 pub fn scatter(
     scene: &Scene,
     rays: &RayQueue,
@@ -136,11 +138,16 @@ pub fn scatter(
         }
         return;
     }
+    // Plastic hits (material, ray), gathered to go 16 of one material at a time.
+    let mut plastics = Vec::new();
     for ids in specular.index.chunks(LANES) {
         let (mut smooth, mut n) = ([0u32; LANES], 0);
         for &i in ids {
-            let material = &scene.materials[scene.accel.material(hits.prim[i as usize]) as usize];
-            if is_glossy(material) {
+            let id = scene.accel.material(hits.prim[i as usize]);
+            let material = &scene.materials[id as usize];
+            if let Material::Plastic { .. } = material {
+                plastics.push((id, i));
+            } else if is_glossy(material) {
                 glossy(scene, rays, hits, i as usize, material, Scattered { next, shadow });
             } else {
                 smooth[n] = i;
@@ -149,6 +156,15 @@ pub fn scatter(
         }
         if n > 0 {
             scatter_lanes(scene, rays, hits, &smooth[..n], next);
+        }
+    }
+    // Stable: each material's hits stay in queue order.
+    plastics.sort_by_key(|&(id, _)| id);
+    for same in plastics.chunk_by(|a, b| a.0 == b.0) {
+        let material = &scene.materials[same[0].0 as usize];
+        for group in same.chunks(LANES) {
+            let ids: [u32; LANES] = std::array::from_fn(|k| group[k.min(group.len() - 1)].1);
+            plastic::plastic_lanes(scene, rays, hits, &ids[..group.len()], material, Scattered { next, shadow });
         }
     }
 }
@@ -186,31 +202,12 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
             conductor(scene, &h, (eta, k, color), roughness, out);
         }
         Material::Dielectric { ior, tint, roughness: Some(mf), .. } => rough_glass(scene, &h, ior, tint, &mf, out),
-        Material::Plastic {
-            color,
-            specular,
-            eta,
-            ref roughness,
-            nonlinear,
-            two_sided,
-            internal,
-            specular_weight,
-            table,
-        } => {
-            let bsdf = Plastic {
-                diffuse: color_at(scene, color, h.prim, h.time, h.x),
-                specular,
-                eta,
-                roughness: roughness.as_ref(),
-                table: scene.transmittance.get(table as usize).unwrap_or(&[0.0; TABLE_RES]),
-                internal,
-                nonlinear,
-                specular_weight,
-            };
-            plastic(scene, &h, &bsdf, two_sided, out);
-        }
-        Material::Diffuse { .. } | Material::Mirror { .. } | Material::Dielectric { roughness: None, .. } => {
-            debug_assert!(false, "not a glossy material");
+        // Plastics go on lanes (`plastic.rs`).
+        Material::Diffuse { .. }
+        | Material::Mirror { .. }
+        | Material::Plastic { .. }
+        | Material::Dielectric { roughness: None, .. } => {
+            debug_assert!(false, "not a material sampled one hit at a time");
         }
     }
 }
@@ -257,8 +254,7 @@ impl GlossyHit {
         // The path's time, carried by the rays it goes on with.
         let carried = sparse_opt(&rays.time, i);
         let key = rays.key[i];
-        // Under the path transport, delta lights light glossy surfaces too.
-        let delta = scene.settings.path() && !scene.delta_lights.is_empty();
+        let (mis, delta) = samples_lights(scene);
         GlossyHit {
             prim: hits.prim[i] as usize,
             d: rays.dir(i),
@@ -274,10 +270,7 @@ impl GlossyHit {
             sample: rays.sample[i],
             key1: hash(&[key, 1]),
             u: sobol_owen(rays.sample[i], hash(&[key, dim::GLOSS])),
-            mis: !scene.gloss_lights.is_empty()
-                || !scene.sphere_lights.is_empty()
-                || scene.samples_environment()
-                || delta,
+            mis,
             delta,
         }
     }
@@ -287,67 +280,114 @@ impl GlossyHit {
         offset_ray_origin(self.x, self.err, if wo.dot(self.ng) > 0.0 { self.ng } else { -self.ng })
     }
 
-    /// The light sample of a rough hit in `frame` (under MIS), whose BSDF gives f·cos and
-    /// density for a local direction: its shadow ray into `shadow`.
+    /// The light samples of a rough hit in `frame` (under MIS), whose BSDF gives f·cos
+    /// and density for a local direction: their shadow rays into `shadow`.
     fn light(&self, scene: &Scene, frame: &Frame, bsdf: &dyn Fn(Vec3) -> (Vec3, f32), shadow: &mut ShadowQueue) {
         if !self.mis {
             return;
         }
-        // Delta lights, one ray each: the BSDF's rays never find them.
-        let delta = if self.delta { scene.delta_lights.as_slice() } else { &[] };
-        for &li in delta {
-            let (wi, tmax, l) = match scene.lights[li as usize] {
-                Light::Point { position, intensity } => {
-                    let to = position - self.x;
-                    let d2 = to.length_squared();
-                    (to / d2.sqrt(), d2.sqrt() * SHADOW_TMAX_SCALE, intensity / d2)
-                }
-                Light::Directional { direction, irradiance } => (-direction, f32::MAX, irradiance),
-                Light::Quad { .. } | Light::Triangle { .. } | Light::Sphere { .. } => continue,
-            };
-            let c = self.w * bsdf(frame.to_local(wi)).0 * l;
-            if c != Vec3::ZERO && c.is_finite() {
-                shadow.push(self.origin(wi), wi, tmax, self.slot, c, self.carried);
+        light_samples(scene, self.x, (self.key, self.sample), self.delta, |_, s| {
+            let (f, pdf) = bsdf(frame.to_local(s.wi));
+            if let Some(c) = shadow_weight(self.w, f, &s, pdf) {
+                shadow.push(self.origin(s.wi), s.wi, s.tmax, self.slot, c, self.carried);
             }
-        }
-        if let Some(l) = gloss_light_sample(scene, self.x, self.key, self.sample) {
-            self.weighted(frame, bsdf, (l.wi, l.dist * SHADOW_TMAX_SCALE, l.radiance, l.pdf), shadow);
-        }
-        // Each sphere light, one direction in the cone it subtends.
-        for &li in &scene.sphere_lights {
-            let Light::Sphere { center, radius, radiance } = scene.lights[li as usize] else { continue };
-            let u = sobol_owen(self.sample, light_seed(self.key, li as usize));
-            if let Some(s) = sphere_sample(center, radius, self.x, u) {
-                self.weighted(frame, bsdf, (s.wi, s.dist * SHADOW_TMAX_SCALE, radiance, s.pdf), shadow);
-            }
-        }
-        // The environment, under the path transport: a sample of its own beside the area
-        // lights' (its shadow ray reaches to infinity).
-        if !scene.samples_environment() {
-            return;
-        }
-        let u = sobol_owen(self.sample, hash(&[self.key, dim::ENVIRONMENT]));
-        if let Some(s) = scene.background.sample(u) {
-            self.weighted(frame, bsdf, (s.wi, f32::MAX, s.radiance, s.pdf), shadow);
-        }
+        });
     }
+}
 
-    /// The shadow ray of a light sample `(wi, tmax, radiance, pdf)`, weighted by the power
-    /// heuristic against the BSDF's density for wi.
-    fn weighted(
-        &self,
-        frame: &Frame,
-        bsdf: &dyn Fn(Vec3) -> (Vec3, f32),
-        sample: (Vec3, f32, Vec3, f32),
-        shadow: &mut ShadowQueue,
-    ) {
-        let (wi, tmax, radiance, light_pdf) = sample;
-        let (f, pdf) = bsdf(frame.to_local(wi));
-        let c = self.w * f * radiance * (power_heuristic(light_pdf, pdf) / light_pdf);
-        if c != Vec3::ZERO {
-            shadow.push(self.origin(wi), wi, tmax, self.slot, c, self.carried);
-        }
+/// Whether a glossy point samples the lights under multiple importance sampling (area
+/// lights, sphere lights, or the environment under the path transport), and whether it
+/// samples the point and directional lights too (the path transport).
+fn samples_lights(scene: &Scene) -> (bool, bool) {
+    // Under the path transport, delta lights light glossy surfaces too.
+    let delta = scene.settings.path() && !scene.delta_lights.is_empty();
+    let mis = !scene.gloss_lights.is_empty() || !scene.sphere_lights.is_empty() || scene.samples_environment() || delta;
+    (mis, delta)
+}
+
+/// One light sample of a glossy point.
+#[derive(Clone, Copy, Debug)]
+struct LightSample {
+    /// Unit direction towards the light.
+    wi: Vec3,
+    /// The shadow ray's reach.
+    tmax: f32,
+    /// The radiance arriving (a delta light's irradiance).
+    radiance: Vec3,
+    /// Its density over solid angle; unused for a delta light.
+    pdf: f32,
+    /// A point or directional light: no BSDF ray finds it, so it is not weighted.
+    delta: bool,
+}
+
+/// How many light samples [`light_samples`] can give a point: one per delta light (with
+/// `delta`), one for the area lights, one per sphere light, one for the environment.
+fn light_slots(scene: &Scene, delta: bool) -> usize {
+    (if delta { scene.delta_lights.len() } else { 0 }) + 1 + scene.sphere_lights.len() + 1
+}
+
+/// Calls `f(slot, sample)` for each light sample of point `x` of the path `(key,
+/// sample)`, slots in the order [`light_slots`] counts them (a slot without a sample is
+/// skipped): a ray per delta light (with `delta`: the BSDF's rays never find them), one
+/// point on an area light ([`gloss_light_sample`]), one direction in the cone of each
+/// sphere light, and, under the path transport, one direction towards the environment
+/// (its shadow ray reaches to infinity).
+fn light_samples(
+    scene: &Scene,
+    x: Vec3,
+    (key, sample): (u32, u32),
+    delta: bool,
+    mut f: impl FnMut(usize, LightSample),
+) {
+    let deltas = if delta { scene.delta_lights.as_slice() } else { &[] };
+    for (j, &li) in deltas.iter().enumerate() {
+        let (wi, tmax, radiance) = match scene.lights[li as usize] {
+            Light::Point { position, intensity } => {
+                let to = position - x;
+                let d2 = to.length_squared();
+                (to / d2.sqrt(), d2.sqrt() * SHADOW_TMAX_SCALE, intensity / d2)
+            }
+            Light::Directional { direction, irradiance } => (-direction, f32::MAX, irradiance),
+            Light::Quad { .. } | Light::Triangle { .. } | Light::Sphere { .. } => continue,
+        };
+        f(j, LightSample { wi, tmax, radiance, pdf: 0.0, delta: true });
     }
+    let mut j = deltas.len();
+    if let Some(l) = gloss_light_sample(scene, x, key, sample) {
+        let s =
+            LightSample { wi: l.wi, tmax: l.dist * SHADOW_TMAX_SCALE, radiance: l.radiance, pdf: l.pdf, delta: false };
+        f(j, s);
+    }
+    j += 1;
+    for &li in &scene.sphere_lights {
+        if let Light::Sphere { center, radius, radiance } = scene.lights[li as usize] {
+            let u = sobol_owen(sample, light_seed(key, li as usize));
+            if let Some(s) = sphere_sample(center, radius, x, u) {
+                f(j, LightSample { wi: s.wi, tmax: s.dist * SHADOW_TMAX_SCALE, radiance, pdf: s.pdf, delta: false });
+            }
+        }
+        j += 1;
+    }
+    if !scene.samples_environment() {
+        return;
+    }
+    let u = sobol_owen(sample, hash(&[key, dim::ENVIRONMENT]));
+    if let Some(s) = scene.background.sample(u) {
+        f(j, LightSample { wi: s.wi, tmax: f32::MAX, radiance: s.radiance, pdf: s.pdf, delta: false });
+    }
+}
+
+/// What the shadow ray of light sample `s` carries for a path of throughput `w` at a
+/// point whose BSDF gives f·cos `f` and density `pdf` for it: weighted by the power
+/// heuristic against the BSDF's density (a delta light unweighted); `None` when nothing.
+#[inline]
+fn shadow_weight(w: Vec3, f: Vec3, s: &LightSample, pdf: f32) -> Option<Vec3> {
+    if s.delta {
+        let c = w * f * s.radiance;
+        return (c != Vec3::ZERO && c.is_finite()).then_some(c);
+    }
+    let c = w * f * s.radiance * (power_heuristic(s.pdf, pdf) / s.pdf);
+    (c != Vec3::ZERO).then_some(c)
 }
 
 /// A conductor's ray (`(eta, k, color)`: its optical constants and texture colour at the
@@ -387,27 +427,6 @@ fn conductor(
     let pdf = if h.mis { rough_conductor_pdf(&mf, wi, wo) } else { 0.0 };
     let wo = frame.to_world(wo);
     next.push(h.origin(wo), wo, h.slot, tint * weight, h.depth, h.key1, h.sample, pdf, h.carried);
-}
-
-/// A plastic's light sample and its one ray, the coating's reflection or the base's
-/// cosine-weighted bounce ([`Plastic::sample`]), the lobe picked by point `sample` of
-/// the path's [`dim::GLOSS_BRANCH`] sequence. The side the ray arrived on is the front
-/// of a two-sided plastic; a one-sided one is black from behind.
-fn plastic(scene: &Scene, h: &GlossyHit, bsdf: &Plastic, two_sided: bool, out: Scattered) {
-    let Scattered { next, shadow } = out;
-    let front = h.d.dot(h.ng) < 0.0;
-    if !front && !two_sided {
-        return;
-    }
-    let n = if front { h.ng } else { -h.ng };
-    let frame = Frame::new(shading_normal(scene, h.prim, h.time, h.x, n));
-    let wi = frame.to_local(-h.d);
-    h.light(scene, &frame, &|wl| bsdf.eval_pdf(wi, wl), shadow);
-    let pick = sobol_owen(h.sample, hash(&[h.key, dim::GLOSS_BRANCH])).x;
-    let Some(s) = bsdf.sample(wi, pick, h.u) else { return };
-    let pdf = if h.mis { s.pdf } else { 0.0 };
-    let wo = frame.to_world(s.wo);
-    next.push(h.origin(wo), wo, h.slot, h.w * s.weight, h.depth, h.key1, h.sample, pdf, h.carried);
 }
 
 /// Rough glass: its light sample, and one ray: the reflection with probability F, else
