@@ -17,12 +17,14 @@
 
 mod conductors;
 mod lanes;
+mod rough_lanes;
 #[cfg(test)]
 pub(crate) mod tests;
 
 pub use conductors::{named_conductor, CONDUCTORS};
 pub(crate) use lanes::fresnel_dielectric_lanes;
 pub use lanes::tangents_lanes;
+pub use rough_lanes::RoughConductor;
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_2_SQRT_PI, PI};

@@ -24,7 +24,7 @@ use crate::scene::{Light, Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
 use crate::surface::{color_at, hit_lanes, hit_point, shading_lanes, shading_normal, HitLanes};
 
-mod plastic;
+mod lanes;
 
 /// Mirror direction of `d` about the unit normal `n`.
 #[inline]
@@ -138,15 +138,16 @@ pub fn scatter(
         }
         return;
     }
-    // Plastic hits (material, ray), gathered to go 16 of one material at a time.
-    let mut plastics = Vec::new();
+    // Plastic and rough conductor hits (material, ray), gathered to go 16 of one
+    // material at a time.
+    let mut on_lanes = Vec::new();
     for ids in specular.index.chunks(LANES) {
         let (mut smooth, mut n) = ([0u32; LANES], 0);
         for &i in ids {
             let id = scene.accel.material(hits.prim[i as usize]);
             let material = &scene.materials[id as usize];
-            if let Material::Plastic { .. } = material {
-                plastics.push((id, i));
+            if lanes::on_lanes(material) {
+                on_lanes.push((id, i));
             } else if is_glossy(material) {
                 glossy(scene, rays, hits, i as usize, material, Scattered { next, shadow });
             } else {
@@ -159,12 +160,12 @@ pub fn scatter(
         }
     }
     // Stable: each material's hits stay in queue order.
-    plastics.sort_by_key(|&(id, _)| id);
-    for same in plastics.chunk_by(|a, b| a.0 == b.0) {
+    on_lanes.sort_by_key(|&(id, _)| id);
+    for same in on_lanes.chunk_by(|a, b| a.0 == b.0) {
         let material = &scene.materials[same[0].0 as usize];
         for group in same.chunks(LANES) {
             let ids: [u32; LANES] = std::array::from_fn(|k| group[k.min(group.len() - 1)].1);
-            plastic::plastic_lanes(scene, rays, hits, &ids[..group.len()], material, Scattered { next, shadow });
+            lanes::glossy_lanes(scene, rays, hits, &ids[..group.len()], material, Scattered { next, shadow });
         }
     }
 }
@@ -202,7 +203,7 @@ fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &
             conductor(scene, &h, (eta, k, color), roughness, out);
         }
         Material::Dielectric { ior, tint, roughness: Some(mf), .. } => rough_glass(scene, &h, ior, tint, &mf, out),
-        // Plastics go on lanes (`plastic.rs`).
+        // Plastics go on lanes (`lanes.rs`).
         Material::Diffuse { .. }
         | Material::Mirror { .. }
         | Material::Plastic { .. }

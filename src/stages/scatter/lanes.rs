@@ -1,0 +1,191 @@
+//! Plastic and rough conductor hits 16 at a time: the light samples and the one ray of
+//! each, as the scalar [`glossy`](super::glossy) path writes a hit's, with the BSDF
+//! evaluated and sampled on lanes ([`Plastic::eval_pdf_lanes`],
+//! [`RoughConductor::eval_pdf_lanes`] and their samplers). The light samples themselves
+//! are drawn point by point ([`light_samples`]).
+
+use glam::Vec3;
+use wide::{f32x16, u32x16};
+
+use super::{light_samples, light_slots, samples_lights, shadow_weight, LightSample, Scattered};
+use crate::accel::offset::offset_lanes;
+use crate::bsdf::microfacet::{tangents_lanes, RoughConductor};
+use crate::bsdf::plastic::{Plastic, TABLE_RES};
+use crate::queue::{sparse_opt, HitQueue, RayQueue};
+use crate::sampling::{dim, hash_lanes, sobol_owen_lanes};
+use crate::scene::{Color, Material, Scene};
+use crate::simd::{LaneIds, LANES, V3};
+use crate::surface::{color_at, hit_lanes, shading_lanes, HitLanes};
+
+type F = f32x16;
+
+/// Lane k of `v` (arrays from [`V3::lanes`]).
+fn at(v: &[[f32; LANES]; 3], k: usize) -> Vec3 {
+    Vec3::new(v[0][k], v[1][k], v[2][k])
+}
+
+/// True for the materials [`glossy_lanes`] takes: plastics and rough conductors.
+pub(super) fn on_lanes(m: &Material) -> bool {
+    matches!(m, Material::Plastic { .. } | Material::Conductor { roughness: Some(_), .. })
+}
+
+/// The BSDF of 16 hits of one material, with each lane's texture colour.
+enum Lobes<'a> {
+    /// A plastic and its base reflectances.
+    Plastic(Plastic<'a>, V3<F>),
+    /// A rough conductor and its colours.
+    Conductor(RoughConductor, V3<F>),
+}
+
+/// The sampled rays of 16 hits, local.
+struct Sampled {
+    wo: V3<F>,
+    /// f·cos / density (times the texture colour).
+    weight: V3<F>,
+    pdf: F,
+    /// Bit k: lane k has a ray.
+    valid: u32,
+}
+
+impl Lobes<'_> {
+    /// f·cos θo and the sampling density of each lane's local directions.
+    fn eval_pdf(&self, wi: V3<F>, wo: V3<F>) -> (V3<F>, F) {
+        match self {
+            Lobes::Plastic(bsdf, diffuse) => bsdf.eval_pdf_lanes(*diffuse, wi, wo),
+            Lobes::Conductor(c, color) => {
+                let (f, pdf) = c.eval_pdf_lanes(wi, wo);
+                (color.times(f), pdf)
+            }
+        }
+    }
+
+    /// One ray per lane: the lobe picked by `u1` (plastic), the direction from `u2`.
+    fn sample(&self, wi: V3<F>, u1: F, u2: [F; 2]) -> Sampled {
+        match self {
+            Lobes::Plastic(bsdf, diffuse) => {
+                let s = bsdf.sample_lanes(*diffuse, wi, u1, u2);
+                Sampled { wo: s.wo, weight: s.weight, pdf: s.pdf, valid: s.valid }
+            }
+            Lobes::Conductor(c, color) => {
+                let (wo, weight, above) = c.sample_lanes(wi, u2);
+                let pdf = c.eval_pdf_lanes(wi, wo).1;
+                Sampled { wo, weight: color.times(weight), pdf, valid: above.to_bitmask() }
+            }
+        }
+    }
+}
+
+/// The light samples' shadow rays and the scattered rays of hits `ids` (1 to 16, in queue
+/// order, all on `material`, one [`on_lanes`] takes). The side the ray arrived on is the
+/// front (a one-sided plastic seen from behind is black); a plastic's lobe is picked by
+/// point `sample` of the path's [`dim::GLOSS_BRANCH`] sequence and the direction drawn
+/// from its [`dim::GLOSS`] one; the light samples are weighted by the power heuristic
+/// against the BSDF's density, and the ray carries that density.
+pub(super) fn glossy_lanes(
+    scene: &Scene,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    ids: &[u32],
+    material: &Material,
+    out: Scattered,
+) {
+    let Scattered { next, shadow } = out;
+    let count = ids.len();
+    let lanes = LaneIds::new(ids);
+    let HitLanes { d, p, err, ng } = hit_lanes(scene, rays, hits, ids);
+    let front = d.dot(ng).simd_lt(F::ZERO);
+    let all = (1u32 << count) - 1;
+    let n = shading_lanes(scene, rays, hits, ids, p, V3::select(front, ng, -ng));
+    let (ts, tt) = tangents_lanes(n);
+    let to_local = |v: V3<F>| V3 { x: v.dot(ts), y: v.dot(tt), z: v.dot(n) };
+    let wi = to_local(-d);
+    let points = p.lanes();
+    let time = |k: usize| sparse_opt(&rays.time, lanes.idx[k]);
+    let colors = |color: Color| match color {
+        Color::Rgb(c) => V3::splat(c),
+        Color::Texture(_) => V3::from_fn(|k| {
+            color_at(scene, color, hits.prim[lanes.idx[k]] as usize, time(k).unwrap_or_default(), at(&points, k))
+        }),
+    };
+    let (lobes, live) = match *material {
+        Material::Plastic {
+            color,
+            specular,
+            eta,
+            ref roughness,
+            nonlinear,
+            two_sided,
+            internal,
+            specular_weight,
+            table,
+        } => {
+            let bsdf = Plastic {
+                diffuse: Vec3::ZERO,
+                specular,
+                eta,
+                roughness: roughness.as_ref(),
+                table: scene.transmittance.get(table as usize).unwrap_or(&[0.0; TABLE_RES]),
+                internal,
+                nonlinear,
+                specular_weight,
+            };
+            // A one-sided plastic seen from behind is black.
+            let live = if two_sided { all } else { front.to_bitmask() & all };
+            (Lobes::Plastic(bsdf, colors(color)), live)
+        }
+        Material::Conductor { eta, k, color, roughness: Some(mf) } => {
+            // Below the shading normal a conductor has nothing to reflect.
+            let live = wi.z.simd_gt(F::ZERO).to_bitmask() & all;
+            (Lobes::Conductor(RoughConductor { mf, eta, k }, colors(color)), live)
+        }
+        _ => {
+            debug_assert!(false, "not a material on lanes");
+            return;
+        }
+    };
+    if live == 0 {
+        return;
+    }
+    let (key, sample) = (lanes.gather_words(&rays.key), lanes.gather_words(&rays.sample));
+    let (keys, samples) = (key.to_array(), sample.to_array());
+    let w: [Vec3; LANES] = std::array::from_fn(|k| rays.weight(lanes.idx[k]));
+    // The side of the surface a direction leaves on, for its origin.
+    let origins = |dir: V3<F>| offset_lanes(p, err, V3::if_negative(-dir.dot(ng), ng, -ng)).lanes();
+
+    let (mis, delta) = samples_lights(scene);
+    if mis {
+        // Slot by slot: each lane's sample, then the BSDF for all 16 at once.
+        let slots = light_slots(scene, delta);
+        let mut drawn = vec![[None::<LightSample>; LANES]; slots];
+        for k in (0..count).filter(|&k| live & (1 << k) != 0) {
+            light_samples(scene, at(&points, k), (keys[k], samples[k]), delta, |j, s| drawn[j][k] = Some(s));
+        }
+        let mut lit = Vec::with_capacity(slots);
+        for row in &drawn {
+            let dir = V3::from_fn(|k| row[k].map_or(Vec3::Z, |s| s.wi));
+            let (f, pdf) = lobes.eval_pdf(wi, to_local(dir));
+            lit.push((f.lanes(), pdf.to_array(), origins(dir)));
+        }
+        for k in 0..count {
+            for (row, (f, pdf, o)) in drawn.iter().zip(&lit) {
+                let Some(s) = row[k] else { continue };
+                if let Some(c) = shadow_weight(w[k], at(f, k), &s, pdf[k]) {
+                    shadow.push(at(o, k), s.wi, s.tmax, rays.slot[lanes.idx[k]], c, time(k));
+                }
+            }
+        }
+    }
+
+    let u = sobol_owen_lanes(sample, hash_lanes([key, u32x16::splat(dim::GLOSS)]));
+    let pick = sobol_owen_lanes(sample, hash_lanes([key, u32x16::splat(dim::GLOSS_BRANCH)])).0;
+    let s = lobes.sample(wi, pick, [u.0, u.1]);
+    let wo = (ts.scale(s.wo.x) + tt.scale(s.wo.y) + n.scale(s.wo.z)).normalize();
+    let (o, dir, weight, pdf) = (origins(wo), wo.lanes(), s.weight.lanes(), s.pdf.to_array());
+    let key1 = hash_lanes([key, u32x16::ONE]).to_array();
+    for k in (0..count).filter(|&k| live & s.valid & (1 << k) != 0) {
+        let i = lanes.idx[k];
+        let pdf = if mis { pdf[k] } else { 0.0 };
+        let w = w[k] * at(&weight, k);
+        next.push(at(&o, k), at(&dir, k), rays.slot[i], w, rays.depth[i] + 1, key1[k], samples[k], pdf, time(k));
+    }
+}
