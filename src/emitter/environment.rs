@@ -41,6 +41,11 @@ pub struct LatLong {
     cols: Vec<f32>,
     /// Each cell's density over the (u, v) square.
     density: Vec<f32>,
+    /// Where [`find`] starts in `rows` for each of `height` equal slices of [0, 1]
+    /// ([`guide`]).
+    row_guide: Vec<u32>,
+    /// The same for each row's slice of `cols`, `width` per row.
+    col_guide: Vec<u32>,
 }
 
 impl std::fmt::Debug for LatLong {
@@ -132,7 +137,16 @@ impl LatLong {
         if width == 0 || height == 0 || texels.len() != width * height {
             return None;
         }
-        let mut map = LatLong { width, height, texels, rows: vec![], cols: vec![0.0; width * height], density: vec![] };
+        let mut map = LatLong {
+            width,
+            height,
+            texels,
+            rows: vec![],
+            cols: vec![0.0; width * height],
+            density: vec![],
+            row_guide: vec![],
+            col_guide: vec![],
+        };
         // A cell's weight: the largest luminance the bilinear lookup takes at its corners
         // and centre (so no cell that shows light has density 0), times sin θ at its
         // centre, the Jacobian of the (u, v) square onto the sphere.
@@ -175,6 +189,8 @@ impl LatLong {
         map.rows[height - 1] = 1.0;
         let cells = (width * height) as f64;
         map.density = weight.iter().map(|w| (w / total * cells) as f32).collect();
+        map.row_guide = guide(&map.rows);
+        map.col_guide = map.cols.chunks(width).flat_map(guide).collect();
         Some(map)
     }
 
@@ -210,11 +226,11 @@ impl LatLong {
     /// its weight, uniformly inside the cell; and its density over the square.
     fn sample(&self, s: Vec2) -> (Vec2, f32) {
         let (w, h) = (self.width, self.height);
-        let j = self.rows.partition_point(|&c| c <= s.y).min(h - 1);
+        let j = find(&self.rows, &self.row_guide, s.y).min(h - 1);
         let lo = if j == 0 { 0.0 } else { self.rows[j - 1] };
         let fy = ((s.y - lo) / (self.rows[j] - lo)).clamp(0.0, 1.0);
         let cols = &self.cols[j * w..(j + 1) * w];
-        let i = cols.partition_point(|&c| c <= s.x).min(w - 1);
+        let i = find(cols, &self.col_guide[j * w..(j + 1) * w], s.x).min(w - 1);
         let lo = if i == 0 { 0.0 } else { cols[i - 1] };
         let fx = ((s.x - lo) / (cols[i] - lo)).clamp(0.0, 1.0);
         let fx = if fx.is_nan() { 0.5 } else { fx };
@@ -236,6 +252,41 @@ impl LatLong {
         let j = ((uv.y.clamp(0.0, 1.0) * self.height as f32) as usize).min(self.height - 1);
         self.density[j * self.width + i]
     }
+}
+
+/// For each k of 0..n (n = `cdf.len()`), the first index of the non-decreasing `cdf`
+/// whose value exceeds k / n: where [`find`] starts for a value in [k / n, (k + 1) / n).
+fn guide(cdf: &[f32]) -> Vec<u32> {
+    let n = cdf.len();
+    let mut i = 0;
+    (0..n)
+        .map(|k| {
+            let t = k as f32 / n as f32;
+            while i < n && cdf[i] <= t {
+                i += 1;
+            }
+            i as u32
+        })
+        .collect()
+}
+
+/// The first index of the non-decreasing `cdf` whose value exceeds `x`
+/// (`partition_point(|c| c <= x)`, the same index for every x), found from its [`guide`]
+/// entry in a step or two rather than by bisection. Either scan corrects a slice index
+/// that rounding put one off.
+fn find(cdf: &[f32], guide: &[u32], x: f32) -> usize {
+    let n = cdf.len();
+    if x.is_nan() {
+        return 0;
+    }
+    let mut i = guide[((x * n as f32) as usize).min(n - 1)] as usize;
+    while i > 0 && cdf[i - 1] > x {
+        i -= 1;
+    }
+    while i < n && cdf[i] <= x {
+        i += 1;
+    }
+    i
 }
 
 /// The largest f32 below k / n.

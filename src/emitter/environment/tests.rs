@@ -153,3 +153,38 @@ fn black_environment_is_not_sampled() {
     assert!(LatLong::new(0, 4, vec![]).is_none());
     assert!(LatLong::new(4, 4, vec![Vec3::ONE; 15]).is_none());
 }
+
+#[test]
+fn guided_search_finds_the_bisections_index() {
+    let mut rng = Pcg32::new(5, 17);
+    for n in [1usize, 2, 3, 7, 64, 100] {
+        for plateaus in [false, true] {
+            // A cdf with runs of equal values (cells of weight 0), ending at 1.
+            let mut acc = 0.0f32;
+            let weights: Vec<f32> = (0..n)
+                .map(|_| if plateaus && rng.next_f32() < 0.5 { 0.0 } else { rng.next_f32() })
+                .collect();
+            let total: f32 = weights.iter().sum::<f32>().max(1e-30);
+            let mut cdf: Vec<f32> = weights
+                .iter()
+                .map(|w| {
+                    acc += w;
+                    acc / total
+                })
+                .collect();
+            cdf[n - 1] = 1.0;
+            let g = super::guide(&cdf);
+            // Random values, every entry and its neighbours, and the slice bounds k / n.
+            let mut xs: Vec<f32> = (0..200).map(|_| rng.next_f32()).collect();
+            for &c in &cdf {
+                xs.extend([c, f32::from_bits(c.to_bits().saturating_sub(1)), f32::from_bits(c.to_bits() + 1)]);
+            }
+            xs.extend((0..=n).map(|k| k as f32 / n as f32));
+            xs.extend([0.0, -0.0, 1.0, 0.999_999_94, -1.0, 2.0]);
+            for x in xs {
+                let expected = cdf.partition_point(|&c| c <= x);
+                assert_eq!(super::find(&cdf, &g, x), expected, "n {n}, x {x}, cdf {cdf:?}");
+            }
+        }
+    }
+}
