@@ -24,7 +24,7 @@ pub(crate) mod tests;
 pub use conductors::{named_conductor, CONDUCTORS};
 pub(crate) use lanes::fresnel_dielectric_lanes;
 pub use lanes::tangents_lanes;
-pub use rough_lanes::RoughConductor;
+pub use rough_lanes::{RoughConductor, RoughDielectric, SplitLanes};
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_2_SQRT_PI, PI};

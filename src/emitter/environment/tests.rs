@@ -161,9 +161,8 @@ fn guided_search_finds_the_bisections_index() {
         for plateaus in [false, true] {
             // A cdf with runs of equal values (cells of weight 0), ending at 1.
             let mut acc = 0.0f32;
-            let weights: Vec<f32> = (0..n)
-                .map(|_| if plateaus && rng.next_f32() < 0.5 { 0.0 } else { rng.next_f32() })
-                .collect();
+            let weights: Vec<f32> =
+                (0..n).map(|_| if plateaus && rng.next_f32() < 0.5 { 0.0 } else { rng.next_f32() }).collect();
             let total: f32 = weights.iter().sum::<f32>().max(1e-30);
             let mut cdf: Vec<f32> = weights
                 .iter()

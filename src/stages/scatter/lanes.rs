@@ -1,15 +1,23 @@
-//! Plastic and rough conductor hits 16 at a time: the light samples and the one ray of
-//! each, as the scalar [`glossy`](super::glossy) path writes a hit's, with the BSDF
-//! evaluated and sampled on lanes ([`Plastic::eval_pdf_lanes`],
-//! [`RoughConductor::eval_pdf_lanes`] and their samplers). The light samples themselves
+//! Plastic, rough conductor and rough glass hits 16 at a time: the light samples and the
+//! one ray of each, with the BSDF evaluated and sampled on lanes
+//! ([`Plastic::eval_pdf_lanes`], [`RoughConductor::eval_pdf_lanes`],
+//! [`RoughDielectric::eval_pdf_lanes`] and their samplers). The light samples themselves
 //! are drawn point by point ([`light_samples`]).
+//!
+//! Each ray's microfacet sample and its branch (a plastic's lobe, rough glass's
+//! reflection with probability F, else its refraction, as Mitsuba chooses) are point
+//! `sample` of the path's Owen-scrambled Sobol sequences keyed by its key and
+//! [`dim::GLOSS`], [`dim::GLOSS_BRANCH`]: stratified over the pixel's samples. Under
+//! multiple importance sampling the light samples are weighted by the power heuristic
+//! against the BSDF's density, and the ray carries its own density, which weights the
+//! emitter it may hit (shade).
 
 use glam::Vec3;
 use wide::{f32x16, u32x16};
 
 use super::{light_samples, light_slots, samples_lights, shadow_weight, LightSample, Scattered};
 use crate::accel::offset::offset_lanes;
-use crate::bsdf::microfacet::{tangents_lanes, RoughConductor};
+use crate::bsdf::microfacet::{tangents_lanes, RoughConductor, RoughDielectric};
 use crate::bsdf::plastic::{Plastic, TABLE_RES};
 use crate::queue::{sparse_opt, HitQueue, RayQueue};
 use crate::sampling::{dim, hash_lanes, sobol_owen_lanes};
@@ -24,9 +32,15 @@ fn at(v: &[[f32; LANES]; 3], k: usize) -> Vec3 {
     Vec3::new(v[0][k], v[1][k], v[2][k])
 }
 
-/// True for the materials [`glossy_lanes`] takes: plastics and rough conductors.
+/// True for the materials [`glossy_lanes`] takes: plastics, rough conductors and rough
+/// glass.
 pub(super) fn on_lanes(m: &Material) -> bool {
-    matches!(m, Material::Plastic { .. } | Material::Conductor { roughness: Some(_), .. })
+    matches!(
+        m,
+        Material::Plastic { .. }
+            | Material::Conductor { roughness: Some(_), .. }
+            | Material::Dielectric { roughness: Some(_), .. }
+    )
 }
 
 /// The BSDF of 16 hits of one material, with each lane's texture colour.
@@ -35,6 +49,8 @@ enum Lobes<'a> {
     Plastic(Plastic<'a>, V3<F>),
     /// A rough conductor and its colours.
     Conductor(RoughConductor, V3<F>),
+    /// Rough glass and the tint of light it transmits.
+    Glass(RoughDielectric, Vec3),
 }
 
 /// The sampled rays of 16 hits, local.
@@ -45,6 +61,8 @@ struct Sampled {
     pdf: F,
     /// Bit k: lane k has a ray.
     valid: u32,
+    /// Bit k: lane k's ray goes through the surface.
+    through: u32,
 }
 
 impl Lobes<'_> {
@@ -56,6 +74,12 @@ impl Lobes<'_> {
                 let (f, pdf) = c.eval_pdf_lanes(wi, wo);
                 (color.times(f), pdf)
             }
+            Lobes::Glass(g, tint) => {
+                // Transmission is tinted, as the refracted ray is.
+                let (f, pdf) = g.eval_pdf_lanes(wi, wo);
+                let tinted = V3::select((wi.z * wo.z).simd_gt(F::ZERO), V3::splat(Vec3::ONE), V3::splat(*tint));
+                (tinted.scale(f), pdf)
+            }
         }
     }
 
@@ -64,12 +88,25 @@ impl Lobes<'_> {
         match self {
             Lobes::Plastic(bsdf, diffuse) => {
                 let s = bsdf.sample_lanes(*diffuse, wi, u1, u2);
-                Sampled { wo: s.wo, weight: s.weight, pdf: s.pdf, valid: s.valid }
+                Sampled { wo: s.wo, weight: s.weight, pdf: s.pdf, valid: s.valid, through: 0 }
             }
             Lobes::Conductor(c, color) => {
                 let (wo, weight, above) = c.sample_lanes(wi, u2);
                 let pdf = c.eval_pdf_lanes(wi, wo).1;
-                Sampled { wo, weight: color.times(weight), pdf, valid: above.to_bitmask() }
+                Sampled { wo, weight: color.times(weight), pdf, valid: above.to_bitmask(), through: 0 }
+            }
+            Lobes::Glass(g, tint) => {
+                // The reflection with probability F, else the refraction (Mitsuba's
+                // choice), each weighted by its branch weight over its probability.
+                let split = g.split_lanes(wi, u2);
+                let reflect = u1.simd_lt(split.f);
+                let (r, t) = (split.reflect, split.refract);
+                let wo = V3::select(reflect, r.0, t.0);
+                let over = reflect.select(r.1 / split.f, t.1 / (F::splat(1.0) - split.f));
+                let tinted = V3::select(reflect, V3::splat(Vec3::ONE), V3::splat(*tint));
+                let valid = reflect.select(r.2, t.2).to_bitmask();
+                let pdf = g.eval_pdf_lanes(wi, wo).1;
+                Sampled { wo, weight: tinted.scale(over), pdf, valid, through: !reflect.to_bitmask() }
             }
         }
     }
@@ -95,7 +132,10 @@ pub(super) fn glossy_lanes(
     let HitLanes { d, p, err, ng } = hit_lanes(scene, rays, hits, ids);
     let front = d.dot(ng).simd_lt(F::ZERO);
     let all = (1u32 << count) - 1;
-    let n = shading_lanes(scene, rays, hits, ids, p, V3::select(front, ng, -ng));
+    // Rough glass is oriented by its outward normal, the others by the side the ray
+    // arrived on.
+    let glass = matches!(material, Material::Dielectric { .. });
+    let n = shading_lanes(scene, rays, hits, ids, p, if glass { ng } else { V3::select(front, ng, -ng) });
     let (ts, tt) = tangents_lanes(n);
     let to_local = |v: V3<F>| V3 { x: v.dot(ts), y: v.dot(tt), z: v.dot(n) };
     let wi = to_local(-d);
@@ -137,6 +177,9 @@ pub(super) fn glossy_lanes(
             // Below the shading normal a conductor has nothing to reflect.
             let live = wi.z.simd_gt(F::ZERO).to_bitmask() & all;
             (Lobes::Conductor(RoughConductor { mf, eta, k }, colors(color)), live)
+        }
+        Material::Dielectric { ior, tint, roughness: Some(mf), .. } => {
+            (Lobes::Glass(RoughDielectric { mf, eta: ior }, tint), all)
         }
         _ => {
             debug_assert!(false, "not a material on lanes");
@@ -181,11 +224,12 @@ pub(super) fn glossy_lanes(
     let s = lobes.sample(wi, pick, [u.0, u.1]);
     let wo = (ts.scale(s.wo.x) + tt.scale(s.wo.y) + n.scale(s.wo.z)).normalize();
     let (o, dir, weight, pdf) = (origins(wo), wo.lanes(), s.weight.lanes(), s.pdf.to_array());
-    let key1 = hash_lanes([key, u32x16::ONE]).to_array();
+    let (key1, key2) = (hash_lanes([key, u32x16::ONE]).to_array(), hash_lanes([key, u32x16::splat(2)]).to_array());
     for k in (0..count).filter(|&k| live & s.valid & (1 << k) != 0) {
         let i = lanes.idx[k];
         let pdf = if mis { pdf[k] } else { 0.0 };
         let w = w[k] * at(&weight, k);
-        next.push(at(&o, k), at(&dir, k), rays.slot[i], w, rays.depth[i] + 1, key1[k], samples[k], pdf, time(k));
+        let key = if s.through & (1 << k) != 0 { key2[k] } else { key1[k] };
+        next.push(at(&o, k), at(&dir, k), rays.slot[i], w, rays.depth[i] + 1, key, samples[k], pdf, time(k));
     }
 }

@@ -7,20 +7,17 @@
 //! C and 1 - C (or by exact Fresnel); total internal reflection sends all the weight
 //! to reflection.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 use wide::{f32x16, u32x16};
 
 use crate::accel::offset::{offset_lanes, offset_ray_origin};
-use crate::bsdf::microfacet::{
-    fresnel_conductor, rough_conductor_eval, rough_conductor_pdf, rough_dielectric_eval, rough_dielectric_pdf,
-    rough_dielectric_split, tangents, Microfacet,
-};
+use crate::bsdf::microfacet::fresnel_conductor;
 use crate::emitter::sphere::sphere_sample;
 use crate::light::{gloss_light_sample, light_seed, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, HitQueue, IndexQueue, RayQueue, ShadowQueue};
 use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen};
-use crate::scene::{Light, Material, ReflectRatio, Scene};
+use crate::scene::{Color, Light, Material, ReflectRatio, Scene};
 use crate::simd::{Real, LANES, V3};
 use crate::surface::{color_at, hit_lanes, hit_point, shading_lanes, shading_normal, HitLanes};
 
@@ -117,10 +114,10 @@ fn fresnel_lanes<R: Real>(cos_i: R, eta: R) -> (R, R) {
 /// Spawns the reflection and refraction rays of every listed hit into `next`, and the
 /// light samples of rough hits under multiple importance sampling into `shadow` (both cleared
 /// first). Smooth mirrors and glass go 16 hits at a time on lanes, in list order: a
-/// hit's reflection ray, then its refraction ray. Conductors and rough glass
-/// ([`is_glossy`]) are sampled one hit at a time, one ray each ([`glossy`]); in a group
-/// of 16 listed hits, their rays come first. Plastics go last, 16 hits of one material at
-/// a time on lanes, material by material (`plastic.rs`).
+/// hit's reflection ray, then its refraction ray; a smooth conductor's ray comes first in
+/// its group of 16 listed hits ([`smooth_conductor`]). Rough conductors, rough glass and
+/// plastics ([`is_glossy`]) go last, with their light samples, 16 hits of one material at
+/// a time on lanes, material by material (`lanes.rs`).
 pub fn scatter(
     scene: &Scene,
     rays: &RayQueue,
@@ -138,8 +135,8 @@ pub fn scatter(
         }
         return;
     }
-    // Plastic and rough conductor hits (material, ray), gathered to go 16 of one
-    // material at a time.
+    // Rough and plastic hits (material, ray), gathered to go 16 of one material at a
+    // time.
     let mut on_lanes = Vec::new();
     for ids in specular.index.chunks(LANES) {
         let (mut smooth, mut n) = ([0u32; LANES], 0);
@@ -148,8 +145,8 @@ pub fn scatter(
             let material = &scene.materials[id as usize];
             if lanes::on_lanes(material) {
                 on_lanes.push((id, i));
-            } else if is_glossy(material) {
-                glossy(scene, rays, hits, i as usize, material, Scattered { next, shadow });
+            } else if let Material::Conductor { eta, k, color, .. } = *material {
+                smooth_conductor(scene, rays, hits, i as usize, (eta, k, color), next);
             } else {
                 smooth[n] = i;
                 n += 1;
@@ -170,8 +167,9 @@ pub fn scatter(
     }
 }
 
-/// True for the materials [`glossy`] samples: conductors (smooth ones too, for their
-/// Fresnel reflectance and textures), rough glass and plastic.
+/// True for the materials the scatter stage reads beyond the smooth mirror and glass:
+/// conductors (smooth ones too, for their Fresnel reflectance and textures), rough glass
+/// and plastic.
 pub fn is_glossy(m: &Material) -> bool {
     matches!(m, Material::Conductor { .. } | Material::Dielectric { roughness: Some(_), .. } | Material::Plastic { .. })
 }
@@ -183,117 +181,34 @@ fn conductor_fresnel(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     fresnel_conductor(cos_i.clamp(0.0, 1.0), eta, k)
 }
 
-/// The ray of one hit `i` on a conductor or rough glass: a conductor reflects (about the
-/// shading normal when smooth, about a visible microfacet normal when rough, with weight
-/// F·G1); rough glass samples one visible microfacet normal and follows its reflection
-/// with probability F, else its refraction, each with weight G1
-/// ([`rough_dielectric_split`]). The microfacet sample and the branch are point
-/// (`sample`) of the path's Owen-scrambled Sobol sequences keyed by its `key` and
-/// [`dim::GLOSS`], [`dim::GLOSS_BRANCH`]: stratified over the pixel's samples.
-///
-/// Under multiple importance sampling (the scene's `gloss_lights` not empty) a rough
-/// hit also samples a point on a light ([`gloss_light_sample`]) and sends its shadow ray
-/// to `shadow`, weighted by the power heuristic against the BSDF's density for it; the
-/// BSDF's ray carries its own density, which weights the emitter it may hit (shade).
-fn glossy(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize, material: &Material, out: Scattered) {
-    let h = GlossyHit::new(scene, rays, hits, i);
-    match *material {
-        Material::Conductor { eta, k, color, roughness } => {
-            let color = color_at(scene, color, h.prim, h.time, h.x);
-            conductor(scene, &h, (eta, k, color), roughness, out);
-        }
-        Material::Dielectric { ior, tint, roughness: Some(mf), .. } => rough_glass(scene, &h, ior, tint, &mf, out),
-        // Plastics go on lanes (`lanes.rs`).
-        Material::Diffuse { .. }
-        | Material::Mirror { .. }
-        | Material::Plastic { .. }
-        | Material::Dielectric { roughness: None, .. } => {
-            debug_assert!(false, "not a material sampled one hit at a time");
-        }
-    }
+/// The ray of hit `i` on a smooth conductor (`(eta, k, color)`: its optical constants
+/// and colour): the reflection about the shading normal on the side the ray arrived on
+/// (conductors are two-sided, like the mirror), weighted by the Fresnel reflectance and
+/// the colour at the hit.
+fn smooth_conductor(
+    scene: &Scene,
+    rays: &RayQueue,
+    hits: &HitQueue,
+    i: usize,
+    (eta, k, color): (Vec3, Vec3, Color),
+    next: &mut RayQueue,
+) {
+    let (x, err, ng) = hit_point(scene, rays, hits, i);
+    // The path's time, carried by the rays it goes on with.
+    let carried = sparse_opt(&rays.time, i);
+    let (prim, time, d) = (hits.prim[i] as usize, carried.unwrap_or_default(), rays.dir(i));
+    let n = if d.dot(ng) < 0.0 { ng } else { -ng };
+    let ns = shading_normal(scene, prim, time, x, n);
+    let tint = rays.weight(i) * color_at(scene, color, prim, time, x);
+    let f = conductor_fresnel(-d.dot(ns), eta, k);
+    let (key1, o) = (hash(&[rays.key[i], 1]), offset_ray_origin(x, err, n));
+    next.push(o, reflect(d, ns), rays.slot[i], tint * f, rays.depth[i] + 1, key1, rays.sample[i], 0.0, carried);
 }
 
 /// The queues a glossy hit writes: its bounce ray, and its light sample's shadow ray.
 struct Scattered<'a> {
     next: &'a mut RayQueue,
     shadow: &'a mut ShadowQueue,
-}
-
-/// One glossy hit: where it is and the path that reached it.
-struct GlossyHit {
-    /// Primitive hit.
-    prim: usize,
-    /// Ray direction.
-    d: Vec3,
-    /// Hit point, its rounding error bound and the geometric normal (outward).
-    x: Vec3,
-    err: Vec3,
-    ng: Vec3,
-    /// The path's time (0 without motion blur), and as carried by its rays.
-    time: f32,
-    carried: Option<f32>,
-    /// Throughput, slot, the next ray's depth, the path's key and sample.
-    w: Vec3,
-    slot: u32,
-    depth: u32,
-    key: u32,
-    sample: u32,
-    /// The reflected ray's key.
-    key1: u32,
-    /// The microfacet sample.
-    u: Vec2,
-    /// Whether the hit samples the lights (area lights, or the environment under the path
-    /// transport) too, under multiple importance sampling.
-    mis: bool,
-    /// Whether it samples the point and directional lights (the path transport).
-    delta: bool,
-}
-
-impl GlossyHit {
-    fn new(scene: &Scene, rays: &RayQueue, hits: &HitQueue, i: usize) -> GlossyHit {
-        let (x, err, ng) = hit_point(scene, rays, hits, i);
-        // The path's time, carried by the rays it goes on with.
-        let carried = sparse_opt(&rays.time, i);
-        let key = rays.key[i];
-        let (mis, delta) = samples_lights(scene);
-        GlossyHit {
-            prim: hits.prim[i] as usize,
-            d: rays.dir(i),
-            x,
-            err,
-            ng,
-            time: carried.unwrap_or_default(),
-            carried,
-            w: rays.weight(i),
-            slot: rays.slot[i],
-            depth: rays.depth[i] + 1,
-            key,
-            sample: rays.sample[i],
-            key1: hash(&[key, 1]),
-            u: sobol_owen(rays.sample[i], hash(&[key, dim::GLOSS])),
-            mis,
-            delta,
-        }
-    }
-
-    /// The origin of a ray leaving along `wo`: off the surface on wo's side.
-    fn origin(&self, wo: Vec3) -> Vec3 {
-        offset_ray_origin(self.x, self.err, if wo.dot(self.ng) > 0.0 { self.ng } else { -self.ng })
-    }
-
-    /// The light samples of a rough hit in `frame` (under MIS), whose BSDF gives f·cos
-    /// and density for a local direction: their shadow rays into `shadow`.
-    fn light(&self, scene: &Scene, frame: &Frame, bsdf: &dyn Fn(Vec3) -> (Vec3, f32), shadow: &mut ShadowQueue) {
-        if !self.mis {
-            return;
-        }
-        light_samples(scene, self.x, (self.key, self.sample), self.delta, |_, s| {
-            let (f, pdf) = bsdf(frame.to_local(s.wi));
-            if let Some(c) = shadow_weight(self.w, f, &s, pdf) {
-                shadow.push(self.origin(s.wi), s.wi, s.tmax, self.slot, c, self.carried);
-            }
-        });
-    }
 }
 
 /// Whether a glossy point samples the lights under multiple importance sampling (area
@@ -389,95 +304,6 @@ fn shadow_weight(w: Vec3, f: Vec3, s: &LightSample, pdf: f32) -> Option<Vec3> {
     }
     let c = w * f * s.radiance * (power_heuristic(s.pdf, pdf) / s.pdf);
     (c != Vec3::ZERO).then_some(c)
-}
-
-/// A conductor's ray (`(eta, k, color)`: its optical constants and texture colour at the
-/// hit); with `roughness`, also its light sample.
-fn conductor(
-    scene: &Scene,
-    h: &GlossyHit,
-    (eta, k, color): (Vec3, Vec3, Vec3),
-    roughness: Option<Microfacet>,
-    out: Scattered,
-) {
-    let Scattered { next, shadow } = out;
-    let (d, ng) = (h.d, h.ng);
-    // Conductors are two-sided, like the mirror: the side the ray arrived on.
-    let n = if d.dot(ng) < 0.0 { ng } else { -ng };
-    let ns = shading_normal(scene, h.prim, h.time, h.x, n);
-    let tint = h.w * color;
-    let Some(mf) = roughness else {
-        let f = conductor_fresnel(-d.dot(ns), eta, k);
-        let o = offset_ray_origin(h.x, h.err, n);
-        next.push(o, reflect(d, ns), h.slot, tint * f, h.depth, h.key1, h.sample, 0.0, h.carried);
-        return;
-    };
-    let frame = Frame::new(ns);
-    let wi = frame.to_local(-d);
-    if wi.z <= 0.0 {
-        return;
-    }
-    let bsdf = |wl| (color * rough_conductor_eval(&mf, eta, k, wi, wl), rough_conductor_pdf(&mf, wi, wl));
-    h.light(scene, &frame, &bsdf, shadow);
-    let m = mf.sample(wi, h.u);
-    let wo = reflect(-wi, m);
-    if wo.z <= 0.0 {
-        return;
-    }
-    let weight = conductor_fresnel(wi.dot(m), eta, k) * mf.smith_g1(wo, m);
-    let pdf = if h.mis { rough_conductor_pdf(&mf, wi, wo) } else { 0.0 };
-    let wo = frame.to_world(wo);
-    next.push(h.origin(wo), wo, h.slot, tint * weight, h.depth, h.key1, h.sample, pdf, h.carried);
-}
-
-/// Rough glass: its light sample, and one ray: the reflection with probability F, else
-/// the refraction (Mitsuba's choice), each weighted by its branch weight over its
-/// probability.
-fn rough_glass(scene: &Scene, h: &GlossyHit, ior: f32, tint: Vec3, mf: &Microfacet, out: Scattered) {
-    let Scattered { next, shadow } = out;
-    // Rough glass is oriented by its outward normal; the split handles either side.
-    let frame = Frame::new(shading_normal(scene, h.prim, h.time, h.x, h.ng));
-    let wi = frame.to_local(-h.d);
-    let bsdf = |wl: Vec3| {
-        // Transmission is tinted, as the refracted ray is.
-        let t = if wi.z * wl.z > 0.0 { Vec3::ONE } else { tint };
-        (t * rough_dielectric_eval(mf, ior, wi, wl), rough_dielectric_pdf(mf, ior, wi, wl))
-    };
-    h.light(scene, &frame, &bsdf, shadow);
-    let split = rough_dielectric_split(mf, ior, wi, h.u);
-    let pick = sobol_owen(h.sample, hash(&[h.key, dim::GLOSS_BRANCH])).x;
-    let (branch, p, tint, key) = if pick < split.f {
-        (split.reflect, split.f, Vec3::ONE, h.key1)
-    } else {
-        (split.refract, 1.0 - split.f, tint, hash(&[h.key, 2]))
-    };
-    if let Some((wo, weight)) = branch {
-        let pdf = if h.mis { rough_dielectric_pdf(mf, ior, wi, wo) } else { 0.0 };
-        let wo = frame.to_world(wo);
-        next.push(h.origin(wo), wo, h.slot, h.w * tint * (weight / p), h.depth, key, h.sample, pdf, h.carried);
-    }
-}
-
-/// An orthonormal shading frame: [`tangents`] of the normal, and the normal.
-struct Frame {
-    s: Vec3,
-    t: Vec3,
-    n: Vec3,
-}
-
-impl Frame {
-    fn new(n: Vec3) -> Frame {
-        let (s, t) = tangents(n);
-        Frame { s, t, n }
-    }
-
-    fn to_local(&self, v: Vec3) -> Vec3 {
-        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
-    }
-
-    fn to_world(&self, v: Vec3) -> Vec3 {
-        (self.s * v.x + self.t * v.y + self.n * v.z).normalize()
-    }
 }
 
 /// The rays [`scatter`] spawns from hits `ids` (1 to 16), on lanes. Mirrors reflect;
