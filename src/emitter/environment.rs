@@ -11,7 +11,10 @@
 use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
+use wide::f32x16;
+
 use crate::color::luminance;
+use crate::simd::{LANES, V3};
 
 /// The environment: constant radiance, or a map scaled by `radiance`.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -67,6 +70,19 @@ pub struct EnvSample {
     pub pdf: f32,
 }
 
+/// Directions drawn towards the environment for 16 lanes ([`Environment::sample_lanes`]).
+#[derive(Clone, Copy, Debug)]
+pub struct EnvLanes {
+    /// Unit directions, world.
+    pub wi: V3<f32x16>,
+    /// The radiance arriving along them.
+    pub radiance: V3<f32x16>,
+    /// Their densities over solid angle.
+    pub pdf: f32x16,
+    /// Bit k: lane k has a sample.
+    pub valid: u32,
+}
+
 impl Environment {
     /// A constant environment.
     pub fn constant(radiance: Vec3) -> Environment {
@@ -87,25 +103,54 @@ impl Environment {
     }
 
     /// A direction from the square sample `u`, with its radiance and density; `None` for a
-    /// black environment or a zero-density draw.
+    /// black environment or a zero-density draw. Lane 0 of [`Environment::sample_lanes`].
     pub fn sample(&self, u: Vec2) -> Option<EnvSample> {
-        if self.is_black() {
-            return None;
+        let s = self.sample_lanes([f32x16::splat(u.x), f32x16::splat(u.y)], 1);
+        let at = |v: V3<f32x16>| Vec3::new(v.x.to_array()[0], v.y.to_array()[0], v.z.to_array()[0]);
+        (s.valid & 1 != 0).then(|| EnvSample { wi: at(s.wi), radiance: at(s.radiance), pdf: s.pdf.to_array()[0] })
+    }
+
+    /// Directions from the first `count` of 16 square samples `u`, with their radiance and
+    /// density: a cell of the map by its weight and a point uniformly inside it, found
+    /// lane by lane, then turned into a direction on lanes (`wide`'s sine and cosine,
+    /// within a few units in the last place of libm's); a constant uniformly over the
+    /// sphere. Bit k of `valid` is set where lane k has a sample.
+    pub fn sample_lanes(&self, u: [f32x16; 2], count: usize) -> EnvLanes {
+        let zero = V3 { x: f32x16::ZERO, y: f32x16::ZERO, z: f32x16::ZERO };
+        let none = EnvLanes { wi: zero, radiance: zero, pdf: f32x16::ZERO, valid: 0 };
+        if self.is_black() || count == 0 {
+            return none;
         }
+        let all = if count >= LANES { !0 } else { (1u32 << count) - 1 };
         let Some(map) = &self.map else {
-            let wi = uniform_sphere(u);
-            return Some(EnvSample { wi, radiance: self.radiance, pdf: 0.25 * FRAC_1_PI });
+            let z = f32x16::ONE - f32x16::splat(2.0) * u[1];
+            let r = (f32x16::ONE - z * z).max(f32x16::ZERO).sqrt();
+            let (s, c) = (f32x16::splat(2.0 * PI) * u[0]).sin_cos();
+            let wi = V3 { x: r * c, y: r * s, z };
+            let pdf = f32x16::splat(0.25 * FRAC_1_PI);
+            return EnvLanes { wi, radiance: V3::splat(self.radiance), pdf, valid: all };
         };
-        let (uv, density) = map.sample(u);
-        let (local, sin_theta) = uv_to_direction(uv);
-        if density <= 0.0 || sin_theta <= 0.0 {
-            return None;
+        let (ux, uy) = (u[0].to_array(), u[1].to_array());
+        let (mut uv, mut density, mut texel) = ([[0.0f32; LANES]; 2], [0.0f32; LANES], [[0.0f32; LANES]; 3]);
+        for k in 0..count.min(LANES) {
+            let (p, d) = map.sample(Vec2::new(ux[k], uy[k]));
+            // The map at the drawn point itself: what a ray along wi finds up to the
+            // rounding of the round trip through the direction, without its arc tangents.
+            let t = self.radiance * map.eval(p);
+            (uv[0][k], uv[1][k], density[k]) = (p.x, p.y, d);
+            (texel[0][k], texel[1][k], texel[2][k]) = (t.x, t.y, t.z);
         }
-        let wi = (self.to_world * local).normalize();
-        let pdf = density / (2.0 * PI * PI * sin_theta);
-        // The map at the drawn point itself: what a ray along wi finds up to the rounding
-        // of the round trip through the direction, without its two arc tangents.
-        Some(EnvSample { wi, radiance: self.radiance * map.eval(uv), pdf })
+        let (sin_theta, cos_theta) = (f32x16::from(uv[1]) * f32x16::splat(PI)).sin_cos();
+        let (sin_phi, cos_phi) = (f32x16::from(uv[0]) * f32x16::splat(2.0) * f32x16::splat(PI)).sin_cos();
+        let local = V3 { x: sin_phi * sin_theta, y: cos_theta, z: -cos_phi * sin_theta };
+        let (c0, c1, c2) = (self.to_world.x_axis, self.to_world.y_axis, self.to_world.z_axis);
+        let column = |c: Vec3, s: f32x16| V3::splat(c).scale(s);
+        let wi = (column(c0, local.x) + column(c1, local.y) + column(c2, local.z)).normalize();
+        let density = f32x16::from(density);
+        let valid = (density.simd_gt(f32x16::ZERO) & sin_theta.simd_gt(f32x16::ZERO)).to_bitmask() & all;
+        let pdf = density / (f32x16::splat(2.0 * PI * PI) * sin_theta);
+        let radiance = V3 { x: f32x16::from(texel[0]), y: f32x16::from(texel[1]), z: f32x16::from(texel[2]) };
+        EnvLanes { wi, radiance, pdf, valid }
     }
 
     /// The density with which [`Environment::sample`] draws world direction `d` (unit).
@@ -127,6 +172,34 @@ impl Environment {
             return (radiance, 0.0);
         }
         (radiance, map.density_at(uv) / (2.0 * PI * PI * sin_theta))
+    }
+
+    /// [`Environment::eval_pdf`] of 16 world directions `d` (the first `count` looked up),
+    /// the arc tangents on lanes (`wide`'s, within a few units in the last place of
+    /// libm's), each map lookup lane by lane.
+    pub fn eval_pdf_lanes(&self, d: V3<f32x16>, count: usize) -> (V3<f32x16>, f32x16) {
+        let Some(map) = &self.map else {
+            let pdf = if self.is_black() { 0.0 } else { 0.25 * FRAC_1_PI };
+            return (V3::splat(self.radiance), f32x16::splat(pdf));
+        };
+        let (c0, c1, c2) = (self.to_local.x_axis, self.to_local.y_axis, self.to_local.z_axis);
+        let local = V3::splat(c0).scale(d.x) + V3::splat(c1).scale(d.y) + V3::splat(c2).scale(d.z);
+        let sin_theta = (local.x * local.x + local.z * local.z).sqrt();
+        let u = f32x16::atan2(local.x, -local.z) * f32x16::splat(0.5 * FRAC_1_PI);
+        let v = f32x16::atan2(sin_theta, local.y) * f32x16::splat(FRAC_1_PI);
+        let (u, v) = (u.to_array(), v.to_array());
+        let (mut texel, mut density) = ([[0.0f32; LANES]; 3], [0.0f32; LANES]);
+        for k in 0..count.min(LANES) {
+            let uv = Vec2::new(u[k], v[k]);
+            let t = self.radiance * map.eval(uv);
+            (texel[0][k], texel[1][k], texel[2][k], density[k]) = (t.x, t.y, t.z, map.density_at(uv));
+        }
+        let radiance = V3 { x: f32x16::from(texel[0]), y: f32x16::from(texel[1]), z: f32x16::from(texel[2]) };
+        let pdf = f32x16::from(density) / (f32x16::splat(2.0 * PI * PI) * sin_theta);
+        if self.is_black() {
+            return (radiance, f32x16::ZERO);
+        }
+        (radiance, sin_theta.simd_gt(f32x16::ZERO).select(pdf, f32x16::ZERO))
     }
 }
 
@@ -300,21 +373,6 @@ fn next_below(k: usize, n: usize) -> f32 {
 fn direction_to_uv(d: Vec3) -> Vec2 {
     let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
     Vec2::new(d.x.atan2(-d.z) * (0.5 * FRAC_1_PI), sin_theta.atan2(d.y) * FRAC_1_PI)
-}
-
-/// Mitsuba's `uv_to_direction`, and sin θ.
-fn uv_to_direction(uv: Vec2) -> (Vec3, f32) {
-    let (sin_theta, cos_theta) = (uv.y * PI).sin_cos();
-    let (sin_phi, cos_phi) = (uv.x * 2.0 * PI).sin_cos();
-    (Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta), sin_theta)
-}
-
-/// A uniform direction on the sphere (Mitsuba's `square_to_uniform_sphere`).
-fn uniform_sphere(u: Vec2) -> Vec3 {
-    let z = 1.0 - 2.0 * u.y;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u.x).sin_cos();
-    Vec3::new(r * c, r * s, z)
 }
 
 #[cfg(test)]

@@ -15,13 +15,15 @@
 use glam::Vec3;
 use wide::{f32x16, u32x16};
 
-use super::{light_samples, light_slots, samples_lights, shadow_weight, LightSample, Scattered};
+use super::Scattered;
 use crate::accel::offset::offset_lanes;
 use crate::bsdf::microfacet::{tangents_lanes, RoughConductor, RoughDielectric};
 use crate::bsdf::plastic::{Plastic, TABLE_RES};
+use crate::emitter::sphere::sphere_sample;
+use crate::light::{gloss_light_sample, light_seed, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, HitQueue, RayQueue};
-use crate::sampling::{dim, hash_lanes, sobol_owen_lanes};
-use crate::scene::{Color, Material, Scene};
+use crate::sampling::{dim, hash_lanes, power_heuristic, sobol_owen, sobol_owen_lanes};
+use crate::scene::{Color, Light, Material, Scene};
 use crate::simd::{LaneIds, LANES, V3};
 use crate::surface::{color_at, hit_lanes, shading_lanes, HitLanes};
 
@@ -203,6 +205,21 @@ pub(super) fn glossy_lanes(
         for k in (0..count).filter(|&k| live & (1 << k) != 0) {
             light_samples(scene, at(&points, k), (keys[k], samples[k]), delta, |j, s| drawn[j][k] = Some(s));
         }
+        if scene.samples_environment() {
+            let u = sobol_owen_lanes(sample, hash_lanes([key, u32x16::splat(dim::ENVIRONMENT)]));
+            let e = scene.background.sample_lanes([u.0, u.1], count);
+            let (dir, radiance, pdf) = (e.wi.lanes(), e.radiance.lanes(), e.pdf.to_array());
+            for k in (0..count).filter(|&k| live & e.valid & (1 << k) != 0) {
+                let s = LightSample {
+                    wi: at(&dir, k),
+                    tmax: f32::MAX,
+                    radiance: at(&radiance, k),
+                    pdf: pdf[k],
+                    delta: false,
+                };
+                drawn[slots - 1][k] = Some(s);
+            }
+        }
         let mut lit = Vec::with_capacity(slots);
         for row in &drawn {
             let dir = V3::from_fn(|k| row[k].map_or(Vec3::Z, |s| s.wi));
@@ -232,4 +249,93 @@ pub(super) fn glossy_lanes(
         let key = if s.through & (1 << k) != 0 { key2[k] } else { key1[k] };
         next.push(at(&o, k), at(&dir, k), rays.slot[i], w, rays.depth[i] + 1, key, samples[k], pdf, time(k));
     }
+}
+
+/// Whether a glossy point samples the lights under multiple importance sampling (area
+/// lights, sphere lights, or the environment under the path transport), and whether it
+/// samples the point and directional lights too (the path transport).
+fn samples_lights(scene: &Scene) -> (bool, bool) {
+    // Under the path transport, delta lights light glossy surfaces too.
+    let delta = scene.settings.path() && !scene.delta_lights.is_empty();
+    let mis = !scene.gloss_lights.is_empty() || !scene.sphere_lights.is_empty() || scene.samples_environment() || delta;
+    (mis, delta)
+}
+
+/// One light sample of a glossy point.
+#[derive(Clone, Copy, Debug)]
+struct LightSample {
+    /// Unit direction towards the light.
+    wi: Vec3,
+    /// The shadow ray's reach.
+    tmax: f32,
+    /// The radiance arriving (a delta light's irradiance).
+    radiance: Vec3,
+    /// Its density over solid angle; unused for a delta light.
+    pdf: f32,
+    /// A point or directional light: no BSDF ray finds it, so it is not weighted.
+    delta: bool,
+}
+
+/// How many light samples a glossy point can have: one per delta light (with `delta`),
+/// one for the area lights, one per sphere light ([`light_samples`]), and one for the
+/// environment (under the path transport its shadow ray reaches to infinity).
+fn light_slots(scene: &Scene, delta: bool) -> usize {
+    (if delta { scene.delta_lights.len() } else { 0 }) + 1 + scene.sphere_lights.len() + 1
+}
+
+/// Calls `f(slot, sample)` for each light sample of point `x` of the path `(key,
+/// sample)`, slots in the order [`light_slots`] counts them (a slot without a sample is
+/// skipped): a ray per delta light (with `delta`: the BSDF's rays never find them), one
+/// point on an area light ([`gloss_light_sample`]), one direction in the cone of each
+/// sphere light; the environment's slot, last, is the caller's
+/// ([`Environment::sample_lanes`](crate::emitter::environment::Environment::sample_lanes)).
+fn light_samples(
+    scene: &Scene,
+    x: Vec3,
+    (key, sample): (u32, u32),
+    delta: bool,
+    mut f: impl FnMut(usize, LightSample),
+) {
+    let deltas = if delta { scene.delta_lights.as_slice() } else { &[] };
+    for (j, &li) in deltas.iter().enumerate() {
+        let (wi, tmax, radiance) = match scene.lights[li as usize] {
+            Light::Point { position, intensity } => {
+                let to = position - x;
+                let d2 = to.length_squared();
+                (to / d2.sqrt(), d2.sqrt() * SHADOW_TMAX_SCALE, intensity / d2)
+            }
+            Light::Directional { direction, irradiance } => (-direction, f32::MAX, irradiance),
+            Light::Quad { .. } | Light::Triangle { .. } | Light::Sphere { .. } => continue,
+        };
+        f(j, LightSample { wi, tmax, radiance, pdf: 0.0, delta: true });
+    }
+    let mut j = deltas.len();
+    if let Some(l) = gloss_light_sample(scene, x, key, sample) {
+        let s =
+            LightSample { wi: l.wi, tmax: l.dist * SHADOW_TMAX_SCALE, radiance: l.radiance, pdf: l.pdf, delta: false };
+        f(j, s);
+    }
+    j += 1;
+    for &li in &scene.sphere_lights {
+        if let Light::Sphere { center, radius, radiance } = scene.lights[li as usize] {
+            let u = sobol_owen(sample, light_seed(key, li as usize));
+            if let Some(s) = sphere_sample(center, radius, x, u) {
+                f(j, LightSample { wi: s.wi, tmax: s.dist * SHADOW_TMAX_SCALE, radiance, pdf: s.pdf, delta: false });
+            }
+        }
+        j += 1;
+    }
+}
+
+/// What the shadow ray of light sample `s` carries for a path of throughput `w` at a
+/// point whose BSDF gives f·cos `f` and density `pdf` for it: weighted by the power
+/// heuristic against the BSDF's density (a delta light unweighted); `None` when nothing.
+#[inline]
+fn shadow_weight(w: Vec3, f: Vec3, s: &LightSample, pdf: f32) -> Option<Vec3> {
+    if s.delta {
+        let c = w * f * s.radiance;
+        return (c != Vec3::ZERO && c.is_finite()).then_some(c);
+    }
+    let c = w * f * s.radiance * (power_heuristic(s.pdf, pdf) / s.pdf);
+    (c != Vec3::ZERO).then_some(c)
 }

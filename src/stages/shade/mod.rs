@@ -87,21 +87,24 @@ fn sort_hits(
     };
     let hidden = |i: usize| hide && rays.depth[i] == 0;
     let (environment, sampled) = (!scene.background.is_black(), scene.samples_environment());
+    // Rays that escape and share the environment with their light samples, 16 at a time.
+    let (mut escaped, mut escapes) = ([0u32; LANES], 0);
     for i in 0..rays.len() {
         if hits.prim[i] == MISS {
             if environment && !hidden(i) {
-                let d = rays.dir(i);
                 // A surface's ray shares the environment with its light samples (MIS); an
                 // adaptive-shadow bounce (negative density) has no environment sample
                 // beside it, and takes all.
-                let pdf = rays.pdf[i];
-                let (radiance, mis) = if sampled && pdf > 0.0 {
-                    let (radiance, env_pdf) = scene.background.eval_pdf(d);
-                    (radiance, power_heuristic(pdf, env_pdf))
+                if sampled && rays.pdf[i] > 0.0 {
+                    escaped[escapes] = i as u32;
+                    escapes += 1;
+                    if escapes == LANES {
+                        shared_environment(scene, rays, &escaped, film);
+                        escapes = 0;
+                    }
                 } else {
-                    (scene.background.eval(d), 1.0)
-                };
-                film.push(rays.slot[i], rays.weight(i) * radiance * mis);
+                    film.push(rays.slot[i], rays.weight(i) * scene.background.eval(rays.dir(i)));
+                }
             }
             continue;
         }
@@ -138,6 +141,23 @@ fn sort_hits(
         }
     }
     diffuse_surfaces(scene, rays, hits, &group[..len], surfaces);
+    if escapes > 0 {
+        shared_environment(scene, rays, &escaped[..escapes], film);
+    }
+}
+
+/// The environment seen by rays `ids` (1 to 16, escaped), each weighted by the power
+/// heuristic against the density with which its surface's light samples draw it.
+fn shared_environment(scene: &Scene, rays: &RayQueue, ids: &[u32], film: &mut FilmQueue) {
+    let lanes = LaneIds::new(ids);
+    let d = V3 { x: lanes.gather(&rays.dx), y: lanes.gather(&rays.dy), z: lanes.gather(&rays.dz) };
+    let (radiance, env_pdf) = scene.background.eval_pdf_lanes(d, ids.len());
+    let (radiance, env_pdf) = (radiance.lanes(), env_pdf.to_array());
+    for (k, &i) in ids.iter().enumerate() {
+        let i = i as usize;
+        let l = Vec3::new(radiance[0][k], radiance[1][k], radiance[2][k]);
+        film.push(rays.slot[i], rays.weight(i) * l * power_heuristic(rays.pdf[i], env_pdf[k]));
+    }
 }
 
 /// The lights of every point of `surfaces`: uniform shadow rays into `shadow`, or, for an

@@ -9,7 +9,7 @@ use wide::{f32x16, u32x16};
 use crate::emitter::sphere::sphere_sample;
 use crate::light::{light_seed, pick_light, uniform_shadow_rays, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
-use crate::sampling::{dim, hash, hash_lanes, power_heuristic, sobol_owen, sobol_owen_lanes};
+use crate::sampling::{dim, hash_lanes, power_heuristic, sobol_owen, sobol_owen_lanes};
 use crate::scene::{AreaLights, Light, Scene};
 use crate::simd::{LaneIds, Word, LANES, V3};
 use crate::surface::{diffuse_brdf, queued_surface, Surface};
@@ -37,16 +37,25 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
     if scene.gloss_lights.is_empty() {
         return;
     }
-    let n = scene.settings.shadow_samples as usize;
-    let total = surfaces.len() * n;
+    pairs(surfaces.len(), scene.settings.shadow_samples, |point, sample, count| {
+        area_lanes(scene, &scene.area_lights, surfaces, (point, sample, count), shadow);
+    });
+}
+
+/// Calls `f(point, sample, count)` for every (point, light sample) pair of `points`
+/// points with `n` samples each, 16 pairs at a time in order: pair k is sample
+/// `sample[k]` of point `point[k]`, the first `count` real (lanes past the last pair
+/// repeat it and are not written).
+fn pairs(points: usize, n: u32, mut f: impl FnMut(&[u32; LANES], &[u32; LANES], usize)) {
+    let n = n as usize;
+    let total = points * n;
     let mut start = 0;
     while start < total {
         let count = (total - start).min(LANES);
-        // Lanes past the last pair repeat it and are not written.
         let pair = |k: usize| start + k.min(count - 1);
         let point: [u32; LANES] = std::array::from_fn(|k| (pair(k) / n) as u32);
         let sample: [u32; LANES] = std::array::from_fn(|k| (pair(k) % n) as u32);
-        area_lanes(scene, &scene.area_lights, surfaces, (&point, &sample, count), shadow);
+        f(&point, &sample, count);
         start += count;
     }
 }
@@ -57,16 +66,22 @@ pub(super) fn path_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut S
 /// rays reach to infinity.
 fn environment_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
     let n = scene.settings.shadow_samples;
-    for p in 0..surfaces.len() {
-        let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
-        for j in 0..n {
-            let u = sobol_owen(surf.sample * n + j, hash(&[surf.key, dim::ENVIRONMENT]));
-            if let Some(s) = scene.background.sample(u) {
-                let sample = DirectionSample { wi: s.wi, tmax: f32::MAX, radiance: s.radiance, pdf: s.pdf * n as f32 };
-                weighted_shadow_ray(&surf, sample, time, shadow);
-            }
+    pairs(surfaces.len(), n, |point, sample, count| {
+        let lanes = LaneIds::new(point);
+        let index = lanes.gather_words(&surfaces.sample) * u32x16::splat(n) + u32x16::from(*sample);
+        let seed = hash_lanes([lanes.gather_words(&surfaces.key), u32x16::splat(dim::ENVIRONMENT)]);
+        let u = sobol_owen_lanes(index, seed);
+        let e = scene.background.sample_lanes([u.0, u.1], count);
+        let (wi, radiance, pdf) = (e.wi.lanes(), e.radiance.lanes(), e.pdf.to_array());
+        for k in (0..count).filter(|&k| e.valid & (1 << k) != 0) {
+            let p = point[k] as usize;
+            let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
+            let at = |v: &[[f32; LANES]; 3]| Vec3::new(v[0][k], v[1][k], v[2][k]);
+            let sample =
+                DirectionSample { wi: at(&wi), tmax: f32::MAX, radiance: at(&radiance), pdf: pdf[k] * n as f32 };
+            weighted_shadow_ray(&surf, sample, time, shadow);
         }
-    }
+    });
 }
 
 /// Next-event estimation of sphere light `li` at every point of `surfaces`:
