@@ -6,13 +6,13 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use crate::emitter::sphere::sphere_sample;
-use crate::light::{light_seed, pick_light, uniform_shadow_rays, SHADOW_TMAX_SCALE};
+use crate::emitter::sphere::sphere_sample_lanes;
+use crate::light::{light_seed_lanes, pick_light, uniform_shadow_rays, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, ShadowQueue, SurfaceQueue};
-use crate::sampling::{dim, hash_lanes, power_heuristic, sobol_owen, sobol_owen_lanes};
+use crate::sampling::{dim, hash_lanes, sobol_owen_lanes};
 use crate::scene::{AreaLights, Light, Scene};
 use crate::simd::{LaneIds, Word, LANES, V3};
-use crate::surface::{diffuse_brdf, queued_surface, Surface};
+use crate::surface::{diffuse_brdf, queued_surface};
 
 /// Next-event estimation at every point of `surfaces`: a ray to each point light, and
 /// `shadows.samples` points on the area lights (light sample j of the path's camera
@@ -68,19 +68,27 @@ fn environment_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shado
     let n = scene.settings.shadow_samples;
     pairs(surfaces.len(), n, |point, sample, count| {
         let lanes = LaneIds::new(point);
-        let index = lanes.gather_words(&surfaces.sample) * u32x16::splat(n) + u32x16::from(*sample);
+        let index = lanes.gather_words(&surfaces.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(*sample));
         let seed = hash_lanes([lanes.gather_words(&surfaces.key), u32x16::splat(dim::ENVIRONMENT)]);
         let u = sobol_owen_lanes(index, seed);
         let e = scene.background.sample_lanes([u.0, u.1], count);
-        let (wi, radiance, pdf) = (e.wi.lanes(), e.radiance.lanes(), e.pdf.to_array());
-        for k in (0..count).filter(|&k| e.valid & (1 << k) != 0) {
-            let p = point[k] as usize;
-            let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
-            let at = |v: &[[f32; LANES]; 3]| Vec3::new(v[0][k], v[1][k], v[2][k]);
-            let sample =
-                DirectionSample { wi: at(&wi), tmax: f32::MAX, radiance: at(&radiance), pdf: pdf[k] * n as f32 };
-            weighted_shadow_ray(&surf, sample, time, shadow);
-        }
+        let normal = V3 { x: lanes.gather(&surfaces.nx), y: lanes.gather(&surfaces.ny), z: lanes.gather(&surfaces.nz) };
+        let live = f32x16::from(std::array::from_fn::<f32, LANES, _>(|k| {
+            if e.valid & (1 << k) != 0 {
+                f32::from_bits(!0)
+            } else {
+                0.0
+            }
+        }));
+        let sample = LaneSamples {
+            wi: e.wi,
+            cos: normal.dot(e.wi),
+            tmax: f32x16::splat(f32::MAX),
+            radiance: e.radiance,
+            pdf: e.pdf * f32x16::splat(n as f32),
+            live,
+        };
+        weighted_lanes(surfaces, (point, count), sample, shadow);
     });
 }
 
@@ -90,47 +98,24 @@ fn environment_lights(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shado
 fn sphere_lights(scene: &Scene, li: u32, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
     let Light::Sphere { center, radius, radiance } = scene.lights[li as usize] else { return };
     let n = scene.settings.shadow_samples;
-    for p in 0..surfaces.len() {
-        let (surf, time) = (queued_surface(surfaces, p), sparse_opt(&surfaces.time, p));
-        let seed = light_seed(surf.key, li as usize);
-        for j in 0..n {
-            let u = sobol_owen(surf.sample.wrapping_mul(n).wrapping_add(j), seed);
-            let Some(s) = sphere_sample(center, radius, surf.o, u) else { break };
-            let tmax = s.dist * SHADOW_TMAX_SCALE;
-            weighted_shadow_ray(
-                &surf,
-                DirectionSample { wi: s.wi, tmax, radiance, pdf: s.pdf * n as f32 },
-                time,
-                shadow,
-            );
-        }
-    }
-}
-
-/// A light sample drawn as a direction.
-struct DirectionSample {
-    wi: Vec3,
-    /// The shadow ray's reach.
-    tmax: f32,
-    radiance: Vec3,
-    /// Its density per solid angle times the samples per point.
-    pdf: f32,
-}
-
-/// The shadow ray of light sample `s` at diffuse point `surf`, weighted by the power
-/// heuristic against the density of the point's cosine bounce ray; none below the
-/// surface or for no light.
-fn weighted_shadow_ray(surf: &Surface, s: DirectionSample, time: Option<f32>, shadow: &mut ShadowQueue) {
-    let cos = surf.n.dot(s.wi);
-    if cos <= 0.0 {
-        return;
-    }
-    let mis = power_heuristic(s.pdf, cos * FRAC_1_PI);
-    let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, s.wi, surf.wo);
-    let c = surf.w * brdf * s.radiance * (cos * mis / s.pdf);
-    if c != Vec3::ZERO {
-        shadow.push(surf.o, s.wi, s.tmax, surf.slot, c, time);
-    }
+    pairs(surfaces.len(), n, |point, sample, count| {
+        let lanes = LaneIds::new(point);
+        let index = lanes.gather_words(&surfaces.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(*sample));
+        let seed = light_seed_lanes(lanes.gather_words(&surfaces.key), u32x16::splat(li));
+        let u = sobol_owen_lanes(index, seed);
+        let o = V3 { x: lanes.gather(&surfaces.ox), y: lanes.gather(&surfaces.oy), z: lanes.gather(&surfaces.oz) };
+        let normal = V3 { x: lanes.gather(&surfaces.nx), y: lanes.gather(&surfaces.ny), z: lanes.gather(&surfaces.nz) };
+        let (wi, dist, pdf, live) = sphere_sample_lanes(center, radius, o, [u.0, u.1]);
+        let sample = LaneSamples {
+            wi,
+            cos: normal.dot(wi),
+            tmax: dist * f32x16::splat(SHADOW_TMAX_SCALE),
+            radiance: V3::splat(radiance),
+            pdf: pdf * f32x16::splat(n as f32),
+            live,
+        };
+        weighted_lanes(surfaces, (point, count), sample, shadow);
+    });
 }
 
 /// The light samples of one lane group: pair k is sample `sample[k]` of point
@@ -160,14 +145,44 @@ fn area_lanes(
     let li = pick.map(|j| lights[j as usize]);
     let seed = hash_lanes([key, u32x16::from(li), u32x16::splat(dim::GLOSS_LIGHT)]);
     let (s, l) = table.sample(&pick, o, normal, index, seed);
-    // Density of the point per solid angle (n samples), and the bounce ray's for it.
+    // Density of the point per solid angle (n samples).
     let zero = f32x16::ZERO;
-    let live = s.cos_x.simd_gt(zero) & s.cos_y.simd_gt(zero) & s.dist2.simd_gt(zero);
+    let live = s.cos_y.simd_gt(zero) & s.dist2.simd_gt(zero);
     let light_pdf = s.dist2 / (s.cos_y * l.area) * f32x16::splat(n as f32);
-    let bsdf_pdf = s.cos_x * f32x16::splat(FRAC_1_PI);
+    let tmax = s.dist * f32x16::splat(SHADOW_TMAX_SCALE);
+    let sample = LaneSamples { wi: s.wi, cos: s.cos_x, tmax, radiance: l.radiance, pdf: light_pdf, live };
+    weighted_lanes(q, (point, count), sample, shadow);
+}
+
+/// Light samples of 16 diffuse points, on lanes.
+struct LaneSamples {
+    /// Unit directions towards the lights.
+    wi: V3<f32x16>,
+    /// Their cosines with the points' normals.
+    cos: f32x16,
+    /// The shadow rays' reach.
+    tmax: f32x16,
+    radiance: V3<f32x16>,
+    /// The densities per solid angle, over the points' n samples.
+    pdf: f32x16,
+    /// Lanes with a sample.
+    live: f32x16,
+}
+
+/// The shadow rays of light samples `s` at points `point` of `q` (the first `count`
+/// real), each weighted by the power heuristic against the density of its point's
+/// cosine bounce ray; none below a surface or for no light.
+fn weighted_lanes(q: &SurfaceQueue, (point, count): (&[u32; LANES], usize), s: LaneSamples, shadow: &mut ShadowQueue) {
+    let lanes = LaneIds::new(point);
+    let f = |v: &[f32]| lanes.gather(v);
+    let v3 = |x: &[f32], y: &[f32], z: &[f32]| V3 { x: f(x), y: f(y), z: f(z) };
+    let zero = f32x16::ZERO;
+    let live = s.live & s.cos.simd_gt(zero);
+    let (light_pdf, l) = (s.pdf, &s);
+    let bsdf_pdf = s.cos * f32x16::splat(FRAC_1_PI);
     let r = bsdf_pdf / light_pdf;
     // Power heuristic over the light density, cos_x / light_pdf folded in.
-    let factor = s.cos_x / (light_pdf * (f32x16::ONE + r * r));
+    let factor = s.cos / (light_pdf * (f32x16::ONE + r * r));
     let factor = live.select(factor, zero);
     let w = v3(&q.wr, &q.wg, &q.wb);
     let brdf = v3(&q.cr, &q.cg, &q.cb).scale(f32x16::splat(FRAC_1_PI));
@@ -193,8 +208,8 @@ fn area_lanes(
             m += 1;
         }
     }
-    let tmax = (s.dist * f32x16::splat(SHADOW_TMAX_SCALE)).to_array();
+    let o = v3(&q.ox, &q.oy, &q.oz);
     let slot = point.map(|p| q.slot[p as usize]);
     let time = (!q.time.is_empty()).then(|| point.map(|p| q.time[p as usize]));
-    shadow.push_picked(o.lanes(), [wx, wy, wz], tmax, slot, [lr, lg, lb], time.as_ref(), &keep[..m]);
+    shadow.push_picked(o.lanes(), [wx, wy, wz], s.tmax.to_array(), slot, [lr, lg, lb], time.as_ref(), &keep[..m]);
 }
