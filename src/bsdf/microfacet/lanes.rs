@@ -50,6 +50,11 @@ impl Microfacet {
         (d * m.z).simd_gt(F::splat(1e-20)).select(d, F::ZERO)
     }
 
+    /// [`Microfacet::pdf`] on lanes, given D(m) = `d` ([`Microfacet::eval_lanes`]).
+    pub fn pdf_lanes(&self, wi: V3<F>, m: V3<F>, d: F) -> F {
+        d * self.smith_g1_lanes(wi, m) * wi.dot(m).abs() / wi.z
+    }
+
     /// [`Microfacet::smith_g1`] on lanes.
     pub fn smith_g1_lanes(&self, v: V3<F>, m: V3<F>) -> F {
         let (au, av) = self.alphas();

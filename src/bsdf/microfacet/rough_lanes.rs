@@ -132,7 +132,7 @@ impl RoughDielectric {
         let sides = (dim * wi.z).simd_gt(F::ZERO) & (dom * wo.z).simd_gt(F::ZERO);
         let dwh_dwo = reflect.select(one / (F::splat(4.0) * dom), eta_r * eta_r * dom / (den * den));
         let wi_up = V3::select(wi.z.simd_gt(F::ZERO), wi, -wi);
-        let visible = d * mf.smith_g1_lanes(wi_up, m) * wi_up.dot(m).abs() / wi_up.z;
+        let visible = mf.pdf_lanes(wi_up, m, d);
         let pdf = visible * reflect.select(f, one - f) * dwh_dwo.abs();
         (defined.select(value, F::ZERO), (defined & sides).select(pdf, F::ZERO))
     }
@@ -142,7 +142,7 @@ impl RoughDielectric {
         let (mf, one) = (&self.mf, F::splat(1.0));
         let wi_up = V3::select(wi.z.simd_gt(F::ZERO), wi, -wi);
         let m = mf.sample_visible_lanes(wi_up, u);
-        let density = mf.eval_lanes(m) * mf.smith_g1_lanes(wi_up, m) * wi_up.dot(m).abs() / wi_up.z;
+        let density = mf.pdf_lanes(wi_up, m, mf.eval_lanes(m));
         let sampled = wi.z.simd_ne(F::ZERO) & density.simd_ne(F::ZERO);
         let (f, cos_t, eta_ti) = fresnel_dielectric_lanes(wi.dot(m), self.eta);
         let wo_r = m.scale(F::splat(2.0) * wi.dot(m)) - wi;
