@@ -193,40 +193,61 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData, String> {
 /// above its face, an absolute one within the file's count; every index of a valid file
 /// does, so no valid file is refused here.
 fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
-    let text = String::from_utf8_lossy(bytes);
-    fn first(l: &str) -> Option<&str> {
-        l.split_whitespace().next()
+    // The lines and words tobj reads; bytes at a time where the text is ASCII (the usual
+    // mesh), since a word split by chars costs most of this check's time.
+    if bytes.is_ascii() {
+        // `char::is_whitespace` on ASCII, vertical tab included.
+        fn words(l: &[u8]) -> impl Iterator<Item = &[u8]> {
+            l.split(|b| matches!(b, b' ' | b'\t' | b'\n' | 0x0b | 0x0c | b'\r')).filter(|w| !w.is_empty())
+        }
+        return check_indices(|| bytes.split(|&b| b == b'\n'), words);
     }
-    let kind = |l: &str| match first(l) {
-        Some("v") => Some(0),
-        Some("vt") => Some(1),
-        Some("vn") => Some(2),
+    let text = String::from_utf8_lossy(bytes);
+    check_indices(
+        || text.lines().map(str::as_bytes),
+        |l| std::str::from_utf8(l).unwrap_or("").split_whitespace().map(str::as_bytes),
+    )
+}
+
+/// [`check_face_indices`] over the `lines` of a file, each split into `words`.
+fn check_indices<'a, L, W, I>(lines: impl Fn() -> L, words: W) -> Result<(), (usize, String)>
+where
+    L: Iterator<Item = &'a [u8]>,
+    W: Fn(&'a [u8]) -> I,
+    I: Iterator<Item = &'a [u8]>,
+{
+    let kind = |first: Option<&[u8]>| match first {
+        Some([b'v']) => Some(0),
+        Some([b'v', b't']) => Some(1),
+        Some([b'v', b'n']) => Some(2),
         _ => None,
     };
     let mut total = [0u64; 3];
-    for line in text.lines() {
-        if let Some(k) = kind(line) {
+    for line in lines() {
+        if let Some(k) = kind(words(line).next()) {
             total[k] += 1;
         }
     }
     const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
     let mut above = [0u64; 3];
-    for (n, line) in text.lines().enumerate() {
-        if let Some(k) = kind(line) {
+    for (n, line) in lines().enumerate() {
+        let mut w = words(line);
+        let first = w.next();
+        if let Some(k) = kind(first) {
             above[k] += 1;
             continue;
         }
         // tobj reads `l` (polyline) corners as it reads faces: a polyline of three or more
         // corners becomes triangles, so its indices need the same check.
-        let what = match first(line) {
-            Some("f") => "face",
-            Some("l") => "line element",
+        let what = match first {
+            Some([b'f']) => "face",
+            Some([b'l']) => "line element",
             _ => continue,
         };
-        for corner in line.split_whitespace().skip(1) {
-            for (k, index) in corner.split('/').take(3).enumerate() {
+        for corner in w {
+            for (k, index) in corner.split(|&b| b == b'/').take(3).enumerate() {
                 // Not a number: tobj's own error.
-                let Ok(i) = index.parse::<i64>() else { continue };
+                let Some(i) = parse_index(index) else { continue };
                 if i == 0 {
                     // tobj refuses a vertex 0 without a line and ignores texture
                     // coordinate or normal 0; OBJ indices start at 1.
@@ -240,6 +261,31 @@ fn check_face_indices(bytes: &[u8]) -> Result<(), (usize, String)> {
         }
     }
     Ok(())
+}
+
+/// `index` as `str::parse::<i64>` reads it (an optional sign, then only digits, within
+/// range), without its UTF-8 check.
+fn parse_index(index: &[u8]) -> Option<i64> {
+    let (negative, digits) = match index {
+        [b'-', rest @ ..] => (true, rest),
+        [b'+', rest @ ..] => (false, rest),
+        _ => (false, index),
+    };
+    if digits.is_empty() {
+        return None;
+    }
+    digits.iter().try_fold(0i64, |n, &b| {
+        let d = i64::from(b.wrapping_sub(b'0'));
+        if d > 9 {
+            return None;
+        }
+        let n = n.checked_mul(10)?;
+        if negative {
+            n.checked_sub(d)
+        } else {
+            n.checked_add(d)
+        }
+    })
 }
 
 /// The first line of a `keyword` (`v`, `vn`, `vt`) record with a number that is not
@@ -305,6 +351,49 @@ fn describe(e: &tobj::LoadError) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn face_index_words_read_as_str_parse_reads_them() {
+        for w in [
+            "",
+            "+",
+            "-",
+            "0",
+            "-0",
+            "+5",
+            "-5",
+            "12a",
+            "1 2",
+            "١",
+            "9223372036854775807",
+            "9223372036854775808",
+            "-9223372036854775808",
+            "-9223372036854775809",
+            "+-1",
+            "00017",
+        ] {
+            assert_eq!(parse_index(w.as_bytes()), w.parse::<i64>().ok(), "{w:?}");
+        }
+    }
+
+    #[test]
+    fn face_index_check_is_the_same_on_ascii_and_other_text() {
+        let cases = [
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", Ok(())),
+            ("v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 -4\r\n", Err(4)),
+            ("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n", Ok(())),
+            ("v 0 0 0\nv 1 0 0\nf 1 2 -3\nv 0 1 0\n", Err(3)),
+            ("v 0 0 0\n\tv 1 0 0\x0b\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n", Err(5)),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 0\n", Err(4)),
+        ];
+        for (text, want) in cases {
+            // A comment with a non-ASCII word takes the other path.
+            let other = format!("# é\n{text}");
+            let line = |r: Result<(), (usize, String)>| r.map_err(|(l, _)| l);
+            assert_eq!(line(check_face_indices(text.as_bytes())), want, "{text:?}");
+            assert_eq!(line(check_face_indices(other.as_bytes())), want.map_err(|l| l + 1), "{other:?}");
+        }
+    }
 
     fn obj(text: &str) -> Result<MeshData, String> {
         let dir = tempfile::tempdir().unwrap();

@@ -5,7 +5,7 @@ use obvhs::bvh2::Bvh2;
 
 use super::{is_triangle, Block, LeafRef, Node, Tris, WideBvh, FIRST_BITS, MAX_BLOCKS, MAX_W, TRIS};
 use crate::accel::shapes::{Primitive, Shape, NO_LIGHT};
-use crate::accel::{BuildPhases, Lap};
+use crate::accel::{bvh2, BuildPhases, Lap};
 use crate::simd::{Vector, LANES};
 
 /// The SAH cost of testing one wide node's boxes, the unit of [`BLOCK_COST`].
@@ -21,11 +21,10 @@ const PRIM_COST: f32 = 0.6;
 /// How a binary node's subtree is best laid out in a given number of wide child slots
 /// (Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
 /// BVHs", 2017, section 4.1; obvhs's `bvh2_to_cwbvh` follows the same scheme).
+/// Its SAH cost (surface area × [`NODE_COST`] per wide node, × [`BLOCK_COST`] per leaf
+/// block) is kept apart while the plan is made.
 #[derive(Clone, Copy, Default)]
 struct Decision {
-    /// SAH cost of the subtree laid out this way (surface area × [`NODE_COST`] per wide
-    /// node, × [`BLOCK_COST`] per leaf block).
-    cost: f32,
     /// [`LEAF_SLOT`], [`NODE_SLOT`] or [`SPLIT`].
     kind: u8,
     /// With [`SPLIT`] (and for a [`NODE_SLOT`]'s own children): the slot decisions of the
@@ -72,13 +71,17 @@ impl<S: Vector> WideBvh<S> {
     }
 
     /// Every binary node's best [`Decision`] for 1 to `W` slots (index = slots − 1),
-    /// bottom-up (by an explicit stack: fuzzed meshes build very deep trees).
+    /// bottom-up ([`bvh2::bottom_up`]).
     fn plan(fine: &Bvh2, prims: &[Primitive], max_leaf: u32) -> Vec<[Decision; MAX_W]> {
         let w = S::WIDTH;
-        let mut plan = vec![[Decision::default(); MAX_W]; fine.nodes.len()];
-        let mut count = vec![0u32; fine.nodes.len()];
+        let n = fine.nodes.len();
+        let mut plan = vec![[Decision::default(); MAX_W]; n];
+        // The decisions' costs, node k at k + 1: obvhs puts siblings side by side from
+        // index 1, so a node's two children share a cache line.
+        let mut costs = vec![[0.0f32; MAX_W]; n + 1];
+        let mut count = vec![0u32; n];
         // Per binary node: how many of the primitives below it are not triangles.
-        let mut other = vec![0u32; fine.nodes.len()];
+        let mut other = vec![0u32; n];
         // A leaf of triangles costs its blocks; one holding another shape goes to the
         // scalar kernels, which pay per primitive.
         let leaf_cost = |area: f32, n: u32, other: u32| {
@@ -88,51 +91,60 @@ impl<S: Vector> WideBvh<S> {
                 area * PRIM_COST * n as f32
             }
         };
-        let mut stack = vec![(0usize, false)];
-        while let Some((k, ready)) = stack.pop() {
+        // Only a mesh with other shapes needs each leaf's primitives looked at.
+        let mixed = !prims.iter().all(is_triangle);
+        let decide = |k: usize| {
             let node = &fine.nodes[k];
             let area = node.aabb().half_area();
             if node.is_leaf() {
                 count[k] = node.prim_count;
                 let first = node.first_index as usize;
-                other[k] = fine.primitive_indices[first..first + node.prim_count as usize]
-                    .iter()
-                    .filter(|&&id| !is_triangle(&prims[id as usize]))
-                    .count() as u32;
-                let d = Decision { cost: leaf_cost(area, count[k], other[k]), kind: LEAF_SLOT, left: 0, right: 0 };
-                plan[k] = [d; MAX_W];
-                continue;
+                other[k] = match mixed {
+                    true => fine.primitive_indices[first..first + node.prim_count as usize]
+                        .iter()
+                        .filter(|&&id| !is_triangle(&prims[id as usize]))
+                        .count() as u32,
+                    false => 0,
+                };
+                costs[k + 1] = [leaf_cost(area, count[k], other[k]); MAX_W];
+                plan[k] = [Decision { kind: LEAF_SLOT, left: 0, right: 0 }; MAX_W];
+                return;
             }
             let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
-            if !ready {
-                stack.extend([(k, true), (r, false), (l, false)]);
-                continue;
-            }
             count[k] = count[l] + count[r];
             other[k] = other[l] + other[r];
+            let (cl, cr) = (costs[l + 1], costs[r + 1]);
+            let (mut cost, mut best) = ([0.0f32; MAX_W], [Decision::default(); MAX_W]);
             // One slot: a leaf, or a wide node whose W slots the children share.
-            let mut inner = Decision { cost: f32::INFINITY, kind: NODE_SLOT, left: 0, right: 0 };
+            let (mut inner_cost, mut inner) = (f32::INFINITY, Decision { kind: NODE_SLOT, left: 0, right: 0 });
             for j in 0..w - 1 {
-                let c = plan[l][j].cost + plan[r][w - 2 - j].cost;
-                if c < inner.cost {
-                    inner = Decision { cost: c, kind: NODE_SLOT, left: j as u8, right: (w - 2 - j) as u8 };
+                let c = cl[j] + cr[w - 2 - j];
+                if c < inner_cost {
+                    (inner_cost, inner) = (c, Decision { kind: NODE_SLOT, left: j as u8, right: (w - 2 - j) as u8 });
                 }
             }
-            inner.cost += area * NODE_COST;
+            inner_cost += area * NODE_COST;
             let leaf = if count[k] <= max_leaf { leaf_cost(area, count[k], other[k]) } else { f32::INFINITY };
-            plan[k][0] = if leaf < inner.cost { Decision { cost: leaf, kind: LEAF_SLOT, ..inner } } else { inner };
-            // i + 1 slots: as few, or split between the children.
+            (cost[0], best[0]) =
+                if leaf < inner_cost { (leaf, Decision { kind: LEAF_SLOT, ..inner }) } else { (inner_cost, inner) };
+            // i + 1 slots: as few, or split between the children. A subtree of n
+            // primitives fills at most n slots: a decision for more is the one for n (a
+            // split giving a child more slots than it fills costs what a split with fewer
+            // slots, already weighed, costs, and only a strictly cheaper one is taken), so
+            // the splits that would give a child more are skipped and the rest copied.
+            let (nl, nr) = (count[l] as usize, count[r] as usize);
             for i in 1..w {
-                let mut best = plan[k][i - 1];
-                for j in 0..i {
-                    let c = plan[l][j].cost + plan[r][i - 1 - j].cost;
-                    if c < best.cost {
-                        best = Decision { cost: c, kind: SPLIT, left: j as u8, right: (i - 1 - j) as u8 };
+                (cost[i], best[i]) = (cost[i - 1], best[i - 1]);
+                for j in i.saturating_sub(nr)..i.min(nl) {
+                    let c = cl[j] + cr[i - 1 - j];
+                    if c < cost[i] {
+                        (cost[i], best[i]) = (c, Decision { kind: SPLIT, left: j as u8, right: (i - 1 - j) as u8 });
                     }
                 }
-                plan[k][i] = best;
             }
-        }
+            (costs[k + 1], plan[k]) = (cost, best);
+        };
+        bvh2::bottom_up(fine, decide);
         plan
     }
 
