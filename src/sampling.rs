@@ -404,11 +404,12 @@ pub fn cosine_hemisphere(u: Vec2) -> glam::Vec3 {
     glam::Vec3::new(d.x, d.y, (1.0 - d.length_squared()).max(0.0).sqrt())
 }
 
-/// [`concentric_disk`] of 16 points `(x, y)` on lanes, with its bits: the branches become
-/// lane selects, and the sine and cosine stay libm's, lane by lane (the first `n` lanes;
-/// the others are left at 0).
+/// [`concentric_disk`] of 16 points `(x, y)` on lanes: the branches become lane selects,
+/// and the sine and cosine are `wide`'s (within 2 units in the last place of the unit
+/// disk of libm's, tested), so the points may differ from the scalar ones in their last
+/// bits.
 #[inline]
-pub fn concentric_disk_lanes(x: wide::f32x16, y: wide::f32x16, n: usize) -> (wide::f32x16, wide::f32x16) {
+pub fn concentric_disk_lanes(x: wide::f32x16, y: wide::f32x16) -> (wide::f32x16, wide::f32x16) {
     use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
     use wide::f32x16;
     let (two, one) = (f32x16::splat(2.0), f32x16::splat(1.0));
@@ -417,13 +418,9 @@ pub fn concentric_disk_lanes(x: wide::f32x16, y: wide::f32x16, n: usize) -> (wid
     let r = wide_x.select(ox, oy);
     let quarter = f32x16::splat(FRAC_PI_4);
     let theta = wide_x.select(quarter * (oy / ox), f32x16::splat(FRAC_PI_2) - quarter * (ox / oy));
-    let theta = theta.to_array();
-    let (mut cos, mut sin) = ([0.0f32; 16], [0.0f32; 16]);
-    for k in 0..n.min(16) {
-        (cos[k], sin[k]) = (theta[k].cos(), theta[k].sin());
-    }
+    let (sin, cos) = theta.sin_cos();
     let zero = ox.simd_eq(f32x16::ZERO) & oy.simd_eq(f32x16::ZERO);
-    let disk = |v: [f32; 16]| zero.select(f32x16::ZERO, r * f32x16::from(v));
+    let disk = |v: f32x16| zero.select(f32x16::ZERO, r * v);
     (disk(cos), disk(sin))
 }
 
@@ -447,7 +444,7 @@ mod tests {
     }
 
     #[test]
-    fn concentric_disk_on_lanes_gives_the_scalar_bits() {
+    fn concentric_disk_on_lanes_is_the_scalar_one_within_2_ulp() {
         use wide::f32x16;
         // The centre (mapped to 0 without a division), the diagonals (the branch's tie),
         // the edges, and a sweep of hashed points.
@@ -456,11 +453,16 @@ mod tests {
         for chunk in pts.chunks(16) {
             let n = chunk.len();
             let lane = |f: fn(&(f32, f32)) -> f32| f32x16::from(std::array::from_fn(|k| f(&chunk[k.min(n - 1)])));
-            let (x, y) = concentric_disk_lanes(lane(|p| p.0), lane(|p| p.1), n);
+            let (x, y) = concentric_disk_lanes(lane(|p| p.0), lane(|p| p.1));
             let (x, y) = (x.to_array(), y.to_array());
             for (k, &(u, v)) in chunk.iter().enumerate() {
                 let want = concentric_disk(Vec2::new(u, v));
-                assert_eq!((x[k].to_bits(), y[k].to_bits()), (want.x.to_bits(), want.y.to_bits()), "({u}, {v})");
+                // Units in the last place of 1, the disk's radius.
+                let ulps = ((x[k] - want.x).abs().max((y[k] - want.y).abs())) / f32::EPSILON;
+                assert!(ulps <= 2.0, "({u}, {v}): {ulps} ulp");
+                if want == Vec2::ZERO {
+                    assert_eq!((x[k], y[k]), (0.0, 0.0));
+                }
             }
         }
     }

@@ -49,7 +49,7 @@ fn bounce_lanes(
     let normal = v3(&q.nx, &q.ny, &q.nz);
     let (key, sample) = (lanes.gather_words(&q.key), lanes.gather_words(&q.sample));
     let (ux, uy) = sobol_owen_lanes(sample, hash_lanes([key, u32x16::splat(dim::BOUNCE)]));
-    let (dx, dy) = concentric_disk_lanes(ux, uy, count);
+    let (dx, dy) = concentric_disk_lanes(ux, uy);
     let dz = (f32x16::ONE - dx * dx - dy * dy).max(f32x16::ZERO).sqrt();
     let (ts, tt) = tangents_lanes(normal);
     let wi = (ts.scale(dx) + tt.scale(dy) + normal.scale(dz)).normalize();

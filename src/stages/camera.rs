@@ -11,9 +11,7 @@ use wide::{f32x16, u32x16};
 
 use super::Tile;
 use crate::queue::RayQueue;
-use crate::sampling::{
-    cmj, cmj_lanes, concentric_disk, concentric_disk_lanes, dim, hash, sobol_owen, sobol_owen_lanes, CMJ_LANES_MAX,
-};
+use crate::sampling::{cmj, cmj_lanes, concentric_disk_lanes, dim, hash, sobol_owen, sobol_owen_lanes, CMJ_LANES_MAX};
 use crate::scene::Scene;
 use crate::simd::{iota, words, Real, Word, LANES, V3};
 
@@ -135,8 +133,9 @@ fn push(
 /// [0,1)²: every ray through the same film point meets on the focus plane.
 #[inline]
 fn thin_lens(scene: &Scene, d: Vec3, lens: Vec2) -> (Vec3, Vec3) {
-    let disk = concentric_disk(lens);
-    let (o, d) = thin_lens_lanes(scene, V3::from_vec(d), disk.x, disk.y);
+    // The disk on lanes, lane 0 kept: a lens ray has the same bits on either path.
+    let (x, y) = concentric_disk_lanes(f32x16::splat(lens.x), f32x16::splat(lens.y));
+    let (o, d) = thin_lens_lanes(scene, V3::from_vec(d), x.to_array()[0], y.to_array()[0]);
     (o.vec(), d.vec())
 }
 
@@ -153,8 +152,7 @@ fn thin_lens_lanes<R: Real>(scene: &Scene, d: V3<R>, disk_x: R, disk_y: R) -> (V
 
 /// Lens rays `ls` of the `count` through film position `film`: ray l through lens
 /// position `cmj(l, count, pattern)`, with path `(key, base + l)`. What [`push`] gives
-/// ray by ray, 16 at a time on lanes (the CMJ pattern and the thin lens); the disk
-/// mapping's sine and cosine stay libm's, lane by lane, for their bits.
+/// ray by ray, 16 at a time on lanes (the CMJ pattern, the disk mapping and the thin lens).
 fn lens_rays(
     scene: &Scene,
     film: Vec2,
@@ -178,7 +176,7 @@ fn lens_rays(
         // Lanes past the last ray repeat it (a valid index) and are not written.
         let l = iota(l0).min(u32x16::splat(ls.end - 1));
         let (x, y, _) = cmj_lanes(l, count, pattern);
-        let (disk_x, disk_y) = concentric_disk_lanes(x, y, n);
+        let (disk_x, disk_y) = concentric_disk_lanes(x, y);
         let (o, dir) = thin_lens_lanes(scene, d, disk_x, disk_y);
         let sample = words(l + u32x16::splat(base));
         rays.push_lanes(
@@ -266,7 +264,7 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
                 }
                 (f32x16::from(lens[0]), f32x16::from(lens[1]))
             };
-            let (disk_x, disk_y) = concentric_disk_lanes(x, y, count);
+            let (disk_x, disk_y) = concentric_disk_lanes(x, y);
             let (o, d) = thin_lens_lanes(scene, d, disk_x, disk_y);
             rays.push_lanes(
                 o.lanes(),

@@ -11,7 +11,7 @@ use wide::f32x16;
 use super::{lerp_table, Plastic};
 use crate::bsdf::microfacet::fresnel_dielectric_lanes;
 use crate::sampling::concentric_disk_lanes;
-use crate::simd::{LANES, V3};
+use crate::simd::V3;
 
 type F = f32x16;
 
@@ -90,7 +90,7 @@ impl Plastic<'_> {
         let one = F::splat(1.0);
         let p_spec = self.prob_specular_lanes(wi.z);
         let specular = u1.simd_lt(p_spec);
-        let (dx, dy) = concentric_disk_lanes(u2[0], u2[1], LANES);
+        let (dx, dy) = concentric_disk_lanes(u2[0], u2[1]);
         let cosine = V3 { x: dx, y: dy, z: (one - (dx * dx + dy * dy)).max(F::ZERO).sqrt() };
         let above = wi.z.simd_gt(F::ZERO);
         let Some(mf) = self.roughness else {
