@@ -117,14 +117,14 @@ fn unit<W: Word>(h: W) -> W::Real {
 /// Sampling", Pixar 2013): a bijection chosen by `pattern`, computed without tables. On
 /// lanes, each lane repeats the rounds until its value falls below `len`, as one word does.
 #[inline(always)]
-fn permute<W: Word>(i: W, len: u32, pattern: u32) -> W {
+fn permute<W: Word>(i: W, len: u32, p: W, p_mod: W) -> W {
     let mut w = len.wrapping_sub(1);
     w |= w >> 1;
     w |= w >> 2;
     w |= w >> 4;
     w |= w >> 8;
     w |= w >> 16;
-    let (w, p) = (W::splat(w), W::splat(pattern));
+    let w = W::splat(w);
     let (len_w, mut i, mut done) = (W::splat(len), i, W::splat(0));
     loop {
         let mut j = i ^ p;
@@ -151,7 +151,7 @@ fn permute<W: Word>(i: W, len: u32, pattern: u32) -> W {
             break;
         }
     }
-    i.add_rem(pattern, len)
+    i.add_rem(p, p_mod, len)
 }
 
 /// Sample `s` of `n` of a correlated multi-jittered 2D pattern in [0,1)^2 (Kensler 2013).
@@ -183,20 +183,44 @@ pub const CMJ_LANES_MAX: u32 = 1 << 23;
 /// the cells. On vector lanes `n` must be at most [`CMJ_LANES_MAX`].
 #[inline(always)]
 pub fn cmj_lanes<W: Word>(s: W, n: u32, pattern: u32) -> (W::Real, W::Real, W) {
+    cmj_keyed(s, n, CmjKey::new(pattern, n).0.map(W::splat))
+}
+
+/// The words a CMJ pattern of `n` samples draws from its `pattern` seed, worked out once
+/// per pattern, so that lanes can each hold a pattern of their own ([`cmj_keyed`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CmjKey(pub [u32; 8]);
+
+impl CmjKey {
+    /// The key of `pattern` for `n` samples.
+    pub fn new(pattern: u32, n: u32) -> CmjKey {
+        if n == 1 {
+            return CmjKey([hash(&[pattern, 1]), hash(&[pattern, 2]), 0, 0, 0, 0, 0, 0]);
+        }
+        let (m, k) = cmj_grid(n);
+        let [a, b, c] = [0x5163_3e2d, 0x68bc_21eb, 0x02e5_be93u32].map(|f| pattern.wrapping_mul(f));
+        let [jx, jy] = [0x967a_889b, 0x368c_c8b7u32].map(|f| pattern.wrapping_mul(f));
+        CmjKey([a, a % (m * k).max(1), b, b % m, c, c % k.max(1), jx, jy])
+    }
+}
+
+/// [`cmj_lanes`] with each lane's pattern given by its [`CmjKey`] words (`key[w]` holds
+/// word w of every lane's key).
+#[inline(always)]
+pub fn cmj_keyed<W: Word>(s: W, n: u32, key: [W; 8]) -> (W::Real, W::Real, W) {
     if n == 1 {
-        let (x, y) = (to_unit(hash(&[pattern, 1])), to_unit(hash(&[pattern, 2])));
-        return (W::Real::splat(x), W::Real::splat(y), W::splat(0));
+        return (unit(key[0]), unit(key[1]), W::splat(0));
     }
     let (m, k) = cmj_grid(n);
     // Permute over all m·k cells, not just the first n: when n < m·k the n samples then
     // fill a random subset of the grid instead of always leaving the last row short,
     // which would bias every estimate.
-    let s = permute(s, m * k, pattern.wrapping_mul(0x5163_3e2d));
+    let s = permute(s, m * k, key[0], key[1]);
     let (row, col) = s.div_rem(m);
-    let sx = permute(col, m, pattern.wrapping_mul(0x68bc_21eb));
-    let sy = permute(row, k, pattern.wrapping_mul(0x02e5_be93));
-    let jx = unit(hash_lanes([s, W::splat(pattern.wrapping_mul(0x967a_889b))]));
-    let jy = unit(hash_lanes([s, W::splat(pattern.wrapping_mul(0x368c_c8b7))]));
+    let sx = permute(col, m, key[2], key[3]);
+    let sy = permute(row, k, key[4], key[5]);
+    let jx = unit(hash_lanes([s, key[6]]));
+    let jy = unit(hash_lanes([s, key[7]]));
     let (mf, kf) = (W::Real::splat(m as f32), W::Real::splat(k as f32));
     let x = (col.real() + (sy.real() + jx) / kf) / mf;
     let y = (row.real() + (sx.real() + jy) / mf) / kf;
@@ -500,7 +524,7 @@ mod tests {
         for len in [1u32, 2, 3, 7, 16, 100] {
             let mut seen = vec![false; len as usize];
             for i in 0..len {
-                let p = permute(i, len, 12345) as usize;
+                let p = permute(i, len, 12345, 12345 % len) as usize;
                 assert!(!seen[p], "len {len}: {p} twice");
                 seen[p] = true;
             }

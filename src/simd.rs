@@ -42,8 +42,9 @@ pub trait Word:
     fn all(mask: Self) -> bool;
     /// Quotient and remainder by `d` ≥ 1, for values below 2²⁴.
     fn div_rem(self, d: u32) -> (Self, Self);
-    /// `(self + p) mod len` with the sum wrapping at 2³², for `self < len`.
-    fn add_rem(self, p: u32, len: u32) -> Self;
+    /// `(self + p) mod len` with the sum wrapping at 2³², for `self < len`, given
+    /// `p_mod` = `p mod len` (each lane's `p` may differ).
+    fn add_rem(self, p: Self, p_mod: Self, len: u32) -> Self;
     /// The value as a float (exact below 2²⁴).
     fn real(self) -> Self::Real;
 }
@@ -110,7 +111,7 @@ impl Word for u32 {
         (self / d, self % d)
     }
     #[inline(always)]
-    fn add_rem(self, p: u32, len: u32) -> Self {
+    fn add_rem(self, p: u32, _: u32, len: u32) -> Self {
         self.wrapping_add(p) % len
     }
     #[inline(always)]
@@ -207,14 +208,14 @@ impl Word for u32x16 {
         (wide::bytemuck::cast(q), wide::bytemuck::cast(r))
     }
     #[inline(always)]
-    fn add_rem(self, p: u32, len: u32) -> Self {
+    fn add_rem(self, p: u32x16, p_mod: u32x16, len: u32) -> Self {
         // With P = p mod len and C = 2³² mod len: without wrap the answer is
         // (self + P) mod len, with wrap (self + P − C) mod len; self + P < 2·len.
-        let sum = self + u32x16::splat(p);
+        let sum = self + p;
         let wrapped = sum.simd_lt(self);
         let c = ((1u64 << 32) % len as u64) as u32;
         let len_v = u32x16::splat(len);
-        let t = self + u32x16::splat(p % len);
+        let t = self + p_mod;
         // t − C may go below zero (a huge unsigned value): add len back there.
         let below = t.simd_lt(u32x16::splat(c));
         let t_wrapped = below.select(t + len_v - u32x16::splat(c), t - u32x16::splat(c));
@@ -680,11 +681,12 @@ mod tests {
             }
             // add_rem over the whole range of p, including sums that wrap.
             let len = 1 + next() % if round % 3 == 0 { 7 } else { 5000 };
-            let p = if round % 5 == 0 { u32::MAX - next() % 8 } else { next() };
+            let ps: [u32; 16] = std::array::from_fn(|_| if round % 5 == 0 { u32::MAX - next() % 8 } else { next() });
             let i = lanes(|k| a[k] % len);
-            let got = words(i.add_rem(p, len));
+            let got = words(i.add_rem(lanes(|k| ps[k]), lanes(|k| ps[k] % len), len));
             for k in 0..16 {
-                assert_eq!(got[k], (a[k] % len).add_rem(p, len), "({} + {p}) % {len}", a[k] % len);
+                let p = ps[k];
+                assert_eq!(got[k], (a[k] % len).add_rem(p, p % len, len), "({} + {p}) % {len}", a[k] % len);
             }
             let lt = words(v.lt(lanes(|k| a[(k + 1) % 16])));
             for k in 0..16 {

@@ -11,7 +11,9 @@ use wide::{f32x16, u32x16};
 
 use super::Tile;
 use crate::queue::RayQueue;
-use crate::sampling::{cmj, cmj_lanes, concentric_disk_lanes, dim, hash, sobol_owen, sobol_owen_lanes, CMJ_LANES_MAX};
+use crate::sampling::{
+    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, hash, sobol_owen, sobol_owen_lanes, CmjKey, CMJ_LANES_MAX,
+};
 use crate::scene::Scene;
 use crate::simd::{iota, words, Real, Word, LANES, V3};
 
@@ -205,62 +207,54 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
     rays.clear();
     let s = &scene.settings;
     let spp = s.aa_samples as u64 * s.dof_samples as u64;
-    let mut k = ks.start;
-    while k < ks.end {
-        let q = k / spp;
-        let end = (ks.end - q * spp).min(spp);
-        pixel_samples(scene, tile, q as u32, (k - q * spp) as u32..end as u32, rays);
-        k = q * spp + end;
-    }
-}
-
-/// Samples `js` of the `q`-th pixel of `tile` (see [`generate`]): 16 at a time on SIMD
-/// lanes (film position, pinhole direction), with the lens, when the aperture is open,
-/// ray by ray.
-fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut RayQueue) {
-    let s = &scene.settings;
-    let cam = &scene.camera;
-    let dof = s.dof_samples;
-    let spp = s.aa_samples * dof;
-    let weight = Vec3::splat(1.0 / spp as f32);
-    let w = weight.to_array().map(|x| [x; LANES]);
-    let slot = block_slot(tile, q);
-    let tw = tile.x1 - tile.x0;
-    let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
-    let pixel = y * s.width + x;
-    let pattern = hash(&[s.seed, pixel, dim::PIXEL]);
-    let key = hash(&[s.seed, pixel, dim::PATH]);
-    let lens_seed = hash(&[s.seed, pixel, dim::LENS]);
-    if spp > CMJ_LANES_MAX {
-        for j in js {
-            let (aa, l) = (j / dof, j % dof);
-            let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, pattern);
-            let lens = || lens_sample(scene, pixel, aa, l, j, lens_seed);
-            push(scene, film, lens, slot, weight, (key, j), rays);
+    if spp > CMJ_LANES_MAX as u64 {
+        let mut k = ks.start;
+        while k < ks.end {
+            let q = k / spp;
+            let end = (ks.end - q * spp).min(spp);
+            pixel_samples(scene, tile, q as u32, (k - q * spp) as u32..end as u32, rays);
+            k = q * spp + end;
         }
         return;
     }
-    let (fx0, fy0) = (f32x16::splat(x as f32), f32x16::splat(y as f32));
-    for j0 in js.clone().step_by(LANES) {
-        let count = (js.end - j0).min(LANES as u32) as usize;
-        // Lanes past the last sample repeat it (a valid index) and are not written.
-        let j = iota(j0).min(u32x16::splat(js.end - 1));
-        let aa = if dof == 1 { j } else { j.div_rem(dof).0 };
-        let (cx, cy, _) = cmj_lanes(aa, s.aa_samples, pattern);
-        let (fx, fy) = (fx0 + cx, fy0 + cy);
+    let cam = &scene.camera;
+    let dof = s.dof_samples;
+    let w = Vec3::splat(1.0 / spp as f32).to_array().map(|x| [x; LANES]);
+    // 16 (pixel, sample) indices at a time, consecutive pixels sharing the lanes where a
+    // pixel has fewer samples than lanes; each lane has its pixel's keys.
+    let (spp, mut q, mut j) = (spp as u32, (ks.start / spp) as u32, (ks.start % spp) as u32);
+    let mut at = Pixel::new(scene, tile, q);
+    let mut lane = Lanes::default();
+    for k0 in ks.clone().step_by(LANES) {
+        let count = (ks.end - k0).min(LANES as u64) as usize;
+        for k in 0..LANES {
+            // Each lane the next sample after the range's first; lanes past the last
+            // sample repeat it (a valid index) and are not written.
+            if k < count && (k > 0 || k0 > ks.start) {
+                j += 1;
+                if j == spp {
+                    (q, j) = (q + 1, 0);
+                    at = Pixel::new(scene, tile, q);
+                }
+            }
+            lane.set(k, &at, j);
+        }
+        let js = u32x16::from(lane.j);
+        let aa = if dof == 1 { js } else { js.div_rem(dof).0 };
+        let (cx, cy, _) = cmj_keyed(aa, s.aa_samples, lane.cmj.map(u32x16::from));
+        let (fx, fy) = (f32x16::from(lane.x) + cx, f32x16::from(lane.y) + cy);
         let d = cam.pinhole_dirs(fx, fy, s.width, s.height);
-        let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
-        let jw = words(j);
         if cam.aperture > 0.0 {
-            // One lens ray per AA sample: the pixel's Sobol points on lanes (what
+            // One lens ray per AA sample: each pixel's Sobol points on lanes (what
             // `lens_sample` gives, bit for bit); several: each AA sample's CMJ pattern,
             // lane by lane. The disk mapping and the thin-lens rays on lanes.
             let (x, y) = if dof == 1 {
-                sobol_owen_lanes(j, u32x16::splat(lens_seed))
+                sobol_owen_lanes(js, u32x16::from(lane.lens_seed))
             } else {
                 let (aw, mut lens) = (words(aa), [[0.0; LANES]; 2]);
                 for k in 0..LANES {
-                    (lens[0][k], lens[1][k]) = lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed).into();
+                    let (pixel, jk) = (lane.pixel[k], lane.j[k]);
+                    (lens[0][k], lens[1][k]) = lens_sample(scene, pixel, aw[k], jk % dof, jk, lane.lens_seed[k]).into();
                 }
                 (f32x16::from(lens[0]), f32x16::from(lens[1]))
             };
@@ -269,19 +263,96 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
             rays.push_lanes(
                 o.lanes(),
                 d.lanes(),
-                [slot; LANES],
+                lane.slot,
                 w,
                 [0; LANES],
-                [key; LANES],
-                jw,
+                lane.path,
+                lane.j,
                 [0.0; LANES],
                 None,
                 count,
             );
         } else {
             let o = cam.position.to_array().map(|x| [x; LANES]);
-            rays.push_lanes(o, [dx, dy, dz], [slot; LANES], w, [0; LANES], [key; LANES], jw, [0.0; LANES], None, count);
+            rays.push_lanes(o, d.lanes(), lane.slot, w, [0; LANES], lane.path, lane.j, [0.0; LANES], None, count);
         }
+    }
+}
+
+/// What a pixel's camera rays draw on: its place and its keys (see [`generate`]).
+struct Pixel {
+    /// Its index in the tile.
+    slot: u32,
+    x: u32,
+    y: u32,
+    /// Its index in the image.
+    pixel: u32,
+    /// Its AA samples' CMJ pattern.
+    cmj: CmjKey,
+    /// The key of its rays' paths.
+    path: u32,
+    /// The seed of its lens samples.
+    lens_seed: u32,
+}
+
+impl Pixel {
+    /// The `q`-th pixel of `tile` in [`block_slot`] order.
+    fn new(scene: &Scene, tile: &Tile, q: u32) -> Pixel {
+        let s = &scene.settings;
+        let slot = block_slot(tile, q);
+        let tw = tile.x1 - tile.x0;
+        let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
+        let pixel = y * s.width + x;
+        Pixel {
+            slot,
+            x,
+            y,
+            pixel,
+            cmj: CmjKey::new(hash(&[s.seed, pixel, dim::PIXEL]), s.aa_samples),
+            path: hash(&[s.seed, pixel, dim::PATH]),
+            lens_seed: hash(&[s.seed, pixel, dim::LENS]),
+        }
+    }
+}
+
+/// 16 camera samples' pixels and sample indices, lane by lane.
+#[derive(Default)]
+struct Lanes {
+    slot: [u32; LANES],
+    x: [f32; LANES],
+    y: [f32; LANES],
+    pixel: [u32; LANES],
+    cmj: [[u32; LANES]; 8],
+    path: [u32; LANES],
+    lens_seed: [u32; LANES],
+    j: [u32; LANES],
+}
+
+impl Lanes {
+    /// Lane `k`: sample `j` of pixel `p`.
+    #[inline(always)]
+    fn set(&mut self, k: usize, p: &Pixel, j: u32) {
+        (self.slot[k], self.x[k], self.y[k], self.pixel[k]) = (p.slot, p.x as f32, p.y as f32, p.pixel);
+        for w in 0..8 {
+            self.cmj[w][k] = p.cmj.0[w];
+        }
+        (self.path[k], self.lens_seed[k], self.j[k]) = (p.path, p.lens_seed, j);
+    }
+}
+
+/// Samples `js` of the `q`-th pixel of `tile` (see [`generate`]) one at a time, for a
+/// pixel with more samples than the lanes' CMJ pattern takes.
+fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut RayQueue) {
+    let s = &scene.settings;
+    let dof = s.dof_samples;
+    let weight = Vec3::splat(1.0 / (s.aa_samples * dof) as f32);
+    let p = Pixel::new(scene, tile, q);
+    for j in js {
+        let (aa, l) = (j / dof, j % dof);
+        let (cx, cy, _) = cmj_keyed(aa, s.aa_samples, p.cmj.0);
+        let film = Vec2::new(p.x as f32, p.y as f32) + Vec2::new(cx, cy);
+        let lens = || lens_sample(scene, p.pixel, aa, l, j, p.lens_seed);
+        push(scene, film, lens, p.slot, weight, (p.path, j), rays);
     }
 }
 
@@ -437,7 +508,18 @@ mod tests {
     #[test]
     fn lanes_give_the_rays_of_the_scalar_formulas() {
         use crate::scene::{load, SceneSource};
-        for (aa, dof, aperture) in [(37, 1, 0.0), (64, 1, 0.0), (5, 3, 0.0), (16, 1, 0.1), (6, 4, 0.1)] {
+        let cases = [
+            (37, 1, 0.0),
+            (64, 1, 0.0),
+            (5, 3, 0.0),
+            (16, 1, 0.1),
+            (6, 4, 0.1),
+            (4, 1, 0.0),
+            (1, 1, 0.1),
+            (3, 1, 0.1),
+            (2, 3, 0.1),
+        ];
+        for (aa, dof, aperture) in cases {
             let sets = [
                 "render.width=13".to_string(),
                 "render.height=7".to_string(),
