@@ -205,9 +205,13 @@ fn lens_rays(
 /// in the tile. Each ray carries weight 1 / spp, so a pixel's sum is its mean.
 pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
     rays.clear();
+    if ks.is_empty() {
+        return;
+    }
     let s = &scene.settings;
     let spp = s.aa_samples as u64 * s.dof_samples as u64;
-    if spp > CMJ_LANES_MAX as u64 {
+    // A pixel with at least as many samples as lanes fills them alone; fewer share them.
+    if spp >= LANES as u64 {
         let mut k = ks.start;
         while k < ks.end {
             let q = k / spp;
@@ -227,10 +231,17 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
     let mut lane = Lanes::default();
     for k0 in ks.clone().step_by(LANES) {
         let count = (ks.end - k0).min(LANES as u64) as usize;
+        if k0 > ks.start {
+            j += 1;
+            if j == spp {
+                (q, j) = (q + 1, 0);
+                at = Pixel::new(scene, tile, q);
+            }
+        }
         for k in 0..LANES {
-            // Each lane the next sample after the range's first; lanes past the last
-            // sample repeat it (a valid index) and are not written.
-            if k < count && (k > 0 || k0 > ks.start) {
+            // Each lane the next sample; lanes past the last sample repeat it (a
+            // valid index) and are not written.
+            if k > 0 && k < count {
                 j += 1;
                 if j == spp {
                     (q, j) = (q + 1, 0);
@@ -340,19 +351,74 @@ impl Lanes {
     }
 }
 
-/// Samples `js` of the `q`-th pixel of `tile` (see [`generate`]) one at a time, for a
-/// pixel with more samples than the lanes' CMJ pattern takes.
+/// Samples `js` of the `q`-th pixel of `tile` (see [`generate`]), a pixel with at least
+/// as many samples as lanes: 16 at a time on SIMD lanes (film position, pinhole
+/// direction, lens), or one at a time past the lanes' CMJ pattern.
 fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut RayQueue) {
     let s = &scene.settings;
+    let cam = &scene.camera;
     let dof = s.dof_samples;
-    let weight = Vec3::splat(1.0 / (s.aa_samples * dof) as f32);
-    let p = Pixel::new(scene, tile, q);
-    for j in js {
-        let (aa, l) = (j / dof, j % dof);
-        let (cx, cy, _) = cmj_keyed(aa, s.aa_samples, p.cmj.0);
-        let film = Vec2::new(p.x as f32, p.y as f32) + Vec2::new(cx, cy);
-        let lens = || lens_sample(scene, p.pixel, aa, l, j, p.lens_seed);
-        push(scene, film, lens, p.slot, weight, (p.path, j), rays);
+    let spp = s.aa_samples * dof;
+    let weight = Vec3::splat(1.0 / spp as f32);
+    let w = weight.to_array().map(|x| [x; LANES]);
+    let slot = block_slot(tile, q);
+    let tw = tile.x1 - tile.x0;
+    let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
+    let pixel = y * s.width + x;
+    let pattern = hash(&[s.seed, pixel, dim::PIXEL]);
+    let key = hash(&[s.seed, pixel, dim::PATH]);
+    let lens_seed = hash(&[s.seed, pixel, dim::LENS]);
+    if spp > CMJ_LANES_MAX {
+        for j in js {
+            let (aa, l) = (j / dof, j % dof);
+            let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, pattern);
+            let lens = || lens_sample(scene, pixel, aa, l, j, lens_seed);
+            push(scene, film, lens, slot, weight, (key, j), rays);
+        }
+        return;
+    }
+    let (fx0, fy0) = (f32x16::splat(x as f32), f32x16::splat(y as f32));
+    for j0 in js.clone().step_by(LANES) {
+        let count = (js.end - j0).min(LANES as u32) as usize;
+        // Lanes past the last sample repeat it (a valid index) and are not written.
+        let j = iota(j0).min(u32x16::splat(js.end - 1));
+        let aa = if dof == 1 { j } else { j.div_rem(dof).0 };
+        let (cx, cy, _) = cmj_lanes(aa, s.aa_samples, pattern);
+        let (fx, fy) = (fx0 + cx, fy0 + cy);
+        let d = cam.pinhole_dirs(fx, fy, s.width, s.height);
+        let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
+        let jw = words(j);
+        if cam.aperture > 0.0 {
+            // One lens ray per AA sample: the pixel's Sobol points on lanes (what
+            // `lens_sample` gives, bit for bit); several: each AA sample's CMJ pattern,
+            // lane by lane. The disk mapping and the thin-lens rays on lanes.
+            let (x, y) = if dof == 1 {
+                sobol_owen_lanes(j, u32x16::splat(lens_seed))
+            } else {
+                let (aw, mut lens) = (words(aa), [[0.0; LANES]; 2]);
+                for k in 0..LANES {
+                    (lens[0][k], lens[1][k]) = lens_sample(scene, pixel, aw[k], jw[k] % dof, jw[k], lens_seed).into();
+                }
+                (f32x16::from(lens[0]), f32x16::from(lens[1]))
+            };
+            let (disk_x, disk_y) = concentric_disk_lanes(x, y);
+            let (o, d) = thin_lens_lanes(scene, d, disk_x, disk_y);
+            rays.push_lanes(
+                o.lanes(),
+                d.lanes(),
+                [slot; LANES],
+                w,
+                [0; LANES],
+                [key; LANES],
+                jw,
+                [0.0; LANES],
+                None,
+                count,
+            );
+        } else {
+            let o = cam.position.to_array().map(|x| [x; LANES]);
+            rays.push_lanes(o, [dx, dy, dz], [slot; LANES], w, [0; LANES], [key; LANES], jw, [0.0; LANES], None, count);
+        }
     }
 }
 
