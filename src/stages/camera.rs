@@ -269,23 +269,9 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
                 }
                 (f32x16::from(lens[0]), f32x16::from(lens[1]))
             };
-            let (disk_x, disk_y) = concentric_disk_lanes(x, y);
-            let (o, d) = thin_lens_lanes(scene, d, disk_x, disk_y);
-            rays.push_lanes(
-                o.lanes(),
-                d.lanes(),
-                lane.slot,
-                w,
-                [0; LANES],
-                lane.path,
-                lane.j,
-                [0.0; LANES],
-                None,
-                count,
-            );
+            push_lanes(scene, d, Some((x, y)), (lane.slot, lane.path, lane.j), w, count, rays);
         } else {
-            let o = cam.position.to_array().map(|x| [x; LANES]);
-            rays.push_lanes(o, d.lanes(), lane.slot, w, [0; LANES], lane.path, lane.j, [0.0; LANES], None, count);
+            push_lanes(scene, d, None, (lane.slot, lane.path, lane.j), w, count, rays);
         }
     }
 }
@@ -386,7 +372,6 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
         let (cx, cy, _) = cmj_lanes(aa, s.aa_samples, pattern);
         let (fx, fy) = (fx0 + cx, fy0 + cy);
         let d = cam.pinhole_dirs(fx, fy, s.width, s.height);
-        let (dx, dy, dz) = (d.x.to_array(), d.y.to_array(), d.z.to_array());
         let jw = words(j);
         if cam.aperture > 0.0 {
             // One lens ray per AA sample: the pixel's Sobol points on lanes (what
@@ -401,25 +386,35 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
                 }
                 (f32x16::from(lens[0]), f32x16::from(lens[1]))
             };
-            let (disk_x, disk_y) = concentric_disk_lanes(x, y);
-            let (o, d) = thin_lens_lanes(scene, d, disk_x, disk_y);
-            rays.push_lanes(
-                o.lanes(),
-                d.lanes(),
-                [slot; LANES],
-                w,
-                [0; LANES],
-                [key; LANES],
-                jw,
-                [0.0; LANES],
-                None,
-                count,
-            );
+            push_lanes(scene, d, Some((x, y)), ([slot; LANES], [key; LANES], jw), w, count, rays);
         } else {
-            let o = cam.position.to_array().map(|x| [x; LANES]);
-            rays.push_lanes(o, [dx, dy, dz], [slot; LANES], w, [0; LANES], [key; LANES], jw, [0.0; LANES], None, count);
+            push_lanes(scene, d, None, ([slot; LANES], [key; LANES], jw), w, count, rays);
         }
     }
+}
+
+/// Pushes the first `count` of 16 camera rays with pinhole directions `d`: through lens
+/// positions `lens` in [0,1)² (the disk mapping and the thin lens on lanes), or from
+/// the pinhole; each with its (slot, path key, sample index).
+#[allow(clippy::type_complexity)]
+fn push_lanes(
+    scene: &Scene,
+    d: V3<f32x16>,
+    lens: Option<(f32x16, f32x16)>,
+    (slot, key, sample): ([u32; LANES], [u32; LANES], [u32; LANES]),
+    w: [[f32; LANES]; 3],
+    count: usize,
+    rays: &mut RayQueue,
+) {
+    let (o, d) = match lens {
+        Some((x, y)) => {
+            let (disk_x, disk_y) = concentric_disk_lanes(x, y);
+            let (o, d) = thin_lens_lanes(scene, d, disk_x, disk_y);
+            (o.lanes(), d.lanes())
+        }
+        None => (scene.camera.position.to_array().map(|x| [x; LANES]), d.lanes()),
+    };
+    rays.push_lanes(o, d, slot, w, [0; LANES], key, sample, [0.0; LANES], None, count);
 }
 
 /// Lens position of AA sample `aa`'s lens ray `l` (per-pixel sample `j`) in `pixel`.
