@@ -396,7 +396,7 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
 /// Pushes the first `count` of 16 camera rays with pinhole directions `d`: through lens
 /// positions `lens` in [0,1)² (the disk mapping and the thin lens on lanes), or from
 /// the pinhole; each with its (slot, path key, sample index).
-#[allow(clippy::type_complexity)]
+#[allow(clippy::too_many_arguments)] // the rays' columns, as `RayQueue::push_lanes` takes them
 fn push_lanes(
     scene: &Scene,
     d: V3<f32x16>,
