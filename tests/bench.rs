@@ -31,12 +31,12 @@ fn json_has_every_set_and_kernel() {
     for s in sets {
         let (set, kernel) = (s["set"].as_str().unwrap(), s["kernel"].as_str().unwrap());
         assert!(["primary", "shadow", "secondary"].contains(&set));
-        assert!(["packet", "wide", "interleaved", "hybrid"].contains(&kernel), "{kernel}");
+        assert!(["packet", "wide", "interleaved", "stream", "hybrid"].contains(&kernel), "{kernel}");
         assert!(s["rays"].as_u64().unwrap() > 0, "{s}");
         assert!(s["mrays_per_s"].as_f64().unwrap() > 0.0, "{s}");
         seen.push((set.to_string(), kernel.to_string()));
     }
-    assert_eq!(seen.len(), 12);
+    assert_eq!(seen.len(), 15);
     assert_eq!(v["renderer_kernel"], "hybrid");
     // The default scene at 24×16 with 16 AA samples: every camera ray is in the set.
     assert_eq!(sets[0]["rays"], 24 * 16 * 16);
@@ -138,10 +138,10 @@ fn ray_sets_are_the_renderers_rays_and_thin_uniformly() {
     let capped = ray_sets(&scene, 1000);
     assert!(capped.iter().all(|s| s.1.len() < 2000 && !s.1.is_empty()));
     assert!(scene.settings.packets);
-    // Packet, wide, interleaved and hybrid kernels agree on every set (run() checks the
+    // Packet, wide, interleaved, stream and hybrid kernels agree on every set (run() checks the
     // hit checksums).
     let report = run_scene(&scene, &BenchOptions { reps: 1, ..BenchOptions::default() }).expect("bench");
-    assert_eq!(report.sets.len(), 12);
+    assert_eq!(report.sets.len(), 15);
 }
 
 /// `wavetrace bench --sphere LEVEL` on small sets, one thread, exporting its rays to a

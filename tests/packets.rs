@@ -217,6 +217,71 @@ fn check_wide(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
     );
     assert!(o.is_empty() || cw.nodes > 0, "{label}: the wide kernel ran");
     check_interleaved(accel, o, d, label);
+    check_stream(accel, o, d, label);
+}
+
+/// The stream kernel against the wide kernel one ray at a time, in queues of a render
+/// wave's length and of odd lengths (a stream splits by octant, thins below
+/// `MIN_STREAM` and runs in slices of `MAX_STREAM`): the same hits and blockers, bit for
+/// bit, every ray answered once, in index order.
+fn check_stream(accel: &Accel, o: &[Vec3], d: &[Vec3], label: &str) {
+    let n = o.len();
+    let mut wrong = Vec::new();
+    let (mut cs, mut cw) = (Traversal::default(), Traversal::default());
+    let mut base = 0;
+    for (k, len) in [4096, 777, 10_000, 1, 4096].into_iter().cycle().enumerate() {
+        if base >= n {
+            break;
+        }
+        let len = len.min(n - base);
+        let (o, d) = (&o[base..base + len], &d[base..base + len]);
+        let mut hits = Vec::new();
+        kernels::stream_closest::<true>(
+            accel,
+            len,
+            |i| Ray::new(o[i], d[i], 0.0, f32::INFINITY),
+            |i, h| {
+                assert_eq!(i, hits.len(), "{label}: stream answers in index order");
+                hits.push(h);
+            },
+            &mut cs,
+        );
+        let tmax: Vec<f32> = (0..len)
+            .map(|i| hits[i].map_or(1e3, |(t, _): (f32, u32)| t * (0.25 + ((i + k) % 7) as f32 * 0.15)))
+            .collect();
+        let mut blocked = Vec::new();
+        kernels::stream_occluded::<true>(
+            accel,
+            len,
+            |i| Ray::new(o[i], d[i], 0.0, tmax[i]),
+            |i, b| {
+                assert_eq!(i, blocked.len(), "{label}: stream answers in index order");
+                blocked.push(b);
+            },
+            &mut cs,
+        );
+        assert_eq!((hits.len(), blocked.len()), (len, len), "{label}: every ray answered");
+        for i in 0..len {
+            let single = accel.closest::<false>(Ray::new(o[i], d[i], 0.0, f32::INFINITY), &mut cw);
+            let occluded = accel.occluded::<false>(Ray::new(o[i], d[i], 0.0, tmax[i]), &mut cw);
+            let same = match (single, hits[i]) {
+                (Some((t, p)), Some((u, q))) => t.to_bits() == u.to_bits() && p == q,
+                (None, None) => true,
+                _ => false,
+            };
+            if !same || occluded != blocked[i] {
+                wrong.push(format!("ray {}: stream {:?} {} wide {single:?} {occluded}", base + i, hits[i], blocked[i]));
+            }
+        }
+        base += len;
+    }
+    assert!(
+        wrong.is_empty(),
+        "{label}, stream: {} of {n} rays differ: {:?}",
+        wrong.len(),
+        &wrong[..wrong.len().min(5)]
+    );
+    assert!(n == 0 || cs.nodes > 0, "{label}: the stream kernel ran");
 }
 
 /// The interleaved kernel (rays walked `accel::wbvh::INTERLEAVE` at a time, finishing out of order)
@@ -325,7 +390,7 @@ fn packet_kernels_equal_scalar_on_every_mesh_full() {
 }
 
 #[test]
-fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_wide_or_interleaved_kernel() {
+fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_wide_interleaved_or_stream_kernel() {
     let (c, r) = (Vec3::new(0.3, -0.2, 0.1), 1.7);
     let (unit, f) = icosphere(4);
     let v: Vec<Vec3> = unit.into_iter().map(|p| c + p * r).collect();
@@ -398,6 +463,22 @@ fn closed_mesh_shot_from_inside_lets_no_ray_escape_the_packet_wide_or_interleave
         &mut c,
     );
     assert_eq!((escaped, unblocked), (0, 0), "interleaved kernel: of {n} rays from inside a closed mesh");
+    let (mut escaped, mut unblocked) = (0, 0);
+    kernels::stream_closest::<false>(
+        &accel,
+        n,
+        |i| Ray::new(o[i], d[i], 0.0, f32::INFINITY),
+        |_, h| escaped += h.is_none() as usize,
+        &mut c,
+    );
+    kernels::stream_occluded::<false>(
+        &accel,
+        n,
+        |i| Ray::new(o[i], d[i], 0.0, 4.0 * r),
+        |_, b| unblocked += !b as usize,
+        &mut c,
+    );
+    assert_eq!((escaped, unblocked), (0, 0), "stream kernel: of {n} rays from inside a closed mesh");
     assert!(c.nodes > 0);
 }
 
@@ -478,6 +559,7 @@ fn hybrid_tracer_with_and_without_interleaving_equals_the_wide_kernel() {
         accel.interleave = interleave;
         assert!(answers(&accel, Kernel::HYBRID) == expect, "hybrid, interleave {interleave}");
         assert!(answers(&accel, Kernel::Interleaved) == expect, "interleaved kernel");
+        assert!(answers(&accel, Kernel::Stream) == expect, "stream kernel");
     }
 }
 

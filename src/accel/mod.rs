@@ -182,6 +182,15 @@ pub(crate) fn cull_at(tmax: f32, slack: f32) -> f32 {
     tmax * CULL + slack
 }
 
+/// How a queue of rays walks the wide BVH together ([`Accel::closest_many`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Walk {
+    /// Each ray walks alone, [`INTERLEAVE`](wbvh::INTERLEAVE) walks at a time.
+    Interleaved,
+    /// The queue as one ray stream: each node tested once for all the rays that reach it.
+    Stream,
+}
+
 /// Primitives reordered to the BVH's leaf order, with the BVH over them.
 pub struct Accel {
     /// Per primitive, in BVH order (a traversal's primitive id indexes it): its material,
@@ -621,36 +630,41 @@ impl Accel {
         }
     }
 
-    /// [`Accel::closest`] of `n` rays (`ray(i)`), walked [`INTERLEAVE`](wbvh::INTERLEAVE)
-    /// at a time through the wide BVH so that their memory loads overlap: `out(i, hit)`
-    /// for every ray, in the order they finish, each the same hit as alone.
+    /// [`Accel::closest`] of `n` rays (`ray(i)`) through the wide BVH as `walk` says:
+    /// [`INTERLEAVE`](wbvh::INTERLEAVE) at a time so that their memory loads overlap, or
+    /// as one ray stream (`wbvh`'s stream module). `out(i, hit)` for every ray, in the
+    /// order they finish (index order for a stream), each the same hit as alone.
     #[inline]
     pub(crate) fn closest_many<const COUNT: bool>(
         &self,
+        walk: Walk,
         n: usize,
         ray: impl Fn(usize) -> Ray,
         mut out: impl FnMut(usize, Option<(f32, u32)>),
         c: &mut Traversal,
     ) {
-        match &self.wide {
-            Some(w) => w.closest_many::<COUNT>(self.slack, n, ray, out, c),
-            None => (0..n).for_each(|i| out(i, bvh2::closest::<COUNT>(self, ray(i), c))),
+        match (&self.wide, walk) {
+            (Some(w), Walk::Interleaved) => w.closest_many::<COUNT>(self.slack, n, ray, out, c),
+            (Some(w), Walk::Stream) => w.closest_stream::<COUNT>(self.slack, n, ray, out, c),
+            (None, _) => (0..n).for_each(|i| out(i, bvh2::closest::<COUNT>(self, ray(i), c))),
         }
     }
 
-    /// [`Accel::occluded`] of `n` rays, interleaved as [`Accel::closest_many`] walks them:
-    /// `out(i, blocked)` for every ray, in the order they finish.
+    /// [`Accel::occluded`] of `n` rays, walked as [`Accel::closest_many`] walks them:
+    /// `out(i, blocked)` for every ray.
     #[inline]
     pub(crate) fn occluded_many<const COUNT: bool>(
         &self,
+        walk: Walk,
         n: usize,
         ray: impl Fn(usize) -> Ray,
         mut out: impl FnMut(usize, bool),
         c: &mut Traversal,
     ) {
-        match &self.wide {
-            Some(w) => w.occluded_many::<COUNT>(self.slack, n, ray, out, c),
-            None => (0..n).for_each(|i| out(i, bvh2::occluded::<COUNT>(self, ray(i), c))),
+        match (&self.wide, walk) {
+            (Some(w), Walk::Interleaved) => w.occluded_many::<COUNT>(self.slack, n, ray, out, c),
+            (Some(w), Walk::Stream) => w.occluded_stream::<COUNT>(self.slack, n, ray, out, c),
+            (None, _) => (0..n).for_each(|i| out(i, bvh2::occluded::<COUNT>(self, ray(i), c))),
         }
     }
 }

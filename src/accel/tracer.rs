@@ -11,7 +11,7 @@ use wide::{f32x16, f32x4, f32x8};
 use super::order::{octant, packet_order, Order};
 use super::packet::{Columns, PacketConfig, PacketWork};
 use super::Ray;
-use super::{Accel, Traversal};
+use super::{Accel, Traversal, Walk};
 use crate::queue::{self, FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
 use crate::simd::{Vector, LANES};
 
@@ -49,6 +49,9 @@ pub enum Kernel {
     /// Rays walked [`INTERLEAVE`](super::wbvh::INTERLEAVE) at a time over the wide BVH,
     /// their memory loads overlapped ([`Accel::closest_many`]).
     Interleaved,
+    /// Whole queues traced as ray streams over the wide BVH ([`Walk::Stream`]):
+    /// each node tested once for all the rays that reach it.
+    Stream,
     /// Packets of `width` lanes, formed and traced as `cfg` says (their lone rays over the
     /// binary BVH).
     Packet(Width, PacketConfig),
@@ -56,9 +59,9 @@ pub enum Kernel {
     /// queues start with [`PROBE_PACKETS`] packets spread over the queue, and when their beams
     /// reach more than `max_leaves` leaves per 100 rays, the rest of the queue goes over
     /// the wide BVH: interleaved ([`Kernel::Interleaved`]) when the tree outgrows the
-    /// last-level cache ([`Accel::interleave`]) or the walks are node-bound
-    /// ([`node_bound`]), else one ray at a time. Lone rays (and packets that mix
-    /// octants) take the wide BVH one at a time.
+    /// last-level cache ([`Accel::interleave`]) or a closest-hit queue's walks are
+    /// node-bound ([`node_bound`]), else as one ray stream ([`Kernel::Stream`]). Lone rays (and packets that mix octants) take the wide BVH
+    /// one at a time.
     Hybrid {
         /// Lanes per packet.
         width: Width,
@@ -93,9 +96,18 @@ impl Kernel {
         }
     }
 
+    /// The walk of a kernel that traces whole queues over the wide BVH together.
+    fn walk(self) -> Option<Walk> {
+        match self {
+            Kernel::Interleaved => Some(Walk::Interleaved),
+            Kernel::Stream => Some(Walk::Stream),
+            _ => None,
+        }
+    }
+
     /// Whether single rays (alone, or falling out of packets) take the wide BVH.
     fn wide_singles(self) -> bool {
-        matches!(self, Kernel::Wide | Kernel::Interleaved | Kernel::Hybrid { .. })
+        matches!(self, Kernel::Wide | Kernel::Interleaved | Kernel::Stream | Kernel::Hybrid { .. })
     }
 }
 
@@ -146,13 +158,13 @@ impl<'a> Tracer<'a> {
     /// Finds the closest hit of every ray in `rays`, in order, into `hits` (cleared first).
     pub fn closest(&mut self, rays: &RayQueue, coherence: Coherence, hits: &mut HitQueue) {
         let packets = match self.kernel {
-            Kernel::Scalar | Kernel::Wide | Kernel::Interleaved => None,
+            Kernel::Scalar | Kernel::Wide | Kernel::Interleaved | Kernel::Stream => None,
             Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
         };
         match packets {
-            None if self.kernel == Kernel::Interleaved => {
+            None if let Some(walk) = self.kernel.walk() => {
                 hits.reset(rays.len(), f32::INFINITY, MISS);
-                self.closest_interleaved(rays, rays.len(), |k| k, hits);
+                self.closest_walk(walk, rays, rays.len(), |k| k, hits);
             }
             None if self.count => self.closest_single::<true>(rays, hits),
             None => self.closest_single::<false>(rays, hits),
@@ -201,13 +213,13 @@ impl<'a> Tracer<'a> {
     pub fn occluded(&mut self, shadow: &ShadowQueue) -> &[bool] {
         self.blocked.clear();
         let packets = match self.kernel {
-            Kernel::Scalar | Kernel::Wide | Kernel::Interleaved => None,
+            Kernel::Scalar | Kernel::Wide | Kernel::Interleaved | Kernel::Stream => None,
             Kernel::Packet(w, cfg) | Kernel::Hybrid { width: w, cfg, .. } => Some((w, cfg)),
         };
         match packets {
-            None if self.kernel == Kernel::Interleaved => {
+            None if let Some(walk) = self.kernel.walk() => {
                 self.blocked.resize(shadow.len(), false);
-                self.occluded_interleaved(shadow, shadow.len(), |k| k);
+                self.occluded_walk(walk, shadow, shadow.len(), |k| k);
             }
             None if self.count => self.occluded_single::<true>(shadow),
             None => self.occluded_single::<false>(shadow),
@@ -276,30 +288,19 @@ impl<'a> Tracer<'a> {
         if leave.is_some() {
             spread_probe(&mut order, S::WIDTH);
         }
-        let mut alone = false;
         for (p, group) in order.chunks(S::WIDTH).enumerate() {
-            let leaving = sparse(p, leave, &pw, S::WIDTH);
-            if leaving && (self.accel.interleave || node_bound(&pw, S::WIDTH)) {
-                // Incoherent, and walks that wait on node loads: the rest walks interleaved.
+            if sparse(p, leave, &pw, S::WIDTH) {
+                // Incoherent: the rest walks the wide tree together.
                 let rest = &order[p * S::WIDTH..];
-                self.closest_interleaved(rays, rest.len(), |k| rest[k].1 as usize, hits);
+                self.closest_walk(self.leave_walk(&pw, S::WIDTH, true), rays, rest.len(), |k| rest[k].1 as usize, hits);
                 break;
             }
-            alone = alone || leaving;
             for (l, &(_, i)) in group.iter().enumerate() {
                 o[l] = rays.origin(i as usize);
                 d[l] = rays.dir(i as usize);
             }
             let k = group.len();
-            if alone {
-                for l in 0..k {
-                    out[l] = if self.count {
-                        single_closest::<true>(self.accel, self.kernel, o[l], d[l], &mut self.work)
-                    } else {
-                        single_closest::<false>(self.accel, self.kernel, o[l], d[l], &mut self.work)
-                    };
-                }
-            } else if shares_octant(&d[..k], cfg) {
+            if shares_octant(&d[..k], cfg) {
                 let cols = consecutive(group, S::WIDTH)
                     .map(|i| Columns([&rays.ox, &rays.oy, &rays.oz, &rays.dx, &rays.dy, &rays.dz].map(|v| &v[i..])));
                 super::packet::closest::<S>(self.accel, &o[..k], &d[..k], cols, 0.0, &mut out, &mut pw);
@@ -319,32 +320,42 @@ impl<'a> Tracer<'a> {
         self.add_packet_work(pw);
     }
 
-    /// Closest hits of `n` rays of `rays`, the k-th being entry `id(k)`, interleaved, into
-    /// their entries of `hits` (already sized).
-    fn closest_interleaved(&mut self, rays: &RayQueue, n: usize, id: impl Fn(usize) -> usize, hits: &mut HitQueue) {
-        let ray = |k: usize| Ray::infinite(rays.origin(id(k)), rays.dir(id(k)));
-        let out = |k: usize, hit: Option<(f32, u32)>| {
-            let (t, prim) = hit.unwrap_or((f32::INFINITY, MISS));
-            hits.t[id(k)] = t;
-            hits.prim[id(k)] = prim;
-        };
-        if self.count {
-            self.accel.closest_many::<true>(n, ray, out, &mut self.work);
+    /// How the rays of a queue that left packets after its probe (`pw`, packets of
+    /// `lanes`) walk: interleaved when the tree outgrows the last-level cache
+    /// ([`Accel::interleave`]) or, for closest hits (`closest`), the walks are node-bound
+    /// ([`node_bound`]), else as a stream (measured: docs/performance.md).
+    fn leave_walk(&self, pw: &PacketWork, lanes: usize, closest: bool) -> Walk {
+        if self.accel.interleave || (closest && node_bound(pw, lanes)) {
+            Walk::Interleaved
         } else {
-            self.accel.closest_many::<false>(n, ray, out, &mut self.work);
+            Walk::Stream
         }
     }
 
-    /// Any-hit tests of `n` shadow rays of `shadow`, the k-th being entry `id(k)`,
-    /// interleaved, into their entries of the blocked flags (already sized).
-    fn occluded_interleaved(&mut self, shadow: &ShadowQueue, n: usize, id: impl Fn(usize) -> usize) {
-        let ray = |k: usize| Ray::new(shadow.origin(id(k)), shadow.dir(id(k)), 0.0, shadow.tmax[id(k)]);
-        let blocked = &mut self.blocked;
-        let out = |k: usize, b: bool| blocked[id(k)] = b;
+    /// Closest hits of `n` rays of `rays`, the k-th being entry `id(k)`, walked together
+    /// as `walk` says, into their entries of `hits` (already sized).
+    fn closest_walk(
+        &mut self,
+        walk: Walk,
+        rays: &RayQueue,
+        n: usize,
+        id: impl Fn(usize) -> usize,
+        hits: &mut HitQueue,
+    ) {
         if self.count {
-            self.accel.occluded_many::<true>(n, ray, out, &mut self.work);
+            closest_walk::<true>(self.accel, walk, rays, n, id, hits, &mut self.work);
         } else {
-            self.accel.occluded_many::<false>(n, ray, out, &mut self.work);
+            closest_walk::<false>(self.accel, walk, rays, n, id, hits, &mut self.work);
+        }
+    }
+
+    /// Any-hit tests of `n` shadow rays of `shadow`, the k-th being entry `id(k)`, walked
+    /// together as `walk` says, into their entries of the blocked flags (already sized).
+    fn occluded_walk(&mut self, walk: Walk, shadow: &ShadowQueue, n: usize, id: impl Fn(usize) -> usize) {
+        if self.count {
+            occluded_walk::<true>(self.accel, walk, shadow, n, id, &mut self.blocked, &mut self.work);
+        } else {
+            occluded_walk::<false>(self.accel, walk, shadow, n, id, &mut self.blocked, &mut self.work);
         }
     }
 
@@ -367,30 +378,19 @@ impl<'a> Tracer<'a> {
         if leave.is_some() {
             spread_probe(&mut order, S::WIDTH);
         }
-        let mut alone = false;
         for (p, group) in order.chunks(S::WIDTH).enumerate() {
-            let leaving = sparse(p, leave, &pw, S::WIDTH);
-            if leaving && accel.interleave {
-                // Incoherent, and the tree outgrows the cache: the rest walks interleaved.
+            if sparse(p, leave, &pw, S::WIDTH) {
+                // Incoherent: the rest walks the wide tree together.
                 let rest = &order[p * S::WIDTH..];
-                self.occluded_interleaved(shadow, rest.len(), |k| rest[k].1 as usize);
+                self.occluded_walk(self.leave_walk(&pw, S::WIDTH, false), shadow, rest.len(), |k| rest[k].1 as usize);
                 break;
             }
-            alone = alone || leaving;
             let k = group.len();
             for (l, &(_, i)) in group.iter().enumerate() {
                 let i = i as usize;
                 (o[l], d[l], t[l]) = (shadow.origin(i), shadow.dir(i), shadow.tmax[i]);
             }
-            if alone {
-                for l in 0..k {
-                    blocked[l] = if self.count {
-                        single_occluded::<true>(accel, self.kernel, o[l], d[l], t[l], &mut self.work)
-                    } else {
-                        single_occluded::<false>(accel, self.kernel, o[l], d[l], t[l], &mut self.work)
-                    };
-                }
-            } else if shares_octant(&d[..k], cfg) {
+            if shares_octant(&d[..k], cfg) {
                 let cols = consecutive(group, S::WIDTH).map(|i| {
                     Columns([&shadow.ox, &shadow.oy, &shadow.oz, &shadow.dx, &shadow.dy, &shadow.dz].map(|v| &v[i..]))
                 });
@@ -438,8 +438,8 @@ fn sparse(p: usize, leave: Option<u32>, pw: &PacketWork, lanes: usize) -> bool {
 /// Whether the probe's rays (`pw`, [`PROBE_PACKETS`] packets of `lanes` rays) entered fewer than
 /// one leaf in four rays: their walks are node visits, whose loads interleaving overlaps,
 /// and not primitive tests, to which it only adds work (closest hits through a mesh in
-/// the cache, interleaved ÷ one at a time: random rays 1.11–1.15, kitchen's 0.90; bounce
-/// rays 0.87–0.97: docs/performance.md).
+/// the cache, interleaved ÷ stream: random rays 1.03–1.51, kitchen's 0.85; bounce rays
+/// 0.70–0.87: docs/performance.md).
 #[inline]
 fn node_bound(pw: &PacketWork, lanes: usize) -> bool {
     pw.lanes * 4 < (PROBE_PACKETS * lanes) as u64
@@ -480,6 +480,52 @@ fn consecutive(group: &[(u64, u32)], lanes: usize) -> Option<usize> {
 fn shares_octant(d: &[Vec3], cfg: PacketConfig) -> bool {
     let oct = octant(d[0]);
     d.len() > 1 && !(cfg.split_mixed && d.iter().any(|&x| octant(x) != oct))
+}
+
+/// [`Tracer::closest_walk`]'s trace. The ray closure is inlined: a call returns the ray
+/// through memory, and a stream's setup stalls reloading it (measured).
+fn closest_walk<const COUNT: bool>(
+    accel: &Accel,
+    walk: Walk,
+    rays: &RayQueue,
+    n: usize,
+    id: impl Fn(usize) -> usize,
+    hits: &mut HitQueue,
+    work: &mut Traversal,
+) {
+    let out = |k: usize, hit: Option<(f32, u32)>| {
+        let (t, prim) = hit.unwrap_or((f32::INFINITY, MISS));
+        hits.t[id(k)] = t;
+        hits.prim[id(k)] = prim;
+    };
+    accel.closest_many::<COUNT>(
+        walk,
+        n,
+        #[inline(always)]
+        |k| Ray::infinite(rays.origin(id(k)), rays.dir(id(k))),
+        out,
+        work,
+    );
+}
+
+/// [`Tracer::occluded_walk`]'s trace, as [`closest_walk`]'s.
+fn occluded_walk<const COUNT: bool>(
+    accel: &Accel,
+    walk: Walk,
+    shadow: &ShadowQueue,
+    n: usize,
+    id: impl Fn(usize) -> usize,
+    blocked: &mut [bool],
+    work: &mut Traversal,
+) {
+    accel.occluded_many::<COUNT>(
+        walk,
+        n,
+        #[inline(always)]
+        |k| Ray::new(shadow.origin(id(k)), shadow.dir(id(k)), 0.0, shadow.tmax[id(k)]),
+        |k, b| blocked[id(k)] = b,
+        work,
+    );
 }
 
 /// One closest-hit ray through `kernel`'s single-ray traversal (wide or binary BVH).

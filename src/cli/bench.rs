@@ -1,4 +1,4 @@
-//! `wavetrace bench`: traversal throughput of the packet, wide, interleaved and hybrid kernels
+//! `wavetrace bench`: traversal throughput of the packet, wide, interleaved, stream and hybrid kernels
 //! on fixed ray sets (a scene's, or the issue-13 sets around a bare mesh), as a table or
 //! JSON; optionally exports the rays for `benches/embree.py`.
 
@@ -70,8 +70,8 @@ pub struct BenchArgs {
     /// Time by the process's CPU time, not the wall clock (for a shared, loaded machine).
     #[arg(long)]
     cpu_time: bool,
-    /// The kernels to measure, comma separated: packet, wide, interleaved, hybrid (default:
-    /// all four; their answers are checked against the first one listed).
+    /// The kernels to measure, comma separated: packet, wide, interleaved, stream, hybrid
+    /// (default: all five; their answers are checked against the first one listed).
     #[arg(long, value_enum, value_delimiter = ',', hide_possible_values = true)]
     kernels: Vec<KernelName>,
     /// The ray sets to measure, comma separated, by the names the table prints (default:
@@ -91,6 +91,7 @@ pub enum KernelName {
     Packet,
     Wide,
     Interleaved,
+    Stream,
     Hybrid,
 }
 

@@ -44,7 +44,7 @@ enum Command {
     /// DIR/sweep.csv, DIR/sweep.json and error-vs-rays / error-vs-seconds plots.
     Sweep(sweep::SweepArgs),
     /// Trace fixed ray sets from a scene (primary, shadow, secondary) or a bare mesh with
-    /// the packet, wide, interleaved and hybrid kernels; print Mrays/s per set and kernel
+    /// the packet, wide, interleaved, stream and hybrid kernels; print Mrays/s per set and kernel
     /// (median of --reps runs).
     Bench(bench::BenchArgs),
     /// Merge the tiles of one render (EXRs from render --crop/--tile) into the full

@@ -58,7 +58,7 @@ pub struct BenchOptions {
 }
 
 /// The kernels `wavetrace bench` measures, by the names its table and JSON use.
-pub const KERNELS: [&str; 4] = ["packet", "wide", "interleaved", "hybrid"];
+pub const KERNELS: [&str; 5] = ["packet", "wide", "interleaved", "stream", "hybrid"];
 
 /// The kernel the renderer runs (`render.packets = true`), by its name in [`KERNELS`].
 pub const RENDERER_KERNEL: &str = "hybrid";
@@ -116,7 +116,7 @@ pub struct SetResult {
     /// The set's name (`primary`, `shadow`, `secondary`; with a mesh `camera`, `shadow`,
     /// `bounce`, `random`, `bounce-shadow`).
     pub set: &'static str,
-    /// `packet`, `wide`, `interleaved` or `hybrid`.
+    /// `packet`, `wide`, `interleaved`, `stream` or `hybrid`.
     pub kernel: &'static str,
     /// Rays in the set.
     pub rays: usize,
@@ -321,12 +321,13 @@ pub fn trace(accel: &Accel, set: &RaySet, pool: &rayon::ThreadPool, kernel: Kern
 }
 
 /// The kernels `wavetrace bench` measures, with their column names.
-fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 4] {
+fn kernels(opts: &BenchOptions) -> [(&'static str, Kernel); 5] {
     [
         (KERNELS[0], Kernel::Packet(Width::of(opts.lanes), opts.packet)),
         (KERNELS[1], Kernel::Wide),
         (KERNELS[2], Kernel::Interleaved),
-        (KERNELS[3], Kernel::Hybrid { width: Width::of(opts.lanes), cfg: opts.packet, max_leaves: opts.max_leaves }),
+        (KERNELS[3], Kernel::Stream),
+        (KERNELS[4], Kernel::Hybrid { width: Width::of(opts.lanes), cfg: opts.packet, max_leaves: opts.max_leaves }),
     ]
 }
 

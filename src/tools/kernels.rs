@@ -8,7 +8,7 @@
 use glam::Vec3;
 
 use crate::accel::packet::{self, PacketWork};
-use crate::accel::{Accel, Ray, Traversal};
+use crate::accel::{Accel, Ray, Traversal, Walk};
 use crate::simd::Vector;
 
 /// [`Accel::closest`] through the binary tree where the accel keeps one
@@ -31,7 +31,7 @@ pub fn interleaved_closest<const COUNT: bool>(
     out: impl FnMut(usize, Option<(f32, u32)>),
     c: &mut Traversal,
 ) {
-    accel.closest_many::<COUNT>(n, ray, out, c)
+    accel.closest_many::<COUNT>(Walk::Interleaved, n, ray, out, c)
 }
 
 /// [`Accel::occluded`] of `n` rays, interleaved: `out(i, blocked)` for every ray, in the
@@ -43,7 +43,31 @@ pub fn interleaved_occluded<const COUNT: bool>(
     out: impl FnMut(usize, bool),
     c: &mut Traversal,
 ) {
-    accel.occluded_many::<COUNT>(n, ray, out, c)
+    accel.occluded_many::<COUNT>(Walk::Interleaved, n, ray, out, c)
+}
+
+/// [`Accel::closest`] of `n` rays (`ray(i)`) traced as one ray stream through the wide
+/// tree: `out(i, hit)` for every ray, in index order.
+pub fn stream_closest<const COUNT: bool>(
+    accel: &Accel,
+    n: usize,
+    ray: impl Fn(usize) -> Ray,
+    out: impl FnMut(usize, Option<(f32, u32)>),
+    c: &mut Traversal,
+) {
+    accel.closest_many::<COUNT>(Walk::Stream, n, ray, out, c)
+}
+
+/// [`Accel::occluded`] of `n` rays traced as one ray stream: `out(i, blocked)` for every
+/// ray, in index order.
+pub fn stream_occluded<const COUNT: bool>(
+    accel: &Accel,
+    n: usize,
+    ray: impl Fn(usize) -> Ray,
+    out: impl FnMut(usize, bool),
+    c: &mut Traversal,
+) {
+    accel.occluded_many::<COUNT>(Walk::Stream, n, ray, out, c)
 }
 
 /// Closest hits of a packet of up to `S::WIDTH` rays (`o`, `d` of equal length) within

@@ -23,9 +23,11 @@
 
 mod beam;
 mod collapse;
+mod stream;
 mod walk;
 
 pub(crate) use beam::{Beam, BeamLeaf};
+pub use stream::MIN_STREAM;
 pub use walk::INTERLEAVE;
 
 use glam::{BVec3A, Vec3, Vec3A, Vec3Swizzles};

@@ -18,7 +18,7 @@ thread_local! {
 pub const INTERLEAVE: usize = 8;
 
 /// What a walk's leaf test tells it.
-enum Leaf {
+pub(super) enum Leaf {
     /// Keep walking; the ray's `tmax` may have shrunk.
     Go,
     /// Stop: the answer is known (any-hit).
@@ -247,7 +247,7 @@ impl<S: Vector> WideBvh<S> {
     /// Entries of one walk's stack: a node at depth k leaves at most W − 1 siblings on the
     /// stack for each of the k − 1 nodes above it, plus its own W, so depth · (W − 1) + 1
     /// bounds it; W more, for the any-hit walk's stores past its top.
-    fn stack_len(&self) -> usize {
+    pub(super) fn stack_len(&self) -> usize {
         self.depth * (S::WIDTH - 1) + 1 + S::WIDTH
     }
 
@@ -271,12 +271,38 @@ impl<S: Vector> WideBvh<S> {
         })
     }
 
+    /// Walks `ray` from `start` (a node's index or a leaf's reference) through the subtree
+    /// under it, as [`WideBvh::walk`] walks the whole tree, on `stack` (at least
+    /// [`WideBvh::stack_len`] long). Returns the ray as the walk left it (its `tmax`
+    /// lowered by closest hits) and whether a leaf test said stop.
+    #[inline(always)]
+    pub(super) fn walk_subtree<const COUNT: bool, const ORDER: bool>(
+        &self,
+        slack: f32,
+        ray: SlabRay,
+        start: u32,
+        stack: &mut [(u32, f32)],
+        c: &mut Traversal,
+        leaf: &mut impl FnMut(&mut SlabRay, &Block, u32) -> Leaf,
+    ) -> (SlabRay, bool) {
+        let mut stopped = false;
+        let mut walker = Walker::new(ray, slack);
+        walker.current = start;
+        let mut test = |r: &mut SlabRay, b: &Block, lanes: u32| {
+            let l = leaf(r, b, lanes);
+            stopped |= matches!(l, Leaf::Stop);
+            l
+        };
+        while walker.step::<COUNT, ORDER>(self, stack, c, &mut test) {}
+        (walker.ray, stopped)
+    }
+
     /// Tests lanes `lanes` of leaf block `b` for the closest hit of the ray `o`, `d`
     /// (sheared: `sheared`) within `r`'s segment, lowering `r.tmax` and updating `best` by
     /// the tie rule.
     #[allow(clippy::too_many_arguments)] // the block, the ray in three forms, the search's state
     #[inline(always)]
-    fn closest_block(
+    pub(super) fn closest_block(
         &self,
         b: &Block,
         lanes: u32,
@@ -323,7 +349,7 @@ impl<S: Vector> WideBvh<S> {
     /// segment of the ray `o`, `d` (sheared: `sheared`).
     #[allow(clippy::too_many_arguments)] // the block and its lanes, the ray in three forms
     #[inline(always)]
-    fn block_blocks(&self, b: &Block, lanes: u32, o: Vec3, d: Vec3, sheared: &Sheared, r: &SlabRay) -> bool {
+    pub(super) fn block_blocks(&self, b: &Block, lanes: u32, o: Vec3, d: Vec3, sheared: &Sheared, r: &SlabRay) -> bool {
         let blockers = b.blockers & lanes;
         if !b.triangles {
             return lanes_of(blockers)
@@ -437,19 +463,8 @@ impl<S: Vector> WideBvh<S> {
         mut out: impl FnMut(usize, Option<(f32, u32)>),
         c: &mut Traversal,
     ) {
-        let search = |r: Ray| (r.origin, r.dir, Sheared::new(r.origin, r.dir), (f32::INFINITY, u32::MAX));
-        self.interleave::<COUNT, true, _>(
-            slack,
-            n,
-            ray,
-            search,
-            |(o, d, sheared, best), r, b, lanes| {
-                self.closest_block(b, lanes, *o, *d, sheared, r, best);
-                Leaf::Go
-            },
-            |i, (_, _, _, best)| out(i, (best.1 != u32::MAX).then_some(best)),
-            c,
-        );
+        let test = |s: &mut ClosestSearch, r: &mut SlabRay, b: &Block, lanes| s.test(self, r, b, lanes);
+        self.interleave::<COUNT, true, _>(slack, n, ray, ClosestSearch::new, test, |i, s| out(i, s.hit()), c);
     }
 
     /// [`WideBvh::occluded`] of `n` rays, interleaved ([`WideBvh::interleave`]): `out(i,
@@ -462,21 +477,65 @@ impl<S: Vector> WideBvh<S> {
         mut out: impl FnMut(usize, bool),
         c: &mut Traversal,
     ) {
-        let search = |r: Ray| (r.origin, r.dir, Sheared::new(r.origin, r.dir), false);
-        self.interleave::<COUNT, false, _>(
-            slack,
-            n,
-            ray,
-            search,
-            |(o, d, sheared, blocked), r, b, lanes| {
-                if self.block_blocks(b, lanes, *o, *d, sheared, r) {
-                    *blocked = true;
-                    return Leaf::Stop;
-                }
-                Leaf::Go
-            },
-            |i, (_, _, _, blocked)| out(i, blocked),
-            c,
-        );
+        let test = |s: &mut AnyHitSearch, r: &mut SlabRay, b: &Block, lanes| s.test(self, r, b, lanes);
+        self.interleave::<COUNT, false, _>(slack, n, ray, AnyHitSearch::new, test, |i, s| out(i, s.blocked), c);
+    }
+}
+
+/// One ray's closest-hit search as the queue walks (interleaved, stream) keep it beside
+/// its walk: the ray, sheared once for the triangle test, and the best hit so far.
+pub(super) struct ClosestSearch {
+    o: Vec3,
+    d: Vec3,
+    sheared: Sheared,
+    best: (f32, u32),
+}
+
+impl ClosestSearch {
+    /// The search of `r`, nothing found yet.
+    #[inline(always)]
+    pub(super) fn new(r: Ray) -> Self {
+        ClosestSearch { o: r.origin, d: r.dir, sheared: Sheared::new(r.origin, r.dir), best: (f32::INFINITY, u32::MAX) }
+    }
+
+    /// Tests lanes `lanes` of leaf block `b` of `tree` ([`WideBvh::closest_block`]).
+    #[inline(always)]
+    pub(super) fn test<S: Vector>(&mut self, tree: &WideBvh<S>, r: &mut SlabRay, b: &Block, lanes: u32) -> Leaf {
+        tree.closest_block(b, lanes, self.o, self.d, &self.sheared, r, &mut self.best);
+        Leaf::Go
+    }
+
+    /// The closest hit found: `(t, primitive)`, or `None`.
+    #[inline(always)]
+    pub(super) fn hit(&self) -> Option<(f32, u32)> {
+        (self.best.1 != u32::MAX).then_some(self.best)
+    }
+}
+
+/// One shadow ray's any-hit search, as [`ClosestSearch`] for closest hits.
+pub(super) struct AnyHitSearch {
+    o: Vec3,
+    d: Vec3,
+    sheared: Sheared,
+    /// A blocker was found.
+    pub(super) blocked: bool,
+}
+
+impl AnyHitSearch {
+    /// The search of `r`, nothing found yet.
+    #[inline(always)]
+    pub(super) fn new(r: Ray) -> Self {
+        AnyHitSearch { o: r.origin, d: r.dir, sheared: Sheared::new(r.origin, r.dir), blocked: false }
+    }
+
+    /// Tests lanes `lanes` of leaf block `b` of `tree` ([`WideBvh::block_blocks`]); stop
+    /// at a blocker.
+    #[inline(always)]
+    pub(super) fn test<S: Vector>(&mut self, tree: &WideBvh<S>, r: &mut SlabRay, b: &Block, lanes: u32) -> Leaf {
+        if tree.block_blocks(b, lanes, self.o, self.d, &self.sheared, r) {
+            self.blocked = true;
+            return Leaf::Stop;
+        }
+        Leaf::Go
     }
 }
