@@ -436,13 +436,14 @@ fn sparse(p: usize, leave: Option<u32>, pw: &PacketWork, lanes: usize) -> bool {
 }
 
 /// Whether the probe's rays (`pw`, [`PROBE_PACKETS`] packets of `lanes` rays) entered fewer than
-/// one leaf in four rays: their walks are node visits, whose loads interleaving overlaps,
-/// and not primitive tests, to which it only adds work (closest hits through a mesh in
-/// the cache, interleaved ÷ stream: random rays 1.03–1.51, kitchen's 0.85; bounce rays
-/// 0.70–0.87: docs/performance.md).
+/// one leaf in fifty rays: their walks are node visits, whose loads interleaving overlaps,
+/// and not primitive tests, to which it only adds work. Chords through a mesh enter
+/// 0.001–0.003 leaves a ray in the probe (interleaved ÷ stream 1.06–1.52); kitchen's,
+/// which end on its walls at once, 0.05 (0.85); bounce rays 0.3–1.6 (0.82–0.91; one
+/// terrain queue in five below the old bound of one in four: docs/performance.md).
 #[inline]
 fn node_bound(pw: &PacketWork, lanes: usize) -> bool {
-    pw.lanes * 4 < (PROBE_PACKETS * lanes) as u64
+    pw.lanes * 50 < (PROBE_PACKETS * lanes) as u64
 }
 
 /// Moves [`PROBE_PACKETS`] full packets spread evenly over `order` (cut into packets of `lanes`)

@@ -308,7 +308,7 @@ fn block(prims: &[Primitive], lanes: &[u32], ids: &mut Vec<u32>, other: &mut Vec
 #[cfg(test)]
 mod tests {
     use crate::accel::shapes::{Primitive, Shape, NO_LIGHT};
-    use crate::accel::{nearer, Accel, BvhQuality, Ray, Traversal};
+    use crate::accel::{nearer, Accel, BvhQuality, Ray, Traversal, Walk};
     use glam::Vec3;
 
     /// Leaves packed into shared blocks, larger leaves over several blocks and leaves of
@@ -347,13 +347,13 @@ mod tests {
                 let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5);
                 rays.push(Ray::new(o, d, 0.0, 1.0 + rnd() * 20.0));
             }
-            let mut many = vec![None; rays.len()];
-            accel.closest_many::<false>(
-                rays.len(),
-                |i| Ray { tmax: f32::INFINITY, ..rays[i] },
-                |i, hit| many[i] = Some(hit),
-                &mut Traversal::default(),
-            );
+            let (mut many, mut streamed) = (vec![None; rays.len()], vec![None; rays.len()]);
+            let mut stream_blocked = vec![None; rays.len()];
+            let whole = |i: usize| Ray { tmax: f32::INFINITY, ..rays[i] };
+            let c = &mut Traversal::default();
+            accel.closest_many::<false>(Walk::Interleaved, rays.len(), whole, |i, hit| many[i] = Some(hit), c);
+            accel.closest_many::<false>(Walk::Stream, rays.len(), whole, |i, hit| streamed[i] = Some(hit), c);
+            accel.occluded_many::<false>(Walk::Stream, rays.len(), |i| rays[i], |i, b| stream_blocked[i] = Some(b), c);
             for (i, r) in rays.iter().enumerate() {
                 let mut best = (f32::INFINITY, u32::MAX);
                 let mut blocked = false;
@@ -372,6 +372,8 @@ mod tests {
                     "leaf {max_leaf}, ray {i}"
                 );
                 assert_eq!(many[i], Some(expect), "leaf {max_leaf}, ray {i}, interleaved");
+                assert_eq!(streamed[i], Some(expect), "leaf {max_leaf}, ray {i}, stream");
+                assert_eq!(stream_blocked[i], Some(blocked), "leaf {max_leaf}, ray {i}, stream any-hit");
                 assert_eq!(accel.occluded::<false>(*r, &mut Traversal::default()), blocked, "leaf {max_leaf}, ray {i}");
             }
         }
