@@ -15,7 +15,7 @@ import statistics
 import subprocess
 
 SETS = ["camera", "shadow", "bounce", "random", "bounce-shadow"]
-KERNELS = ["wide", "hybrid", "packet", "interleaved"]
+KERNELS = ["wide", "hybrid", "packet", "interleaved", "stream"]
 
 
 def main():

@@ -28,6 +28,7 @@ fn kernels(c: &mut Criterion) {
                 ("packet8", Kernel::Packet(Width::X8, PacketConfig::RENDER)),
                 ("packet16", Kernel::Packet(Width::X16, PacketConfig::RENDER)),
                 ("wide", Kernel::Wide),
+                ("stream", Kernel::Stream),
                 ("hybrid", Kernel::HYBRID),
             ];
             for (label, kernel) in kernels {
