@@ -39,6 +39,34 @@ impl Order {
     }
 }
 
+/// Where each direction octant's run starts when `n` rays (directions `d(i)`) are
+/// sorted stably by octant: octant k's rays take places `starts[k]..starts[k + 1]`.
+pub(crate) fn octant_starts(n: usize, d: impl Fn(usize) -> Vec3) -> [usize; 9] {
+    let mut start = [0usize; 9];
+    for i in 0..n {
+        start[octant(d(i)) as usize + 1] += 1;
+    }
+    for k in 1..9 {
+        start[k] += start[k - 1];
+    }
+    start
+}
+
+/// The stable counting sort's second pass: `place(at, i, k)` puts ray `i` (octant `k`) at
+/// place `at`, from [`octant_starts`]'s `start`.
+pub(crate) fn by_octant(
+    n: usize,
+    d: impl Fn(usize) -> Vec3,
+    mut start: [usize; 9],
+    mut place: impl FnMut(usize, usize, usize),
+) {
+    for i in 0..n {
+        let k = octant(d(i)) as usize;
+        place(start[k], i, k);
+        start[k] += 1;
+    }
+}
+
 /// Direction octant: the three sign bits.
 #[inline]
 pub fn octant(d: Vec3) -> u32 {
@@ -79,25 +107,15 @@ pub fn packet_order(
         Order::Keep => order.extend((0..n as u32).map(|i| (0, i))),
         Order::Octant => {
             // Counting sort on the 8 octants.
-            let mut start = [0usize; 9];
-            for i in 0..n {
-                start[octant(d(i)) as usize + 1] += 1;
-            }
-            if let Some(k) = start[1..].iter().position(|&c| c == n).filter(|_| n > 0) {
+            let start = octant_starts(n, &d);
+            if let Some(k) = (0..8).find(|&k| start[k + 1] - start[k] == n).filter(|_| n > 0) {
                 // One octant (a shadow queue to one light above the scene): the order
                 // stays the queue's, without a second pass.
                 order.extend((0..n as u32).map(|i| (k as u64, i)));
                 return;
             }
-            for k in 1..9 {
-                start[k] += start[k - 1];
-            }
             order.resize(n, (0, 0));
-            for i in 0..n {
-                let k = octant(d(i)) as usize;
-                order[start[k]] = (k as u64, i as u32);
-                start[k] += 1;
-            }
+            by_octant(n, &d, start, |at, i, k| order[at] = (k as u64, i as u32));
         }
         Order::Morton => {
             let (lo, hi) = accel.bounds();

@@ -60,8 +60,8 @@ pub enum Kernel {
     /// reach more than `max_leaves` leaves per 100 rays, the rest of the queue goes over
     /// the wide BVH: interleaved ([`Kernel::Interleaved`]) when the tree outgrows the
     /// last-level cache ([`Accel::interleave`]) or a closest-hit queue's walks are
-    /// node-bound ([`node_bound`]), else as one ray stream ([`Kernel::Stream`]). Lone rays (and packets that mix octants) take the wide BVH
-    /// one at a time.
+    /// node-bound ([`node_bound`]), else as one ray stream ([`Kernel::Stream`]). Lone
+    /// rays (and packets that mix octants) take the wide BVH one at a time.
     Hybrid {
         /// Lanes per packet.
         width: Width,

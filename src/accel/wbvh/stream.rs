@@ -16,8 +16,11 @@
 //! order; the tie rule ([`nearer`](crate::accel::nearer)) makes the closest hit
 //! independent of the order, so each answer is the single-ray kernel's bit for bit.
 
+use glam::Vec3;
+
 use super::walk::{AnyHitSearch, ClosestSearch, Leaf};
 use super::{Block, Node, WideBvh, LEAF_FLAG, MAX_W};
+use crate::accel::order::{by_octant, octant_starts};
 use crate::accel::{cull_at, Ray, SlabRay, Traversal, WIDEN};
 use crate::simd::{Vector, LANES};
 
@@ -129,24 +132,10 @@ impl<S: Vector> WideBvh<S> {
             }
             // One stream per direction octant: rays of one octant agree on which of two
             // boxes along an axis comes first, so a stream's order suits its rays.
-            let octant = |i: usize| {
-                let d = rays[i].0.direction;
-                (d.x < 0.0) as usize | ((d.y < 0.0) as usize) << 1 | ((d.z < 0.0) as usize) << 2
-            };
-            let mut starts = [0usize; 9];
-            for i in 0..n {
-                starts[octant(i) + 1] += 1;
-            }
-            for k in 0..8 {
-                starts[k + 1] += starts[k];
-            }
+            let dir = |i: usize| Vec3::from(rays[i].0.direction);
+            let starts = octant_starts(n, dir);
             entries.resize(n, (0, 0.0));
-            let mut at = starts;
-            for i in 0..n {
-                let o = octant(i);
-                entries[at[o]] = (i as u32, f32::NEG_INFINITY);
-                at[o] += 1;
-            }
+            by_octant(n, dir, starts, |at, i, _| entries[at] = (i as u32, f32::NEG_INFINITY));
             let need = self.stack_len();
             if stack.len() < need {
                 stack.resize(need, (0, 0.0));
@@ -169,7 +158,7 @@ impl<S: Vector> WideBvh<S> {
                     self.finish::<COUNT, ORDER, T, _>(slack, f.node, rest, boxes, &mut rays, stack, c, test);
                 } else {
                     let node = &self.nodes[f.node as usize];
-                    let counts = split_stream::<COUNT, S>(node, &entries[f.start..], boxes, f.len, split, c);
+                    let counts = split_stream::<COUNT, S>(node, rest, boxes, f.len, split, c);
                     push_children::<ORDER, S>(node, f.octant, counts, f.len, split, entries, frames);
                 }
             }

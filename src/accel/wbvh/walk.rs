@@ -483,10 +483,9 @@ impl<S: Vector> WideBvh<S> {
 }
 
 /// One ray's closest-hit search as the queue walks (interleaved, stream) keep it beside
-/// its walk: the ray, sheared once for the triangle test, and the best hit so far.
+/// its walk: the ray sheared once for the triangle test, and the best hit so far (the
+/// ray itself is the walk's slab ray, which every test is handed).
 pub(super) struct ClosestSearch {
-    o: Vec3,
-    d: Vec3,
     sheared: Sheared,
     best: (f32, u32),
 }
@@ -495,13 +494,15 @@ impl ClosestSearch {
     /// The search of `r`, nothing found yet.
     #[inline(always)]
     pub(super) fn new(r: Ray) -> Self {
-        ClosestSearch { o: r.origin, d: r.dir, sheared: Sheared::new(r.origin, r.dir), best: (f32::INFINITY, u32::MAX) }
+        ClosestSearch { sheared: Sheared::new(r.origin, r.dir), best: (f32::INFINITY, u32::MAX) }
     }
 
-    /// Tests lanes `lanes` of leaf block `b` of `tree` ([`WideBvh::closest_block`]).
+    /// Tests lanes `lanes` of leaf block `b` of `tree` for the ray `r`
+    /// ([`WideBvh::closest_block`]).
     #[inline(always)]
     pub(super) fn test<S: Vector>(&mut self, tree: &WideBvh<S>, r: &mut SlabRay, b: &Block, lanes: u32) -> Leaf {
-        tree.closest_block(b, lanes, self.o, self.d, &self.sheared, r, &mut self.best);
+        let (o, d) = (Vec3::from(r.origin), Vec3::from(r.direction));
+        tree.closest_block(b, lanes, o, d, &self.sheared, r, &mut self.best);
         Leaf::Go
     }
 
@@ -514,8 +515,6 @@ impl ClosestSearch {
 
 /// One shadow ray's any-hit search, as [`ClosestSearch`] for closest hits.
 pub(super) struct AnyHitSearch {
-    o: Vec3,
-    d: Vec3,
     sheared: Sheared,
     /// A blocker was found.
     pub(super) blocked: bool,
@@ -525,14 +524,15 @@ impl AnyHitSearch {
     /// The search of `r`, nothing found yet.
     #[inline(always)]
     pub(super) fn new(r: Ray) -> Self {
-        AnyHitSearch { o: r.origin, d: r.dir, sheared: Sheared::new(r.origin, r.dir), blocked: false }
+        AnyHitSearch { sheared: Sheared::new(r.origin, r.dir), blocked: false }
     }
 
-    /// Tests lanes `lanes` of leaf block `b` of `tree` ([`WideBvh::block_blocks`]); stop
-    /// at a blocker.
+    /// Tests lanes `lanes` of leaf block `b` of `tree` for the ray `r`
+    /// ([`WideBvh::block_blocks`]); stop at a blocker.
     #[inline(always)]
     pub(super) fn test<S: Vector>(&mut self, tree: &WideBvh<S>, r: &mut SlabRay, b: &Block, lanes: u32) -> Leaf {
-        if tree.block_blocks(b, lanes, self.o, self.d, &self.sheared, r) {
+        let (o, d) = (Vec3::from(r.origin), Vec3::from(r.direction));
+        if tree.block_blocks(b, lanes, o, d, &self.sheared, r) {
             self.blocked = true;
             return Leaf::Stop;
         }
