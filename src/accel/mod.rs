@@ -307,6 +307,20 @@ pub fn last_level_cache() -> usize {
         .map_or(32 << 20, |(_, bytes)| bytes)
 }
 
+/// Starts loading the cache line at `p` (any address: nothing is read into the program).
+/// A no-op off x86-64.
+#[inline(always)]
+pub(crate) fn prefetch_line<T>(p: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint that never faults and reads nothing into the program;
+    // SSE, which it needs, is part of every x86-64 target.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast::<i8>())
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
 /// Widens every node's box by one float outward on each side. A ray parallel to an axis
 /// (a zero direction component, reciprocal ±`f32::MAX`: [`inv_dir`]) that runs exactly in
 /// a box's face plane gets `(bound − o) · inv` = 0 for that face: kept when it is the near
@@ -433,23 +447,18 @@ impl Accel {
             #[cfg(debug_assertions)]
             b.validate(&prims, false, params.pre_split);
         }
-        // Reorder once so traversal needs no primitive_indices indirection.
+        // Primitive ids are their places in `order`; the wide tree and the tables below
+        // read the input through it, so the primitives are never copied in that order.
         let input = prims;
-        let prims: Vec<Primitive> = order.iter().map(|&i| input[i as usize]).collect();
         let root = fine.nodes[0].aabb();
         let scale = Vec3::from(root.min).abs().max(Vec3::from(root.max).abs()).max_element();
         let slack = if scale.is_finite() { scale / 65536.0 } else { 0.0 };
-        // The one-primitive-leaf tree indexes the input order; point it at the reordered
-        // primitives, whose ids the wide kernel returns.
-        let mut id_of = vec![0u32; prims.len()];
+        let mut id_of = vec![0u32; input.len()];
         for (new, &old) in order.iter().enumerate() {
             id_of[old as usize] = new as u32;
         }
-        for i in &mut fine.primitive_indices {
-            *i = id_of[*i as usize];
-        }
         phases.reorder = lap.next();
-        let wide = WideBvh::build(&fine, &prims, params.max_prims_per_leaf, &mut phases);
+        let wide = WideBvh::build(&fine, &input, &id_of, params.max_prims_per_leaf, &mut phases);
         if wide.is_none() && bvh.is_none() {
             // Not encodable as a wide tree (over 2^25 leaf blocks): the binary tree serves,
             // so build again with it.
@@ -459,11 +468,21 @@ impl Accel {
         let bounds = (root.min.into(), root.max.into());
         // The wide tree holds every shape; without one, the shapes are kept here.
         let at = match &wide {
-            Some(w) => w.slots(prims.len()),
-            None => (0..prims.len() as u32).collect(),
+            Some(w) => w.slots(input.len()),
+            None => (0..input.len() as u32).collect(),
         };
-        let flat = if wide.is_some() { Vec::new() } else { prims.iter().map(|p| p.shape).collect() };
-        let meta = prims.iter().zip(at).map(|(p, at)| Meta { material: p.material, light: p.light, at }).collect();
+        let flat = match wide {
+            Some(_) => Vec::new(),
+            None => order.iter().map(|&i| input[i as usize].shape).collect(),
+        };
+        let meta = order
+            .iter()
+            .zip(at)
+            .map(|(&i, at)| {
+                let p = &input[i as usize];
+                Meta { material: p.material, light: p.light, at }
+            })
+            .collect();
         let build_seconds = start.elapsed().as_secs_f64();
         let named = phases.ploc
             + phases.reinsertion

@@ -196,6 +196,14 @@ pub(crate) fn bottom_up(fine: &Bvh2, mut visit: impl FnMut(usize)) {
         if done[top] {
             continue;
         }
+        // Most nodes: a leaf, or both children visited already.
+        let node = &nodes[top];
+        let l = node.first_index as usize;
+        if node.is_leaf() || (done[l] && done[l + 1]) {
+            visit(top);
+            done[top] = true;
+            continue;
+        }
         stack.push((top, false));
         while let Some((k, ready)) = stack.pop() {
             let node = &nodes[k];

@@ -5,7 +5,7 @@ use obvhs::bvh2::Bvh2;
 
 use super::{is_triangle, Block, LeafRef, Node, Tris, WideBvh, FIRST_BITS, MAX_BLOCKS, MAX_W, TRIS};
 use crate::accel::shapes::{Primitive, Shape, NO_LIGHT};
-use crate::accel::{bvh2, BuildPhases, Lap};
+use crate::accel::{bvh2, prefetch_line, BuildPhases, Lap};
 use crate::simd::{Vector, LANES};
 
 /// The SAH cost of testing one wide node's boxes, the unit of [`BLOCK_COST`].
@@ -22,16 +22,40 @@ const PRIM_COST: f32 = 0.6;
 /// (Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
 /// BVHs", 2017, section 4.1; obvhs's `bvh2_to_cwbvh` follows the same scheme).
 /// Its SAH cost (surface area × [`NODE_COST`] per wide node, × [`BLOCK_COST`] per leaf
-/// block) is kept apart while the plan is made.
-#[derive(Clone, Copy, Default)]
-struct Decision {
+/// block) is kept apart while the plan is made. Packed in a byte (kind in bits 6–7, the
+/// left and right children's slot decisions in bits 3–5 and 0–2), so the plan's minima are
+/// selects rather than branches and the plan takes 8 bytes a node.
+#[derive(Clone, Copy, Default, PartialEq, Eq)]
+struct Decision(u8);
+
+impl Decision {
+    fn new(kind: u8, left: usize, right: usize) -> Decision {
+        Decision(kind << 6 | (left as u8) << 3 | right as u8)
+    }
+
     /// [`LEAF_SLOT`], [`NODE_SLOT`] or [`SPLIT`].
-    kind: u8,
-    /// With [`SPLIT`] (and for a [`NODE_SLOT`]'s own children): the slot decisions of the
-    /// two binary children.
-    left: u8,
-    right: u8,
+    fn kind(self) -> u8 {
+        self.0 >> 6
+    }
+
+    /// With [`SPLIT`] (and for a [`NODE_SLOT`]'s own children): the slot decision of the
+    /// left binary child.
+    fn left(self) -> usize {
+        (self.0 >> 3 & 7) as usize
+    }
+
+    /// Likewise of the right binary child.
+    fn right(self) -> usize {
+        (self.0 & 7) as usize
+    }
 }
+
+const _: () = assert!(MAX_W <= 8, "a decision packs slot counts in 3 bits");
+
+/// How many nodes ahead the plan loads a node's children's costs: [`bvh2::bottom_up`]
+/// visits mostly downwards by index, long after the children (sphere 8's plan 0.23 → 0.18 s;
+/// 64 ahead gained nothing more).
+const PREFETCH: usize = 16;
 
 /// The subtree takes one slot as a leaf.
 const LEAF_SLOT: u8 = 0;
@@ -42,37 +66,56 @@ const SPLIT: u8 = 2;
 
 impl<S: Vector> WideBvh<S> {
     /// Builds the wide tree over `fine`, a binary tree with one primitive per leaf whose
-    /// `primitive_indices` index `prims`: the wide nodes and leaves that minimise the SAH
+    /// `primitive_indices` index `prims`, which take ids `id_of` in the tree: the wide nodes and leaves that minimise the SAH
     /// cost among the collapses of `fine` (see [`Decision`]), leaves of at most `max_leaf`
     /// primitives. `None` when the tree cannot be encoded (more than 2²⁷ leaf blocks, a
     /// leaf over 64 primitives): the binary traversal then serves.
-    pub fn build(fine: &Bvh2, prims: &[Primitive], max_leaf: u32, phases: &mut BuildPhases) -> Option<WideBvh<S>> {
+    pub fn build(
+        fine: &Bvh2,
+        prims: &[Primitive],
+        id_of: &[u32],
+        max_leaf: u32,
+        phases: &mut BuildPhases,
+    ) -> Option<WideBvh<S>> {
         assert!(S::WIDTH <= MAX_W, "nodes hold at most {MAX_W} children");
         fine.nodes.first()?;
         let mut lap = Lap::start();
-        let plan = Self::plan(fine, prims, max_leaf);
+        // Only a mesh with other shapes needs each leaf's primitives looked at.
+        let mixed = !prims.iter().all(is_triangle);
+        let plan = Self::plan(fine, prims, mixed, max_leaf);
         phases.wide_plan = lap.next();
         let mut tree = WideBvh { nodes: Vec::new(), blocks: Vec::new(), ids: Vec::new(), other: Vec::new(), depth: 0 };
         let root = &fine.nodes[0];
-        let top = if root.is_leaf() || plan[0][0].kind == LEAF_SLOT {
-            vec![0]
+        let mut top = Slots::default();
+        if root.is_leaf() || plan[0][0].kind() == LEAF_SLOT {
+            top.push(0);
         } else {
-            let mut kids = Vec::with_capacity(S::WIDTH);
-            Self::children(fine, &plan, 0, 0, &mut kids);
-            kids
-        };
+            Self::children(fine, &plan, 0, 0, &mut top);
+        }
         tree.nodes.push(Node { bounds: [[S::splat(0.0); 3]; 2], child: [u32::MAX; MAX_W], valid: 0 });
-        let mut packer = Packer { fine, prims, blocks: Vec::new(), open: Vec::new() };
-        tree.fill(&plan, &mut packer, 0, &top, 1)?;
+        let mut packer = Packer {
+            fine,
+            prims,
+            mixed,
+            lanes: Vec::new(),
+            len: Vec::new(),
+            open: Vec::new(),
+            ids: Vec::new(),
+            stack: Vec::new(),
+        };
+        tree.fill(&plan, &mut packer, 0, top.as_slice(), 1)?;
         phases.wide_fill = lap.next();
-        tree.blocks = packer.blocks.iter().map(|ids| block(prims, ids, &mut tree.ids, &mut tree.other)).collect();
+        tree.ids.reserve(prims.len());
+        tree.blocks = (0..packer.len.len())
+            .map(|b| block(prims, id_of, packer.block(b), &mut tree.ids, &mut tree.other))
+            .collect();
         phases.wide_blocks = lap.next();
         Some(tree)
     }
 
     /// Every binary node's best [`Decision`] for 1 to `W` slots (index = slots − 1),
     /// bottom-up ([`bvh2::bottom_up`]).
-    fn plan(fine: &Bvh2, prims: &[Primitive], max_leaf: u32) -> Vec<[Decision; MAX_W]> {
+    fn plan(fine: &Bvh2, prims: &[Primitive], mixed: bool, max_leaf: u32) -> Vec<[Decision; MAX_W]> {
         let w = S::WIDTH;
         let n = fine.nodes.len();
         let mut plan = vec![[Decision::default(); MAX_W]; n];
@@ -91,9 +134,16 @@ impl<S: Vector> WideBvh<S> {
                 area * PRIM_COST * n as f32
             }
         };
-        // Only a mesh with other shapes needs each leaf's primitives looked at.
-        let mixed = !prims.iter().all(is_triangle);
         let decide = |k: usize| {
+            // Nodes are mostly visited downwards by index, and a parent's children were
+            // visited long before: their costs are loaded a few nodes ahead.
+            if let Some(ahead) = k.checked_sub(PREFETCH).map(|a| &fine.nodes[a]) {
+                if !ahead.is_leaf() {
+                    let l = ahead.first_index as usize;
+                    prefetch_line(costs.as_ptr().wrapping_add(l + 1));
+                    prefetch_line(count.as_ptr().wrapping_add(l));
+                }
+            }
             let node = &fine.nodes[k];
             let area = node.aabb().half_area();
             if node.is_leaf() {
@@ -107,7 +157,7 @@ impl<S: Vector> WideBvh<S> {
                     false => 0,
                 };
                 costs[k + 1] = [leaf_cost(area, count[k], other[k]); MAX_W];
-                plan[k] = [Decision { kind: LEAF_SLOT, left: 0, right: 0 }; MAX_W];
+                plan[k] = [Decision::new(LEAF_SLOT, 0, 0); MAX_W];
                 return;
             }
             let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
@@ -115,18 +165,23 @@ impl<S: Vector> WideBvh<S> {
             other[k] = other[l] + other[r];
             let (cl, cr) = (costs[l + 1], costs[r + 1]);
             let (mut cost, mut best) = ([0.0f32; MAX_W], [Decision::default(); MAX_W]);
-            // One slot: a leaf, or a wide node whose W slots the children share.
-            let (mut inner_cost, mut inner) = (f32::INFINITY, Decision { kind: NODE_SLOT, left: 0, right: 0 });
+            // One slot: a leaf, or a wide node whose W slots the children share. Every
+            // minimum takes the first of equal costs, as the plan always has (the tree, and
+            // so the primitive ids, stay the same).
+            let (mut inner_cost, mut inner) = (f32::INFINITY, Decision::new(NODE_SLOT, 0, 0));
             for j in 0..w - 1 {
                 let c = cl[j] + cr[w - 2 - j];
-                if c < inner_cost {
-                    (inner_cost, inner) = (c, Decision { kind: NODE_SLOT, left: j as u8, right: (w - 2 - j) as u8 });
-                }
+                let better = c < inner_cost;
+                inner_cost = if better { c } else { inner_cost };
+                inner = if better { Decision::new(NODE_SLOT, j, w - 2 - j) } else { inner };
             }
             inner_cost += area * NODE_COST;
             let leaf = if count[k] <= max_leaf { leaf_cost(area, count[k], other[k]) } else { f32::INFINITY };
-            (cost[0], best[0]) =
-                if leaf < inner_cost { (leaf, Decision { kind: LEAF_SLOT, ..inner }) } else { (inner_cost, inner) };
+            (cost[0], best[0]) = if leaf < inner_cost {
+                (leaf, Decision::new(LEAF_SLOT, inner.left(), inner.right()))
+            } else {
+                (inner_cost, inner)
+            };
             // i + 1 slots: as few, or split between the children. A subtree of n
             // primitives fills at most n slots: a decision for more is the one for n (a
             // split giving a child more slots than it fills costs what a split with fewer
@@ -134,13 +189,14 @@ impl<S: Vector> WideBvh<S> {
             // the splits that would give a child more are skipped and the rest copied.
             let (nl, nr) = (count[l] as usize, count[r] as usize);
             for i in 1..w {
-                (cost[i], best[i]) = (cost[i - 1], best[i - 1]);
+                let (mut ci, mut bi) = (cost[i - 1], best[i - 1]);
                 for j in i.saturating_sub(nr)..i.min(nl) {
                     let c = cl[j] + cr[i - 1 - j];
-                    if c < cost[i] {
-                        (cost[i], best[i]) = (c, Decision { kind: SPLIT, left: j as u8, right: (i - 1 - j) as u8 });
-                    }
+                    let better = c < ci;
+                    ci = if better { c } else { ci };
+                    bi = if better { Decision::new(SPLIT, j, i - 1 - j) } else { bi };
                 }
+                (cost[i], best[i]) = (ci, bi);
             }
             (costs[k + 1], plan[k]) = (cost, best);
         };
@@ -150,11 +206,11 @@ impl<S: Vector> WideBvh<S> {
 
     /// Appends to `out` the binary nodes that fill the wide slots of binary node `k` laid
     /// out by its decision `i`: each child that splits further contributes its own.
-    fn children(fine: &Bvh2, plan: &[[Decision; MAX_W]], k: usize, i: usize, out: &mut Vec<usize>) {
+    fn children(fine: &Bvh2, plan: &[[Decision; MAX_W]], k: usize, i: usize, out: &mut Slots) {
         let d = plan[k][i];
         let first = fine.nodes[k].first_index as usize;
-        for (c, j) in [(first, d.left as usize), (first + 1, d.right as usize)] {
-            if !fine.nodes[c].is_leaf() && plan[c][j].kind == SPLIT {
+        for (c, j) in [(first, d.left()), (first + 1, d.right())] {
+            if !fine.nodes[c].is_leaf() && plan[c][j].kind() == SPLIT {
                 Self::children(fine, plan, c, j, out);
             } else {
                 out.push(c);
@@ -179,7 +235,7 @@ impl<S: Vector> WideBvh<S> {
         let mut lo = [[f32::INFINITY; LANES]; 3];
         let mut hi = [[f32::INFINITY; LANES]; 3];
         let mut child = [u32::MAX; MAX_W];
-        let inner = |k: usize| !fine.nodes[k].is_leaf() && plan[k][0].kind != LEAF_SLOT;
+        let inner = |k: usize| !fine.nodes[k].is_leaf() && plan[k][0].kind() != LEAF_SLOT;
         for (slot, &k) in kids.iter().enumerate() {
             let b = fine.nodes[k].aabb();
             for axis in 0..3 {
@@ -198,12 +254,11 @@ impl<S: Vector> WideBvh<S> {
         }
         let load3 = |a: &[[f32; LANES]; 3]| [S::load(&a[0]), S::load(&a[1]), S::load(&a[2])];
         self.nodes[index] = Node { bounds: [load3(&lo), load3(&hi)], child, valid: (1 << kids.len()) - 1 };
-        let mut below = Vec::with_capacity(S::WIDTH);
         for (slot, &k) in kids.iter().enumerate() {
             if inner(k) {
-                below.clear();
+                let mut below = Slots::default();
                 Self::children(fine, plan, k, 0, &mut below);
-                self.fill(plan, packer, child[slot] as usize, &below, depth + 1)?;
+                self.fill(plan, packer, child[slot] as usize, below.as_slice(), depth + 1)?;
             }
         }
         Some(())
@@ -215,6 +270,25 @@ impl<S: Vector> WideBvh<S> {
 /// docs/performance.md).
 const OPEN: usize = 4;
 
+/// The binary nodes that fill one wide node's slots (at most [`MAX_W`]), kept on the
+/// stack: the fill visits every wide node, and a heap list each was a tenth of its time.
+#[derive(Default)]
+struct Slots {
+    k: [usize; MAX_W],
+    n: usize,
+}
+
+impl Slots {
+    fn push(&mut self, k: usize) {
+        self.k[self.n] = k;
+        self.n += 1;
+    }
+
+    fn as_slice(&self) -> &[usize] {
+        &self.k[..self.n]
+    }
+}
+
 /// The leaf blocks as they are filled from a binary tree's leaves: each block's primitive
 /// ids, and the blocks still open to more leaves.
 struct Packer<'a> {
@@ -222,56 +296,94 @@ struct Packer<'a> {
     fine: &'a Bvh2,
     /// The primitives its leaves index.
     prims: &'a [Primitive],
-    blocks: Vec<Vec<u32>>,
+    /// Whether any of them is not a triangle.
+    mixed: bool,
+    /// Block b's primitive ids: `lanes[b · TRIS ..][.. len[b]]`.
+    lanes: Vec<u32>,
+    len: Vec<u8>,
     /// Open blocks, oldest first (at most [`OPEN`]).
     open: Vec<usize>,
+    /// Scratch for one leaf: its primitive ids, and the walk that gathers them.
+    ids: Vec<u32>,
+    stack: Vec<usize>,
 }
 
 impl Packer<'_> {
+    /// Block `b`'s primitive ids.
+    fn block(&self, b: usize) -> &[u32] {
+        &self.lanes[b * TRIS..b * TRIS + self.len[b] as usize]
+    }
+
+    /// Appends an empty block and returns its index.
+    fn open_block(&mut self) -> usize {
+        self.lanes.resize(self.lanes.len() + TRIS, 0);
+        self.len.push(0);
+        self.len.len() - 1
+    }
+
+    /// Appends `ids` to block `b`.
+    fn put(&mut self, b: usize, ids: &[u32]) {
+        let a = b * TRIS + self.len[b] as usize;
+        self.lanes[a..a + ids.len()].copy_from_slice(ids);
+        self.len[b] += ids.len() as u8;
+    }
+
     /// Places a leaf holding every primitive below binary node `k` and returns its child
     /// reference ([`LeafRef`]). A leaf of triangles that fits in a block goes into the open
     /// block it fills best, or a new one; a larger leaf, or one holding another shape,
     /// takes blocks of its own. `None` past the encoding's limits.
     fn leaf(&mut self, k: usize) -> Option<u32> {
         let (fine, prims) = (self.fine, self.prims);
-        let mut ids = Vec::new();
-        let mut stack = vec![k];
-        while let Some(n) = stack.pop() {
+        let mut ids = std::mem::take(&mut self.ids);
+        ids.clear();
+        self.stack.clear();
+        self.stack.push(k);
+        while let Some(n) = self.stack.pop() {
             let node = &fine.nodes[n];
             if node.is_leaf() {
                 let first = node.first_index as usize;
                 ids.extend_from_slice(&fine.primitive_indices[first..first + node.prim_count as usize]);
             } else {
-                stack.extend([node.first_index as usize + 1, node.first_index as usize]);
+                self.stack.extend([node.first_index as usize + 1, node.first_index as usize]);
             }
         }
+        let reference = self.place(&ids, prims);
+        self.ids = ids;
+        reference
+    }
+
+    /// Places the leaf of primitives `ids` (see [`Packer::leaf`]).
+    fn place(&mut self, ids: &[u32], prims: &[Primitive]) -> Option<u32> {
         let n = ids.len();
-        if n == 0 || n > MAX_BLOCKS * TRIS || self.blocks.len() + n.div_ceil(TRIS) > 1 << FIRST_BITS {
+        if n == 0 || n > MAX_BLOCKS * TRIS || self.len.len() + n.div_ceil(TRIS) > 1 << FIRST_BITS {
             return None;
         }
-        if n > TRIS || !ids.iter().all(|&id| is_triangle(&prims[id as usize])) {
-            let first = self.blocks.len();
-            self.blocks.extend(ids.chunks(TRIS).map(<[u32]>::to_vec));
-            let blocks = self.blocks.len() - first;
+        if n > TRIS || (self.mixed && !ids.iter().all(|&id| is_triangle(&prims[id as usize]))) {
+            let first = self.len.len();
+            for chunk in ids.chunks(TRIS) {
+                let b = self.open_block();
+                self.put(b, chunk);
+            }
+            let blocks = self.len.len() - first;
             return Some(LeafRef::encode(first, (blocks == 1).then_some((0, n - 1)), blocks));
         }
         // Best fit: the open block with the fewest free lanes that still holds the leaf.
         let fit = (0..self.open.len())
-            .filter(|&i| self.blocks[self.open[i]].len() + n <= TRIS)
-            .max_by_key(|&i| (self.blocks[self.open[i]].len(), i));
+            .filter(|&i| self.len[self.open[i]] as usize + n <= TRIS)
+            .max_by_key(|&i| (self.len[self.open[i]], i));
         let at = match fit {
             Some(i) => self.open[i],
             None => {
-                self.blocks.push(Vec::with_capacity(TRIS));
-                self.open.push(self.blocks.len() - 1);
+                let b = self.open_block();
+                self.open.push(b);
                 if self.open.len() > OPEN {
                     self.open.remove(0);
                 }
-                self.blocks.len() - 1
+                b
             }
         };
-        let a = self.blocks[at].len();
-        self.blocks[at].extend_from_slice(&ids);
+        let a = self.len[at] as usize;
+        self.put(at, ids);
         if a + n == TRIS {
             self.open.retain(|&b| b != at);
         }
@@ -279,11 +391,11 @@ impl Packer<'_> {
     }
 }
 
-/// The leaf block holding primitives `lanes` (one per lane), its ids appended to `ids`
-/// and, unless all are triangles, its shapes to `other`.
-fn block(prims: &[Primitive], lanes: &[u32], ids: &mut Vec<u32>, other: &mut Vec<Shape>) -> Block {
+/// The leaf block holding primitives `lanes` (one per lane, indices of `prims`), their ids
+/// (`id_of`) appended to `ids` and, unless all are triangles, their shapes to `other`.
+fn block(prims: &[Primitive], id_of: &[u32], lanes: &[u32], ids: &mut Vec<u32>, other: &mut Vec<Shape>) -> Block {
     let mut v = [[[0.0f32; LANES]; 3]; 3];
-    let mut blockers = 0;
+    let (mut blockers, mut triangles) = (0, true);
     for (l, &id) in lanes.iter().enumerate() {
         let p = &prims[id as usize];
         if let Shape::Triangle { v0, v1, v2 } = p.shape {
@@ -292,13 +404,14 @@ fn block(prims: &[Primitive], lanes: &[u32], ids: &mut Vec<u32>, other: &mut Vec
                     v[j][axis][l] = vert[axis];
                 }
             }
+        } else {
+            triangles = false;
         }
         blockers |= ((p.light == NO_LIGHT) as u32) << l;
     }
-    let triangles = lanes.iter().all(|&id| is_triangle(&prims[id as usize]));
     let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
     let (first, at) = (ids.len() as u32, other.len() as u32);
-    ids.extend_from_slice(lanes);
+    ids.extend(lanes.iter().map(|&i| id_of[i as usize]));
     if !triangles {
         other.extend(lanes.iter().map(|&id| prims[id as usize].shape));
     }

@@ -236,7 +236,6 @@ impl<S: Vector> WideBvh<S> {
     fn prefetch(&self, c: u32) {
         #[cfg(target_arch = "x86_64")]
         {
-            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
             let (p, bytes) = if c & LEAF_FLAG != 0 {
                 let first = LeafRef::of(c).first;
                 (self.blocks.as_ptr().wrapping_add(first).cast::<i8>(), std::mem::size_of::<Block>())
@@ -244,9 +243,7 @@ impl<S: Vector> WideBvh<S> {
                 (self.nodes.as_ptr().wrapping_add(c as usize).cast::<i8>(), std::mem::size_of::<Node<S>>())
             };
             for line in (0..bytes).step_by(64) {
-                // SAFETY: a prefetch is a hint that never faults and reads nothing into the
-                // program; SSE, which it needs, is part of every x86-64 target.
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(line)) };
+                crate::accel::prefetch_line(p.wrapping_add(line));
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
