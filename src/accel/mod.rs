@@ -231,9 +231,10 @@ pub struct Accel {
 
 /// Seconds each phase of a BVH build took (`wavetrace bench` prints them): obvhs's PLOC
 /// and reinsertion, the binary tree's leaf collapse (without a binary tree, the primitive
-/// order it would give), boxes widened and primitives put in leaf order, the wide tree's
-/// SAH plan, its fill and its leaf blocks, and the rest of the total (primitive shapes
-/// gathered, slots, metadata).
+/// order it would give) and the primitives' ids in that order, the wide tree's SAH plan,
+/// its fill and its leaf blocks, and the rest of the total (slots, metadata). With two or
+/// more threads the first two of ours run beside the plan and the fill, so their sum can
+/// exceed the total; the rest is then counted against the longer side.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct BuildPhases {
     /// obvhs's PLOC build of the binary tree.
@@ -243,7 +244,7 @@ pub struct BuildPhases {
     /// Copying the binary tree and obvhs's leaf collapse of it where one is kept, else the
     /// primitive order the collapse would give ([`bvh2::collapsed_order`]).
     pub leaf_collapse: f64,
-    /// Boxes widened by one float, primitives reordered into leaf order.
+    /// The primitives' ids in leaf order.
     pub reorder: f64,
     /// The wide collapse's SAH plan.
     pub wide_plan: f64,
@@ -321,23 +322,52 @@ pub(crate) fn prefetch_line<T>(p: *const T) {
     let _ = p;
 }
 
-/// Widens every node's box by one float outward on each side. A ray parallel to an axis
-/// (a zero direction component, reciprocal ±`f32::MAX`: [`inv_dir`]) that runs exactly in
-/// a box's face plane gets `(bound − o) · inv` = 0 for that face: kept when it is the near
-/// face, skipped when it is the far one. The triangle test still reports hits on that
-/// face (on an edge two triangles share), so which of them a ray along a shared edge met
-/// depended on which box the tree put each in. Widened, a face that primitives touch is
-/// never exactly in the ray's plane on the wrong side, the box is kept, and every kernel
-/// meets every primitive the ray touches, whatever the tree. Parents contain their
-/// children's widened boxes (rounding outward is monotone).
+/// `a()` and `b()`, on a thread of its own for `a` when rayon's pool has more than one,
+/// else one after the other; and whether they ran side by side. Not `rayon::join`: called from outside the pool, that runs
+/// both on pool threads, whose fresh allocator arenas fault in every page the wide plan
+/// allocates (its phase took twice as long on the dragon).
+fn beside<A: Send, B>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B) -> (A, B, bool) {
+    if rayon::current_num_threads() < 2 {
+        return (a(), b(), false);
+    }
+    std::thread::scope(|s| {
+        let first = s.spawn(a);
+        let second = b();
+        (first.join().unwrap_or_else(|e| std::panic::resume_unwind(e)), second, true)
+    })
+}
+
+/// `b` widened by one float outward on each side; every box of the trees the kernels
+/// walk is. A ray parallel to an axis (a zero direction component, reciprocal
+/// ±`f32::MAX`: [`inv_dir`]) that runs exactly in a box's face plane gets
+/// `(bound − o) · inv` = 0 for that face: kept when it is the near face, skipped when it
+/// is the far one. The triangle test still reports hits on that face (on an edge two
+/// triangles share), so which of them a ray along a shared edge met depended on which box
+/// the tree put each in. Widened, a face that primitives touch is never exactly in the
+/// ray's plane on the wrong side, the box is kept, and every kernel meets every primitive
+/// the ray touches, whatever the tree. Parents contain their children's widened boxes
+/// (rounding outward is monotone).
+#[inline(always)]
+pub(crate) fn widen(b: &obvhs::aabb::Aabb) -> obvhs::aabb::Aabb {
+    // `next_up` / `next_down`, with the finite non-zero bounds of nearly every box taken
+    // straight from their bits (std's general case made the wide plan twice as long).
+    let step = |x: f32, up: bool| {
+        let bits = x.to_bits();
+        match x.is_finite() && bits << 1 != 0 {
+            true if (bits >> 31 == 0) == up => f32::from_bits(bits + 1),
+            true => f32::from_bits(bits - 1),
+            false if up => x.next_up(),
+            false => x.next_down(),
+        }
+    };
+    let out = |v: glam::Vec3A, up: bool| glam::Vec3A::from(v.to_array().map(|x| step(x, up)));
+    obvhs::aabb::Aabb { min: out(b.min, false), max: out(b.max, true) }
+}
+
+/// Widens every node's box of `bvh` ([`widen`]).
 fn widen_boxes(bvh: &mut Bvh2) {
     for node in &mut bvh.nodes {
-        let b = node.aabb();
-        let out = |v: glam::Vec3A, up: bool| {
-            glam::Vec3A::from(v.to_array().map(|x| if up { x.next_up() } else { x.next_down() }))
-        };
-        let widened = obvhs::aabb::Aabb { min: out(b.min, false), max: out(b.max, true) };
-        node.set_aabb(widened);
+        node.set_aabb(widen(node.aabb()));
     }
 }
 
@@ -424,17 +454,36 @@ impl Accel {
         // primitive references.
         let params = BvhBuildParams { max_prims_per_leaf: max_leaf.clamp(1, 64), pre_split: false, ..preset };
         let mut phases = BuildPhases::default();
-        let mut fine = bvh2::build(&prims, &params, &mut phases);
-        let mut lap = Lap::start();
-        // The binary tree only where it is kept. Its leaf collapse orders the primitives,
-        // hence their ids and the tie rule: without the tree, the same order is computed.
-        let mut bvh = keep_binary.then(|| bvh2::collapse(&fine, &params));
-        let order = match &bvh {
-            Some(b) => b.primitive_indices.clone(),
-            None => bvh2::collapsed_order(&fine, &params),
-        };
-        phases.leaf_collapse = lap.next();
-        widen_boxes(&mut fine);
+        let fine = bvh2::build(&prims, &params, &mut phases);
+        // The primitive order (obvhs's leaf collapse, which fixes the ids the tie rule
+        // ranks) and the wide tree's layout both only read the binary tree: with a second
+        // thread they run side by side, each timing its own phases.
+        let (mut left, mut right) = (phases, phases);
+        let ((mut bvh, order, id_of), layout, concurrent) = beside(
+            || {
+                let mut lap = Lap::start();
+                // The binary tree only where it is kept. Without it, the same order is
+                // computed.
+                let bvh = keep_binary.then(|| bvh2::collapse(&fine, &params));
+                let order = match &bvh {
+                    Some(b) => b.primitive_indices.clone(),
+                    None => bvh2::collapsed_order(&fine, &params),
+                };
+                left.leaf_collapse = lap.next();
+                // Primitive ids are their places in `order`; the wide tree and the tables
+                // below read the input through it, so the primitives are never copied in
+                // that order.
+                let mut id_of = vec![0u32; prims.len()];
+                for (new, &old) in order.iter().enumerate() {
+                    id_of[old as usize] = new as u32;
+                }
+                left.reorder = lap.next();
+                (bvh, order, id_of)
+            },
+            || WideBvh::lay_out(&fine, &prims, params.max_prims_per_leaf, &mut right),
+        );
+        let mut phases = BuildPhases { wide_plan: right.wide_plan, wide_fill: right.wide_fill, ..left };
+        let wide = layout.map(|l| l.finish(&id_of, &mut phases));
         let mut depth = 0;
         if let Some(b) = &mut bvh {
             widen_boxes(b);
@@ -447,18 +496,10 @@ impl Accel {
             #[cfg(debug_assertions)]
             b.validate(&prims, false, params.pre_split);
         }
-        // Primitive ids are their places in `order`; the wide tree and the tables below
-        // read the input through it, so the primitives are never copied in that order.
         let input = prims;
-        let root = fine.nodes[0].aabb();
+        let root = widen(fine.nodes[0].aabb());
         let scale = Vec3::from(root.min).abs().max(Vec3::from(root.max).abs()).max_element();
         let slack = if scale.is_finite() { scale / 65536.0 } else { 0.0 };
-        let mut id_of = vec![0u32; input.len()];
-        for (new, &old) in order.iter().enumerate() {
-            id_of[old as usize] = new as u32;
-        }
-        phases.reorder = lap.next();
-        let wide = WideBvh::build(&fine, &input, &id_of, params.max_prims_per_leaf, &mut phases);
         if wide.is_none() && bvh.is_none() {
             // Not encodable as a wide tree (over 2^25 leaf blocks): the binary tree serves,
             // so build again with it.
@@ -484,13 +525,9 @@ impl Accel {
             })
             .collect();
         let build_seconds = start.elapsed().as_secs_f64();
-        let named = phases.ploc
-            + phases.reinsertion
-            + phases.leaf_collapse
-            + phases.reorder
-            + phases.wide_plan
-            + phases.wide_fill
-            + phases.wide_blocks;
+        let (order_side, layout_side) = (phases.leaf_collapse + phases.reorder, phases.wide_plan + phases.wide_fill);
+        let sides = if concurrent { order_side.max(layout_side) } else { order_side + layout_side };
+        let named = phases.ploc + phases.reinsertion + sides + phases.wide_blocks;
         let build_phases = BuildPhases { rest: (build_seconds - named).max(0.0), ..phases };
         Accel { meta, flat, bvh, bounds, wide, depth, slack, build_seconds, build_phases, interleave, moving: None }
     }

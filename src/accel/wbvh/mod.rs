@@ -16,7 +16,7 @@
 //! in the same order (a lane whose edge function rounds to zero takes the scalar kernel,
 //! which recomputes in f64), the nearest lane wins and on an exact tie in t the lowest
 //! primitive id, as in every kernel ([`nearer`]); blocks holding another shape run the
-//! scalar kernels. Every box is widened by one float after the build (`widen_boxes`), so a
+//! scalar kernels. Every box is widened by one float as the tree is filled (`widen`), so a
 //! ray meets every primitive it touches whatever the tree, and the tie rule makes the
 //! answer independent of the order the tree is walked in: the closest distance is the
 //! binary kernels' bit for bit, and so is the primitive.
