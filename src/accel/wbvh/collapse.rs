@@ -274,12 +274,31 @@ impl<S: Vector> Layout<'_, S> {
     /// The finished tree: its leaf blocks made from the primitives, which take ids `id_of`
     /// (their places in the tree's primitive order). Sets the blocks' phase.
     pub fn finish(self, id_of: &[u32], phases: &mut BuildPhases) -> WideBvh<S> {
+        use rayon::prelude::*;
         let mut lap = Lap::start();
         let (mut tree, packer) = (self.tree, self.packer);
-        tree.ids.reserve(packer.prims.len());
-        tree.blocks = (0..packer.len.len())
-            .map(|b| block(packer.prims, id_of, packer.block(b), &mut tree.ids, &mut tree.other))
-            .collect();
+        let (prims, n) = (packer.prims, packer.len.len());
+        tree.ids = (0..n).flat_map(|b| packer.block(b)).map(|&i| id_of[i as usize]).collect();
+        let mut first = Vec::with_capacity(n);
+        (0..n).fold(0u32, |at, b| {
+            first.push(at);
+            at + packer.len[b] as u32
+        });
+        if packer.mixed {
+            // Shapes other than triangles go to `other` in block order.
+            tree.blocks = (0..n)
+                .map(|b| {
+                    let block = block(prims, packer.block(b), first[b], tree.other.len() as u32);
+                    if !block.triangles {
+                        tree.other.extend(packer.block(b).iter().map(|&id| prims[id as usize].shape));
+                    }
+                    block
+                })
+                .collect();
+        } else {
+            // Blocks of triangles only are independent: made on every thread, in order.
+            tree.blocks = (0..n).into_par_iter().map(|b| block(prims, packer.block(b), first[b], 0)).collect();
+        }
         phases.wide_blocks = lap.next();
         tree
     }
@@ -411,9 +430,10 @@ impl Packer<'_> {
     }
 }
 
-/// The leaf block holding primitives `lanes` (one per lane, indices of `prims`), their ids
-/// (`id_of`) appended to `ids` and, unless all are triangles, their shapes to `other`.
-fn block(prims: &[Primitive], id_of: &[u32], lanes: &[u32], ids: &mut Vec<u32>, other: &mut Vec<Shape>) -> Block {
+/// The leaf block holding primitives `lanes` (one per lane, indices of `prims`), whose
+/// ids start at `first` in the tree's id table and, unless all are triangles, whose shapes
+/// start at `other` in its table of other shapes.
+fn block(prims: &[Primitive], lanes: &[u32], first: u32, other: u32) -> Block {
     let mut v = [[[0.0f32; LANES]; 3]; 3];
     let (mut blockers, mut triangles) = (0, true);
     for (l, &id) in lanes.iter().enumerate() {
@@ -430,12 +450,7 @@ fn block(prims: &[Primitive], id_of: &[u32], lanes: &[u32], ids: &mut Vec<u32>, 
         blockers |= ((p.light == NO_LIGHT) as u32) << l;
     }
     let v = v.map(|axes| axes.map(|a| Tris::load(&a)));
-    let (first, at) = (ids.len() as u32, other.len() as u32);
-    ids.extend(lanes.iter().map(|&i| id_of[i as usize]));
-    if !triangles {
-        other.extend(lanes.iter().map(|&id| prims[id as usize].shape));
-    }
-    Block { v, first, count: lanes.len() as u32, blockers, triangles, other: at }
+    Block { v, first, count: lanes.len() as u32, blockers, triangles, other }
 }
 
 #[cfg(test)]
