@@ -323,9 +323,10 @@ pub(crate) fn prefetch_line<T>(p: *const T) {
 }
 
 /// `a()` and `b()`, on a thread of its own for `a` when rayon's pool has more than one,
-/// else one after the other; and whether they ran side by side. Not `rayon::join`: called from outside the pool, that runs
-/// both on pool threads, whose fresh allocator arenas fault in every page the wide plan
-/// allocates (its phase took twice as long on the dragon).
+/// else one after the other; and whether they ran side by side. Not `rayon::join`:
+/// called from outside the pool, that runs both on pool threads, whose fresh allocator
+/// arenas fault in every page the wide plan allocates (its phase took twice as long on
+/// the dragon).
 fn beside<A: Send, B>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B) -> (A, B, bool) {
     if rayon::current_num_threads() < 2 {
         return (a(), b(), false);
@@ -347,20 +348,10 @@ fn beside<A: Send, B>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B) -> (A
 /// ray's plane on the wrong side, the box is kept, and every kernel meets every primitive
 /// the ray touches, whatever the tree. Parents contain their children's widened boxes
 /// (rounding outward is monotone).
-#[inline(always)]
 pub(crate) fn widen(b: &obvhs::aabb::Aabb) -> obvhs::aabb::Aabb {
-    // `next_up` / `next_down`, with the finite non-zero bounds of nearly every box taken
-    // straight from their bits (std's general case made the wide plan twice as long).
-    let step = |x: f32, up: bool| {
-        let bits = x.to_bits();
-        match x.is_finite() && bits << 1 != 0 {
-            true if (bits >> 31 == 0) == up => f32::from_bits(bits + 1),
-            true => f32::from_bits(bits - 1),
-            false if up => x.next_up(),
-            false => x.next_down(),
-        }
+    let out = |v: glam::Vec3A, up: bool| {
+        glam::Vec3A::from(v.to_array().map(|x| if up { x.next_up() } else { x.next_down() }))
     };
-    let out = |v: glam::Vec3A, up: bool| glam::Vec3A::from(v.to_array().map(|x| step(x, up)));
     obvhs::aabb::Aabb { min: out(b.min, false), max: out(b.max, true) }
 }
 

@@ -53,8 +53,8 @@ impl Decision {
 const _: () = assert!(MAX_W <= 8, "a decision packs slot counts in 3 bits");
 
 /// How many nodes ahead the plan loads a node's children's costs: [`bvh2::bottom_up`]
-/// visits mostly downwards by index, long after the children (sphere 8's plan 0.23 → 0.18 s;
-/// 64 ahead gained nothing more).
+/// visits mostly downwards by index, long after the children (sphere 8's plan 0.23 →
+/// 0.18 s; 64 ahead gained nothing more).
 const PREFETCH: usize = 16;
 
 /// The subtree takes one slot as a leaf.
@@ -310,7 +310,7 @@ impl<S: Vector> Layout<'_, S> {
 const OPEN: usize = 4;
 
 /// The binary nodes that fill one wide node's slots (at most [`MAX_W`]), kept on the
-/// stack: the fill visits every wide node, and a heap list each was a tenth of its time.
+/// stack: the fill makes one for every wide node.
 #[derive(Default)]
 struct Slots {
     k: [usize; MAX_W],
