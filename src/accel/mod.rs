@@ -322,13 +322,19 @@ pub(crate) fn prefetch_line<T>(p: *const T) {
     let _ = p;
 }
 
-/// `a()` and `b()`, on a thread of its own for `a` when rayon's pool has more than one,
-/// else one after the other; and whether they ran side by side. Not `rayon::join`:
-/// called from outside the pool, that runs both on pool threads, whose fresh allocator
-/// arenas fault in every page the wide plan allocates (its phase took twice as long on
-/// the dragon).
-fn beside<A: Send, B>(a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B) -> (A, B, bool) {
-    if rayon::current_num_threads() < 2 {
+/// The fewest binary nodes for which a build runs the primitive order beside the wide
+/// layout ([`beside`]): starting and joining a thread takes about 23 µs, the order's side
+/// about 30 ns a node (a 4 k-node side 0.12 ms), and a small scene's build should pay
+/// nothing for threads.
+const BESIDE_NODES: usize = 1 << 12;
+
+/// `a()` and `b()`, on a thread of its own for `a` when `together` and rayon's pool has
+/// more than one, else one after the other; and whether they ran side by side. Not
+/// `rayon::join`: called from outside the pool, that runs both on pool threads, whose
+/// fresh allocator arenas fault in every page the wide plan allocates (its phase took
+/// twice as long on the dragon).
+fn beside<A: Send, B>(together: bool, a: impl FnOnce() -> A + Send, b: impl FnOnce() -> B) -> (A, B, bool) {
+    if !together || rayon::current_num_threads() < 2 {
         return (a(), b(), false);
     }
     std::thread::scope(|s| {
@@ -448,9 +454,10 @@ impl Accel {
         let fine = bvh2::build(&prims, &params, &mut phases);
         // The primitive order (obvhs's leaf collapse, which fixes the ids the tie rule
         // ranks) and the wide tree's layout both only read the binary tree: with a second
-        // thread they run side by side, each timing its own phases.
+        // thread and a tree worth it they run side by side, each timing its own phases.
         let (mut left, mut right) = (phases, phases);
         let ((mut bvh, order, id_of), layout, concurrent) = beside(
+            fine.nodes.len() >= BESIDE_NODES,
             || {
                 let mut lap = Lap::start();
                 // The binary tree only where it is kept. Without it, the same order is
