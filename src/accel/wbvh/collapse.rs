@@ -25,7 +25,7 @@ const PRIM_COST: f32 = 0.6;
 /// block) is kept apart while the plan is made. Packed in a byte (kind in bits 6–7, the
 /// left and right children's slot decisions in bits 3–5 and 0–2), so the plan's minima are
 /// selects rather than branches and the plan takes 8 bytes a node.
-#[derive(Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Default)]
 struct Decision(u8);
 
 impl Decision {
@@ -372,7 +372,7 @@ impl Packer<'_> {
     /// block it fills best, or a new one; a larger leaf, or one holding another shape,
     /// takes blocks of its own. `None` past the encoding's limits.
     fn leaf(&mut self, k: usize) -> Option<u32> {
-        let (fine, prims) = (self.fine, self.prims);
+        let fine = self.fine;
         let mut ids = std::mem::take(&mut self.ids);
         ids.clear();
         self.stack.clear();
@@ -386,14 +386,14 @@ impl Packer<'_> {
                 self.stack.extend([node.first_index as usize + 1, node.first_index as usize]);
             }
         }
-        let reference = self.place(&ids, prims);
+        let reference = self.place(&ids);
         self.ids = ids;
         reference
     }
 
     /// Places the leaf of primitives `ids` (see [`Packer::leaf`]).
-    fn place(&mut self, ids: &[u32], prims: &[Primitive]) -> Option<u32> {
-        let n = ids.len();
+    fn place(&mut self, ids: &[u32]) -> Option<u32> {
+        let (n, prims) = (ids.len(), self.prims);
         if n == 0 || n > MAX_BLOCKS * TRIS || self.len.len() + n.div_ceil(TRIS) > 1 << FIRST_BITS {
             return None;
         }
