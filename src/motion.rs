@@ -22,6 +22,10 @@ pub struct Motion {
     /// Scales (symmetric, the polar decomposition's stretch; negative for a mirror) at 0
     /// and 1.
     s: [DMat3; 2],
+    /// The slerp's angle between the rotations and 1 / its sine, as glam's
+    /// `DQuat::slerp` computes them on every call; `None` where it lerps instead (the
+    /// rotations within a rounding step of each other). [`Motion::at`] runs per ray.
+    arc: Option<(f64, f64)>,
 }
 
 /// The polar decomposition `m = R · S` of a linear map, R a rotation (the mirror, if
@@ -58,7 +62,13 @@ impl Motion {
         if r0.dot(r1) < 0.0 {
             r1 = -r1;
         }
-        Ok(Motion { start: s0, end: s1, t: [s0.translation, s1.translation], r: [r0, r1], s: [m0, m1] })
+        // glam's test and formulas: slerp takes the angle from the dot product, clamped.
+        let dot = r0.dot(r1);
+        let arc = (dot <= 1.0 - f64::EPSILON).then(|| {
+            let theta = dot.clamp(-1.0, 1.0).acos();
+            (theta, 1.0 / theta.sin())
+        });
+        Ok(Motion { start: s0, end: s1, t: [s0.translation, s1.translation], r: [r0, r1], s: [m0, m1], arc })
     }
 
     /// True when the transform is the same at 0 and 1.
@@ -79,9 +89,20 @@ impl Motion {
         }
         let u = time as f64;
         let t = self.t[0].lerp(self.t[1], u);
-        let r = self.r[0].slerp(self.r[1], u);
+        let r = self.slerp(u);
         let s = self.s[0] * (1.0 - u) + self.s[1] * u;
         DAffine3::from_mat3_translation(DMat3::from_quat(r) * s, t)
+    }
+
+    /// The rotation at `u`: glam's `DQuat::slerp(r₀, r₁, u)` bit for bit (a unit test
+    /// checks), with its angle and sine computed once in [`Motion::new`].
+    #[inline]
+    fn slerp(&self, u: f64) -> DQuat {
+        let [r0, r1] = self.r;
+        match self.arc {
+            Some((theta, inv_sin)) => (r0 * (theta * (1.0 - u)).sin() + r1 * (theta * u).sin()) * inv_sin,
+            None => (r0 * (1.0 - u) + r1 * u).normalize(),
+        }
     }
 
     /// The angle (radians) the rotation turns through from time 0 to time 1.
@@ -212,6 +233,30 @@ mod tests {
 
     fn rotation(axis: DVec3, deg: f64) -> DMat4 {
         DMat4::from_axis_angle(axis.normalize(), deg.to_radians())
+    }
+
+    /// The slerp with its angle kept is glam's, bit for bit, from a tiny turn (glam's
+    /// lerp) to a half turn.
+    #[test]
+    fn slerp_with_its_angle_kept_is_glams() {
+        let mut seed = 11u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut slerped = 0;
+        for k in 0..400 {
+            let axis = DVec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+            let turn = [1e-9, 1e-4, 0.3, 90.0, 179.9][k % 5] * (0.5 + next());
+            let start = rotation(DVec3::new(next(), next() - 0.5, 0.3), next() * 360.0);
+            let m = Motion::new(start, rotation(axis, turn) * start).unwrap();
+            slerped += m.arc.is_some() as u32;
+            for u in (0..=64).map(|i| i as f64 / 64.0).chain([next(), 1e-7, 1.0 - 1e-7]) {
+                let (ours, glams) = (m.slerp(u), m.r[0].slerp(m.r[1], u));
+                assert_eq!(ours.to_array().map(f64::to_bits), glams.to_array().map(f64::to_bits), "{k}, u {u}");
+            }
+        }
+        assert!(slerped > 200 && slerped < 400, "both paths taken: {slerped} of 400 slerp");
     }
 
     #[test]

@@ -64,10 +64,10 @@ pub struct ObjectRay {
     pub scale: f32,
 }
 
-/// `ray` taken into the space of the object whose world transform is `m`.
+/// `ray` taken into the space of an object by `inv`, the inverse of its world transform
+/// ([`Instance::to_object_at`]).
 #[inline]
-pub fn object_ray(m: &DAffine3, ray: &Ray) -> ObjectRay {
-    let inv = m.inverse();
+pub fn object_ray(inv: &DAffine3, ray: &Ray) -> ObjectRay {
     let o = inv.transform_point3(ray.origin.as_dvec3());
     let d = inv.transform_vector3(ray.dir.as_dvec3());
     let len = d.length();
@@ -80,6 +80,12 @@ impl Instance {
     pub fn new(motion: Motion, accel: Accel, first: u32, shutter: [f32; 2]) -> Instance {
         let (lo, hi) = accel.bounds();
         Instance { bounds: motion.bound(lo, hi, shutter), motion, accel, first }
+    }
+
+    /// The world-to-object transform at `time` (in the shutter: [`Moving::clamp`]).
+    #[inline]
+    pub fn to_object_at(&self, time: f32) -> DAffine3 {
+        self.motion.at(time).inverse()
     }
 
     /// May `ray` meet the object (its swept box) before `tmax`?
@@ -114,11 +120,11 @@ impl Moving {
     /// without a time (a queue that never drew one reads 0) see them at the nearest
     /// shutter time. Every query takes its time through here.
     #[inline]
-    fn clamp(&self, time: f32) -> f32 {
+    pub fn clamp(&self, time: f32) -> f32 {
         time.clamp(self.shutter[0], self.shutter[1])
     }
 
-    /// Calls `visit` with each object whose swept box `ray` may enter before its `tmax`
+    /// Calls `visit` with each object (its index and itself) whose swept box `ray` may enter before its `tmax`
     /// (which `visit` may lower, to `f32::INFINITY`'s next float down at most), nearer
     /// subtrees first, until `visit` returns false.
     #[inline]
@@ -126,12 +132,12 @@ impl Moving {
         &self,
         ray: SlabRay,
         c: &mut Traversal,
-        mut visit: impl FnMut(&Instance, &mut SlabRay, &mut Traversal) -> bool,
+        mut visit: impl FnMut(usize, &Instance, &mut SlabRay, &mut Traversal) -> bool,
     ) {
         let Some(top) = &self.top else {
             let mut ray = ray;
-            for inst in &self.instances {
-                if inst.may_hit(&ray, ray.tmax) && !visit(inst, &mut ray, c) {
+            for (k, inst) in self.instances.iter().enumerate() {
+                if inst.may_hit(&ray, ray.tmax) && !visit(k, inst, &mut ray, c) {
                     return;
                 }
             }
@@ -143,11 +149,23 @@ impl Moving {
         }
         subtree::<COUNT>(&top.nodes, top.nodes[0].first_index as usize, 0.0, ray, c, |r, range, c| {
             for k in range {
-                let inst = &self.instances[top.primitive_indices[k] as usize];
-                if inst.may_hit(r, r.tmax) && !visit(inst, r, c) {
+                let k = top.primitive_indices[k] as usize;
+                let inst = &self.instances[k];
+                if inst.may_hit(r, r.tmax) && !visit(k, inst, r, c) {
                     return false;
                 }
             }
+            true
+        });
+    }
+
+    /// Appends `(k, id)` to `pairs` for every object k whose swept box `ray` may enter
+    /// before its `tmax`: the candidates of ray `id` of a queue, which the tracer then
+    /// traces object by object ([`Tracer`](super::tracer::Tracer)).
+    #[inline]
+    pub fn gather<const COUNT: bool>(&self, ray: SlabRay, id: u32, pairs: &mut Vec<(u32, u32)>, c: &mut Traversal) {
+        self.candidates::<COUNT>(ray, c, |k, _, _, _| {
+            pairs.push((k as u32, id));
             true
         });
     }
@@ -171,7 +189,8 @@ impl Moving {
     }
 
     /// Lowers `best` (`(t, id)`, `(∞, u32::MAX)` for none) to the closest hit of `ray` at
-    /// `time` on a moving object, by the tie rule.
+    /// `time` on a moving object, by the tie rule: one ray alone, the reference the
+    /// tracer's queues (which trace each object's candidates together) are tested against.
     #[inline]
     pub fn closest<const COUNT: bool>(&self, ray: Ray, time: f32, best: &mut (f32, u32), c: &mut Traversal) {
         let time = self.clamp(time);
@@ -179,8 +198,8 @@ impl Moving {
         // past it.
         let mut search = ray.slab();
         search.tmax = best.0.min(ray.tmax).next_up();
-        self.candidates::<COUNT>(search, c, |inst, r, c| {
-            let local = object_ray(&inst.motion.at(time), &ray);
+        self.candidates::<COUNT>(search, c, |_, inst, r, c| {
+            let local = object_ray(&inst.to_object_at(time), &ray);
             // The object's distances, a little past the world limit so rounding loses no
             // tie; the world distances decide.
             let tmax = (best.0.min(ray.tmax) * local.scale) * (1.0 + 4.0 * f32::EPSILON);
@@ -197,13 +216,14 @@ impl Moving {
         });
     }
 
-    /// True when a moving object blocks the shadow segment `ray` at `time`.
+    /// True when a moving object blocks the shadow segment `ray` at `time`: one ray alone,
+    /// as [`Moving::closest`].
     #[inline]
     pub fn occluded<const COUNT: bool>(&self, ray: Ray, time: f32, c: &mut Traversal) -> bool {
         let time = self.clamp(time);
         let mut blocked = false;
-        self.candidates::<COUNT>(ray.slab(), c, |inst, _, c| {
-            let local = object_ray(&inst.motion.at(time), &ray);
+        self.candidates::<COUNT>(ray.slab(), c, |_, inst, _, c| {
+            let local = object_ray(&inst.to_object_at(time), &ray);
             let obj = Ray::new(local.o, local.d, ray.tmin * local.scale, ray.tmax * local.scale);
             blocked = inst.accel.occluded::<COUNT>(obj, c);
             !blocked

@@ -12,8 +12,10 @@ use super::order::{octant, packet_order, Order};
 use super::packet::{Columns, PacketConfig, PacketWork};
 use super::Ray;
 use super::{Accel, Traversal, Walk};
-use crate::queue::{self, FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
+use crate::queue::{FilmQueue, HitQueue, RayQueue, ShadowQueue, MISS};
 use crate::simd::{Vector, LANES};
+
+mod moving;
 
 /// SIMD width of a packet kernel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -136,13 +138,23 @@ pub struct Tracer<'a> {
     order: Vec<(u64, u32)>,
     /// Scratch: per shadow ray, whether it is blocked.
     blocked: Vec<bool>,
+    /// Scratch for the moving objects' queues.
+    moving: Box<moving::Scratch>,
 }
 
 impl<'a> Tracer<'a> {
     /// A tracer over `accel` running `kernel`. With `count`, BVH nodes and primitives
     /// tested are counted (without, the traversals compile without counting code).
     pub fn new(accel: &'a Accel, kernel: Kernel, count: bool) -> Self {
-        Tracer { accel, kernel, count, work: Traversal::default(), order: Vec::new(), blocked: Vec::new() }
+        Tracer {
+            accel,
+            kernel,
+            count,
+            work: Traversal::default(),
+            order: Vec::new(),
+            blocked: Vec::new(),
+            moving: Box::default(),
+        }
     }
 
     /// The traversal work counted since the last call, resetting it.
@@ -173,38 +185,7 @@ impl<'a> Tracer<'a> {
             Some((Width::X16, cfg)) => self.closest_packets::<f32x16>(rays, coherence, cfg, hits),
         }
         if self.accel.moving.is_some() {
-            self.closest_moving(rays, hits);
-        }
-    }
-
-    /// Lowers every ray's hit to a moving object's where one is nearer at the ray's time
-    /// (the static tree's kernels above know nothing of time).
-    #[inline(never)] // kept out of the static kernels' code
-    fn closest_moving(&mut self, rays: &RayQueue, hits: &mut HitQueue) {
-        let Some(m) = &self.accel.moving else { return };
-        for i in 0..rays.len() {
-            let mut best = (hits.t[i], hits.prim[i]);
-            let ray = Ray::infinite(rays.origin(i), rays.dir(i));
-            if self.count {
-                m.closest::<true>(ray, queue::sparse(&rays.time, i), &mut best, &mut self.work);
-            } else {
-                m.closest::<false>(ray, queue::sparse(&rays.time, i), &mut best, &mut self.work);
-            }
-            (hits.t[i], hits.prim[i]) = best;
-        }
-    }
-
-    /// Blocks the shadow rays still unblocked that a moving object blocks at their time.
-    #[inline(never)] // kept out of the static kernels' code
-    fn occluded_moving(&mut self, shadow: &ShadowQueue) {
-        let Some(m) = &self.accel.moving else { return };
-        for (i, blocked) in self.blocked.iter_mut().enumerate().filter(|(_, b)| !**b) {
-            let ray = Ray::new(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i]);
-            *blocked = if self.count {
-                m.occluded::<true>(ray, queue::sparse(&shadow.time, i), &mut self.work)
-            } else {
-                m.occluded::<false>(ray, queue::sparse(&shadow.time, i), &mut self.work)
-            };
+            self.closest_moving(rays, coherence, hits);
         }
     }
 
