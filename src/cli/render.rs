@@ -150,6 +150,17 @@ fn threads(flag: Option<usize>) -> Result<Option<usize>> {
     }
 }
 
+/// Sizes rayon's global pool, which the scene's load runs on (meshes read ahead, trees
+/// built), to the worker threads asked for: `--threads 1` then loads on one thread as
+/// it renders on one. The render itself runs on a pool of its own of that size.
+fn bound_threads(threads: Option<usize>) {
+    if let Some(n) = threads {
+        // Fails only when the pool already exists (a second run in one process), which
+        // then keeps its size.
+        let _ = rayon::ThreadPoolBuilder::new().num_threads(n).build_global();
+    }
+}
+
 /// One `--heatmap KIND=PATH`.
 #[derive(Clone, Debug)]
 pub struct HeatmapSpec {
@@ -220,6 +231,7 @@ fn shows_nothing(scene: &wavetrace::Scene) -> bool {
 /// Renders; returns the exit status (0, or 130 when a signal cut the render short).
 pub fn run(args: RenderArgs) -> Result<i32> {
     check_outputs(&args)?;
+    bound_threads(threads(args.threads)?);
     let load_start = Instant::now();
     let scene = load_scene(&args)?;
     let load_seconds = load_start.elapsed().as_secs_f64();
