@@ -49,6 +49,16 @@ pub struct Traversal {
     pub packet_rays: u64,
 }
 
+impl std::ops::AddAssign for Traversal {
+    fn add_assign(&mut self, o: Traversal) {
+        self.nodes += o.nodes;
+        self.prims += o.prims;
+        self.packet_steps += o.packet_steps;
+        self.packet_lanes += o.packet_lanes;
+        self.packet_rays += o.packet_rays;
+    }
+}
+
 /// Most primitives per leaf (obvhs's collapse may make leaves smaller; measured:
 /// docs/performance.md).
 pub const MAX_LEAF: u32 = 8;

@@ -138,8 +138,8 @@ pub struct Tracer<'a> {
     order: Vec<(u64, u32)>,
     /// Scratch: per shadow ray, whether it is blocked.
     blocked: Vec<bool>,
-    /// Scratch for the moving objects' queues.
-    moving: Box<moving::Scratch>,
+    /// Scratch for the moving objects' queues, made when a scene first needs it.
+    moving: Option<Box<moving::Scratch>>,
 }
 
 impl<'a> Tracer<'a> {
@@ -153,7 +153,7 @@ impl<'a> Tracer<'a> {
             work: Traversal::default(),
             order: Vec::new(),
             blocked: Vec::new(),
-            moving: Box::default(),
+            moving: None,
         }
     }
 
@@ -164,7 +164,9 @@ impl<'a> Tracer<'a> {
 
     /// Bytes held by the scratch buffers.
     pub fn bytes(&self) -> usize {
-        self.order.capacity() * std::mem::size_of::<(u64, u32)>() + self.blocked.capacity()
+        self.order.capacity() * std::mem::size_of::<(u64, u32)>()
+            + self.blocked.capacity()
+            + self.moving.as_ref().map_or(0, |m| m.bytes())
     }
 
     /// Finds the closest hit of every ray in `rays`, in order, into `hits` (cleared first).

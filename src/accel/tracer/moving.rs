@@ -60,6 +60,20 @@ impl<'a> ToObject<'a> {
     }
 }
 
+impl Scratch {
+    /// Bytes held by its buffers.
+    pub(super) fn bytes(&self) -> usize {
+        self.pairs.capacity() * std::mem::size_of::<(u32, u32)>()
+            + self.rays.bytes()
+            + self.hits.bytes()
+            + self.scale.capacity() * 4
+            + self.shadow.bytes()
+            + self.ids.capacity() * 4
+            + self.order.capacity() * std::mem::size_of::<(u64, u32)>()
+            + self.blocked.capacity()
+    }
+}
+
 impl Tracer<'_> {
     /// Lowers every ray's hit to a moving object's where one is nearer at the ray's time
     /// (the static tree's kernels above know nothing of time). Each object's candidates,
@@ -71,7 +85,7 @@ impl Tracer<'_> {
     #[inline(never)] // kept out of the static kernels' code
     pub(super) fn closest_moving(&mut self, rays: &RayQueue, coherence: Coherence, hits: &mut HitQueue) {
         let Some(m) = &self.accel.moving else { return };
-        let mut s = std::mem::take(&mut self.moving);
+        let mut s = self.moving.take().unwrap_or_default();
         s.pairs.clear();
         for i in 0..rays.len() {
             // A hit exactly as far as the static one may still win the tie: boxes are
@@ -106,7 +120,7 @@ impl Tracer<'_> {
                 }
             }
         }
-        self.moving = s;
+        self.moving = Some(s);
     }
 
     /// Blocks the shadow rays still unblocked that a moving object blocks at their time:
@@ -114,7 +128,7 @@ impl Tracer<'_> {
     #[inline(never)] // kept out of the static kernels' code
     pub(super) fn occluded_moving(&mut self, shadow: &ShadowQueue) {
         let Some(m) = &self.accel.moving else { return };
-        let mut s = std::mem::take(&mut self.moving);
+        let mut s = self.moving.take().unwrap_or_default();
         s.pairs.clear();
         for i in 0..shadow.len() {
             if self.blocked[i] {
@@ -143,7 +157,7 @@ impl Tracer<'_> {
             }
             self.take_object(sub, &mut s.order, &mut s.blocked);
         }
-        self.moving = s;
+        self.moving = Some(s);
     }
 
     /// Appends ray `i`'s moving candidates to `pairs`.
@@ -168,13 +182,8 @@ impl Tracer<'_> {
 
     /// Takes back the scratch and the traversal work of [`Tracer::for_object`]'s tracer.
     fn take_object(&mut self, sub: Tracer<'_>, order: &mut Vec<(u64, u32)>, blocked: &mut Vec<bool>) {
-        let w = sub.work;
+        self.work += sub.work;
         (*order, *blocked) = (sub.order, sub.blocked);
-        self.work.nodes += w.nodes;
-        self.work.prims += w.prims;
-        self.work.packet_steps += w.packet_steps;
-        self.work.packet_lanes += w.packet_lanes;
-        self.work.packet_rays += w.packet_rays;
     }
 }
 
