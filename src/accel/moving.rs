@@ -124,9 +124,9 @@ impl Moving {
         time.clamp(self.shutter[0], self.shutter[1])
     }
 
-    /// Calls `visit` with each object (its index and itself) whose swept box `ray` may enter before its `tmax`
-    /// (which `visit` may lower, to `f32::INFINITY`'s next float down at most), nearer
-    /// subtrees first, until `visit` returns false.
+    /// Calls `visit` with each object (its index and itself) whose swept box `ray` may
+    /// enter before its `tmax` (which `visit` may lower, to `f32::INFINITY`'s next float
+    /// down at most), nearer subtrees first, until `visit` returns false.
     #[inline]
     fn candidates<const COUNT: bool>(
         &self,

@@ -279,11 +279,7 @@ fn parent(path: &Path) -> PathBuf {
 
 /// 8-bit sRGB bytes of an image, RGB interleaved.
 pub fn to_srgb8(image: &Image) -> Vec<u8> {
-    let mut rgb = vec![0; image.pixels.len() * 3];
-    for (out, p) in rgb.chunks_exact_mut(3).zip(&image.pixels) {
-        out.copy_from_slice(&[to_display8(p.x), to_display8(p.y), to_display8(p.z)]);
-    }
-    rgb
+    image.pixels.iter().flat_map(|p| [to_display8(p.x), to_display8(p.y), to_display8(p.z)]).collect()
 }
 
 /// Writes `image` to `path` in the format its extension names ([`Target`] says how).

@@ -388,15 +388,13 @@ fn build(f: &SceneFile, ctx: &Ctx) -> Result<Scene> {
     // The rough coatings' tables (tens of milliseconds each) while the meshes are read,
     // where the threads asked for (rayon's pool: `--threads`) allow a second one.
     let beside = !textures.coatings.is_empty() && rayon::current_num_threads() > 1;
-    let (built, mut tables) = std::thread::scope(|s| {
+    let (built, tables) = std::thread::scope(|s| {
         let tables = beside.then(|| s.spawn(|| materials::coating_tables(&textures.coatings)));
         let built = objects::objects(f, ctx, &names, &materials, &mut info);
-        (built, tables.map_or(Vec::new(), |t| t.join().unwrap_or_else(|e| std::panic::resume_unwind(e))))
+        (built, tables.map(|t| t.join().unwrap_or_else(|e| std::panic::resume_unwind(e))))
     });
     let built = built?;
-    if !beside && !textures.coatings.is_empty() {
-        tables = materials::coating_tables(&textures.coatings);
-    }
+    let tables = tables.unwrap_or_else(|| materials::coating_tables(&textures.coatings));
     materials::set_internal(&mut materials, &tables);
     // Only specular materials that some object uses give the scatter stage work.
     let has_specular = built
