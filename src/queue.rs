@@ -349,6 +349,39 @@ soa! {
     push(prev: Vec3 => prev; sum: Vec3 => sum; count: u32 => count; level: u8 => level)
 }
 
+soa! {
+    /// Variance-driven AA: per-pixel state of one tile, one entry per tile pixel. Sample
+    /// g of a pixel (counted over all its rounds) goes to half `g & 1`.
+    pub struct HalfBufferQueue {
+        /// Sum of the radiance of the pixel's even samples.
+        even: Vec3,
+        /// Sum of the radiance of its odd samples.
+        odd: Vec3,
+        /// Samples cast so far.
+        count: u32,
+        /// Rounds cast so far.
+        rounds: u8,
+    }
+    push(even: Vec3 => even; odd: Vec3 => odd; count: u32 => count; rounds: u8 => rounds)
+}
+
+/// Variance-driven AA's queues of one tile: every pixel's half-buffers and the pixels
+/// still sampled. Grouped because the converge stage owns both.
+#[derive(Default, Debug, Clone)]
+pub struct VarianceQueues {
+    /// Per tile pixel: its half-buffers.
+    pub state: HalfBufferQueue,
+    /// The pixels still sampled (tile pixel indices, ascending).
+    pub active: IndexQueue,
+}
+
+impl VarianceQueues {
+    /// Bytes held by the buffers (capacity, not length).
+    pub fn bytes(&self) -> usize {
+        self.state.bytes() + self.active.bytes()
+    }
+}
+
 /// Adaptive AA's queues of one tile: every pixel's refinement state and the pixels still
 /// refined. Grouped because the refine stage owns both.
 #[derive(Default, Debug, Clone)]

@@ -45,6 +45,8 @@ pub mod dim {
     pub const ROULETTE: u32 = 16;
     /// Path transport: a light sample's direction towards the environment.
     pub const ENVIRONMENT: u32 = 17;
+    /// Variance-driven AA: a round's film positions.
+    pub const VARIANCE: u32 = 18;
     /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
     /// renderer's dimensions, which grow from 1).
     pub const BENCH: u32 = 100;

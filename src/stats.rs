@@ -444,7 +444,7 @@ impl Report {
             total_rays,
             mrays_per_s: if seconds > 0.0 { total_rays as f64 / seconds / 1e6 } else { 0.0 },
             rays: total.kinds().into_iter().collect(),
-            adaptive_aa: matches!(settings.aa_mode, AaMode::Adaptive { .. }).then(|| {
+            adaptive_aa: matches!(settings.aa_mode, AaMode::Adaptive { .. } | AaMode::Variance { .. }).then(|| {
                 let rays = t.camera_rays + t.aa_corner_rays + t.aa_refine_rays + t.dof_probe_rays;
                 QueueReport::new(t.aa_pixels, t.aa_refined_pixels, rays, t.aa_uniform_rays)
             }),

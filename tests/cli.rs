@@ -294,6 +294,32 @@ fn dof_aware_and_early_stopping_fields_are_checked() {
 }
 
 #[test]
+fn variance_fields_are_checked() {
+    let aa = "[render.aa]\nmode = \"variance\"\n";
+    bad_scene("[render.aa]\n", &format!("{aa}threshold = -0.1\n"), &["scene.toml:6:", "render.aa.threshold", ">= 0"]);
+    bad_scene("[render.aa]\n", &format!("{aa}min_samples = 1\n"), &["scene.toml:6:", "render.aa.min_samples", "2..="]);
+    bad_scene("[render.aa]\n", &format!("{aa}min_samples = 64\n"), &["render.aa.min_samples", "samples (2)"]);
+    bad_scene(
+        "[render.shadows]\n",
+        "[render.shadows]\nmode = \"variance\"\n",
+        &["scene.toml:7:", "render.shadows.mode", "anti-aliasing mode"],
+    );
+    // Through --set, the message names the key the --set changed.
+    let case = Case::new();
+    case.write("scene.toml", &good());
+    let o =
+        case.run(&["scene.toml", "-o", "b.png", "--set", "render.aa.mode=variance", "--set", "render.aa.samples=8"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("field `render.aa.samples`"), "{}", stderr(&o));
+    assert!(!case.path("b.png").exists());
+    let sets = ["render.aa.mode=variance", "render.aa.samples=8", "render.aa.min_samples=4"];
+    let args: Vec<&str> =
+        ["scene.toml", "-o", "ok.png"].into_iter().chain(sets.iter().flat_map(|s| ["--set", s])).collect();
+    let o = case.run(&args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
 fn missing_and_malformed_obj() {
     let mesh = "[[objects]]\ntype = \"mesh\"\nfile = \"m.obj\"\nmaterial = \"white\"\n";
     // Missing file.

@@ -53,7 +53,8 @@ fn crops() -> Vec<Tile> {
 }
 
 /// Every mode: uniform, adaptive AA with shared and with per-pixel corners, adaptive
-/// shadows, DOF-aware AA with early stopping (both corner kinds), one ray at a time.
+/// shadows, DOF-aware AA with early stopping (both corner kinds), one ray at a time,
+/// variance-driven AA.
 const MODES: &[(&str, &[&str])] = &[
     ("uniform", &["render.aa.mode=uniform", "render.aa.samples=2", "render.shadows.mode=uniform"]),
     ("adaptive-aa", &["render.shadows.mode=uniform"]),
@@ -65,6 +66,10 @@ const MODES: &[(&str, &[&str])] = &[
         &["render.aa.dof_aware=true", "render.aa.share_corners=false", "render.shadows.tolerance=0.05"],
     ),
     ("single", &["render.packets=false", "render.aa.dof_aware=true"]),
+    (
+        "variance",
+        &["render.aa.mode=variance", "render.aa.samples=12", "render.aa.min_samples=4", "render.aa.threshold=0.05"],
+    ),
 ];
 
 #[test]

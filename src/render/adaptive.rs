@@ -63,7 +63,7 @@ impl AaState {
 
 /// Fills `starts` with the lens-ray prefix sums of `n` points whose lens counts are
 /// `count(i)`.
-fn lens_starts(starts: &mut Vec<u64>, n: usize, count: impl Fn(usize) -> u64) {
+pub(super) fn lens_starts(starts: &mut Vec<u64>, n: usize, count: impl Fn(usize) -> u64) {
     starts.clear();
     starts.push(0);
     for i in 0..n {

@@ -4,11 +4,13 @@
 //! Uniform AA is one pass per tile. Adaptive AA (paper §2.1) is a corner-grid pass over
 //! the whole image (when corners are shared), then per tile a centre pass, the corner
 //! decision, and one pass of the refinement queue per level (`render/adaptive.rs`). DOF-aware AA
-//! adds a pass of depth probes over the corner grid first.
+//! adds a pass of depth probes over the corner grid first. Variance-driven AA is one pass
+//! per round per tile (`render/variance.rs`).
 
 mod adaptive;
 mod meter;
 mod pipeline;
+mod variance;
 
 use glam::{Vec2, Vec3};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -18,6 +20,7 @@ use std::time::Instant;
 use adaptive::{AaState, CornerBlur};
 use meter::{Kind, Meter};
 use pipeline::Pipeline;
+use variance::VarianceState;
 
 use crate::accel::tracer::{Kernel, Tracer};
 use crate::film::{copy_tile, tiles, Heat, Image, SlotHeat, Tile, TileFilm, TILE};
@@ -102,6 +105,7 @@ pub struct RenderOutput {
 struct Worker<'a> {
     pipe: Pipeline<'a>,
     aa: AaState,
+    var: VarianceState,
     tile: TileFilm,
 }
 
@@ -118,7 +122,7 @@ impl Worker<'_> {
 
     /// Bytes held by every queue and buffer (capacities).
     fn bytes(&self) -> u64 {
-        (self.pipe.bytes() + self.aa.bytes() + self.tile.bytes()) as u64
+        (self.pipe.bytes() + self.aa.bytes() + self.var.bytes() + self.tile.bytes()) as u64
     }
 }
 
@@ -177,7 +181,7 @@ fn new_worker<'a>(ctx: &'a Ctx) -> Box<Worker<'a>> {
     let tracer = Tracer::new(&ctx.scene.accel, kernel, !ctx.opts.no_counters);
     let meter = Meter::new(ctx.opts.trace.then_some(ctx.start));
     let pipe = Pipeline::new(tracer, meter, ctx.wave, ctx.opts.cancel.clone());
-    Box::new(Worker { pipe, aa: AaState::default(), tile: TileFilm::default() })
+    Box::new(Worker { pipe, aa: AaState::default(), var: VarianceState::default(), tile: TileFilm::default() })
 }
 
 /// Locks a mutex whose holder may have panicked (the data is still what was stored).
@@ -252,6 +256,7 @@ fn pixel_pass(
             match s.aa_mode {
                 AaMode::Uniform => wk.uniform_tile(ctx.scene, tile),
                 AaMode::Adaptive { .. } => wk.adaptive_tile(ctx.scene, tile, grid, blur),
+                AaMode::Variance { .. } => wk.variance_tile(ctx.scene, tile),
             }
         },
         |wk, tile| {

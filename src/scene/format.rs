@@ -82,10 +82,16 @@ impl Default for RenderDesc {
 #[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct AaDesc {
-    /// Sampling mode: "uniform" or "adaptive" (default "uniform").
+    /// Sampling mode: "uniform", "adaptive" (the paper's corners) or "variance"
+    /// (per-pixel error from two half-buffers; default "uniform").
     pub mode: SamplingDesc,
-    /// Uniform: stratified samples per pixel (default 16).
+    /// Uniform: stratified samples per pixel; variance: the most a pixel gets (default 16).
     pub samples: u32,
+    /// Variance: a pixel stops once its estimated error falls below this (default 0.01).
+    pub threshold: f32,
+    /// Variance: samples every pixel gets before its error is first estimated, and the
+    /// samples added to each unconverged pixel per round (default 16).
+    pub min_samples: u32,
     /// Adaptive: refine while display colours differ by more than this (default 0.01).
     pub eps: f32,
     /// Adaptive: first level at which refinement may stop; the levels before it are
@@ -109,6 +115,8 @@ impl Default for AaDesc {
         AaDesc {
             mode: SamplingDesc::Uniform,
             samples: 16,
+            threshold: 0.01,
+            min_samples: 16,
             eps: 0.01,
             min_level: 4,
             max_level: 6,
@@ -160,7 +168,8 @@ pub enum BvhDesc {
     High,
 }
 
-/// `render.aa.mode` and `render.shadows.mode`: "uniform" or "adaptive".
+/// `render.aa.mode` and `render.shadows.mode`: "uniform", "adaptive" or (anti-aliasing
+/// only) "variance".
 #[derive(Deserialize, Serialize, Debug, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum SamplingDesc {
@@ -168,6 +177,8 @@ pub enum SamplingDesc {
     Uniform,
     /// Rays where the adaptive test finds an edge or a penumbra.
     Adaptive,
+    /// Anti-aliasing only: more samples where two half-buffers disagree.
+    Variance,
 }
 
 /// `render.shadows.probe`: the rays of the adaptive shadow-corner test.

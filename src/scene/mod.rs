@@ -46,6 +46,17 @@ pub enum AaMode {
         /// Trace the (W+1)×(H+1) corner grid once instead of 4 corners per pixel.
         share_corners: bool,
     },
+    /// Variance-driven sampling as production renderers do it (Cycles' adaptive
+    /// sampling): rounds of `min_samples` stratified samples, each pixel's error
+    /// estimated from the difference of its even and odd samples, rounds continuing in
+    /// the pixels (and their neighbours) whose error is still above `threshold`, up to
+    /// `aa_samples` a pixel.
+    Variance {
+        /// Error below which a pixel stops (see `render::variance::pixel_error`).
+        threshold: f32,
+        /// Samples of the first round and of every later one (the last may be cut short).
+        min_samples: u32,
+    },
 }
 
 /// How shadow rays towards quad lights are placed.

@@ -1,6 +1,7 @@
 //! Camera generation: writes camera rays for uniform pixel samples, for the adaptive
-//! method's pixel corners and centres, and for refinement levels. Thin-lens sampling
-//! only when the aperture is open. Reads nothing but the scene.
+//! method's pixel corners and centres, for refinement levels, and for the rounds of
+//! variance-driven AA. Thin-lens sampling only when the aperture is open. Reads nothing
+//! but the scene.
 //!
 //! Every generator takes a range of a flattened (point, sample) index, so the driver can
 //! cut any amount of work into waves of bounded size.
@@ -10,7 +11,7 @@ use std::ops::Range;
 use wide::{f32x16, u32x16};
 
 use super::Tile;
-use crate::queue::RayQueue;
+use crate::queue::{HalfBufferQueue, RayQueue};
 use crate::sampling::{
     cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, hash, sobol_owen, sobol_owen_lanes, CmjKey, CMJ_LANES_MAX,
 };
@@ -556,6 +557,51 @@ pub fn generate_refine(scene: &Scene, pass: RefinePass, lens: Lens, ks: Range<u6
             let l1 = count.min(l0 + (js.end - j));
             let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, key);
             let pattern = hash(&[s.seed, pixel, level, sample, dim::LENS]);
+            lens_rays(scene, film, (l0..l1, count, pattern), (slot, w), (key, sample * count), rays);
+            j += l1 - l0;
+        }
+    }
+}
+
+/// A round of variance-driven AA: its tile, the pixels it samples (indices in the tile)
+/// and every tile pixel's half-buffers (their sample and round counts place the round).
+#[derive(Clone, Copy, Debug)]
+pub struct VariancePass<'a> {
+    /// The tile.
+    pub tile: &'a Tile,
+    /// The pixels still sampled.
+    pub pixels: &'a [u32],
+    /// Per tile pixel: samples and rounds cast before this round.
+    pub state: &'a HalfBufferQueue,
+}
+
+/// Variance-driven AA, one round: in each listed pixel, a CMJ pattern of its samples
+/// this round (new per round: the key holds the round). `lens` splits the flattened index
+/// into listed pixel i and its ray j, of (its samples) × `dof_samples` rays: sample
+/// j / dof_samples, lens ray j % dof_samples. A pixel's sample g (counted over its rounds)
+/// goes to slot 2·(its index in the tile) + g % 2, its half-buffer; weight
+/// 1 / dof_samples, so a slot sums its samples' estimates.
+pub fn generate_variance(scene: &Scene, pass: VariancePass, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
+    let VariancePass { tile, pixels, state } = pass;
+    rays.clear();
+    let s = &scene.settings;
+    let count = s.dof_samples;
+    let w = Vec3::splat(1.0 / count as f32);
+    let tw = tile.x1 - tile.x0;
+    for (i, js, per) in lens.runs(ks) {
+        let p = pixels[i as usize];
+        let (before, round) = (state.count[p as usize], state.rounds[p as usize] as u32);
+        let n = per / count;
+        let (x, y) = (tile.x0 + p % tw, tile.y0 + p / tw);
+        let pixel = y * s.width + x;
+        let key = hash(&[s.seed, pixel, round, dim::VARIANCE]);
+        let mut j = js.start;
+        while j < js.end {
+            let (sample, l0) = (j / count, j % count);
+            let l1 = count.min(l0 + (js.end - j));
+            let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, key);
+            let pattern = hash(&[s.seed, pixel, round, sample, dim::LENS]);
+            let slot = 2 * p + ((before + sample) & 1);
             lens_rays(scene, film, (l0..l1, count, pattern), (slot, w), (key, sample * count), rays);
             j += l1 - l0;
         }

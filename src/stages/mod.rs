@@ -6,13 +6,15 @@
 //! The path transport adds `bounce` (diffuse surfaces' rays) and `roulette` (Russian
 //! roulette on the deeper levels).
 //!
-//! Adaptive AA adds `refine` (and `focus` for DOF-aware AA); adaptive shadows add
+//! Adaptive AA adds `refine` (and `focus` for DOF-aware AA), variance-driven AA
+//! `converge`; adaptive shadows add
 //! `shadow_corner` and `penumbra`. A stage that traces rays writes them to a queue and
 //! hands the whole queue to the tracer (which picks packets or single rays); none
 //! traces a ray on its own.
 
 pub mod bounce;
 pub mod camera;
+pub mod converge;
 pub mod film;
 pub mod focus;
 pub mod intersect;

@@ -174,6 +174,23 @@ fn image_size(r: &RenderDesc, ctx: &Ctx) -> Result<()> {
 fn aa_mode(aa: &AaDesc, ctx: &Ctx) -> Result<AaMode> {
     Ok(match aa.mode {
         SamplingDesc::Uniform => AaMode::Uniform,
+        SamplingDesc::Variance => {
+            if !(aa.threshold >= 0.0 && aa.threshold.is_finite()) {
+                return Err(ctx.fail("render.aa.threshold", format!("{} must be finite and >= 0", aa.threshold)));
+            }
+            // Two samples at least: one in each half-buffer.
+            if !(2..=aa.samples.max(2)).contains(&aa.min_samples) {
+                let path = if ctx.sets.iter().any(|s| s.starts_with("render.aa.samples=")) {
+                    "render.aa.samples"
+                } else {
+                    "render.aa.min_samples"
+                };
+                return Err(
+                    ctx.fail(path, format!("min_samples ({}) must be in 2..=samples ({})", aa.min_samples, aa.samples))
+                );
+            }
+            AaMode::Variance { threshold: aa.threshold, min_samples: aa.min_samples }
+        }
         SamplingDesc::Adaptive => {
             if aa.eps < 0.0 {
                 return Err(ctx.fail("render.aa.eps", "must be >= 0"));
@@ -217,6 +234,12 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     let shadow_mode = match r.shadows.mode {
         SamplingDesc::Uniform => ShadowMode::Uniform,
         SamplingDesc::Adaptive => ShadowMode::Adaptive(probe),
+        SamplingDesc::Variance => {
+            return Err(ctx.fail(
+                "render.shadows.mode",
+                "\"variance\" is an anti-aliasing mode; shadows are \"uniform\" or \"adaptive\"",
+            ))
+        }
     };
     if !(0.0..=1.0).contains(&r.shadows.tolerance) {
         return Err(ctx.fail("render.shadows.tolerance", format!("{} is not in [0, 1]", r.shadows.tolerance)));
@@ -233,7 +256,7 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     }
     let dof_samples = if cam.aperture > 0.0 { r.dof.samples } else { 1 };
     let per_pixel = match aa_mode {
-        AaMode::Uniform => r.aa.samples as u64,
+        AaMode::Uniform | AaMode::Variance { .. } => r.aa.samples as u64,
         AaMode::Adaptive { max_level, .. } => 1u64 << max_level,
     };
     if per_pixel * dof_samples as u64 > u32::MAX as u64 {
