@@ -302,6 +302,9 @@ pub struct Report {
     /// Adaptive queues: what entered them, what they cast, what uniform would have cast.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adaptive_aa: Option<QueueReport>,
+    /// `render.aa.mode = "auto"`: what the pilot chose.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_aa: Option<AutoChoice>,
     /// The shadow-corner and penumbra queues, when shadows are adaptive.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adaptive_shadows: Option<QueueReport>,
@@ -393,6 +396,26 @@ pub struct SceneReport {
     pub notes: Vec<String>,
 }
 
+/// What `render.aa.mode = "auto"` chose from its pilot pass, and the prediction behind it
+/// (see `render::choose`).
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct AutoChoice {
+    /// "uniform" or "variance".
+    pub chose: &'static str,
+    /// The rounds rendered: a pixel stops below this error (0 for uniform) ...
+    pub threshold: f32,
+    /// ... rounds add this many samples (uniform: one round of `max`) ...
+    pub min_samples: u32,
+    /// ... up to this many a pixel.
+    pub max: u32,
+    /// Pixels in the pilot.
+    pub pilot_pixels: usize,
+    /// Predicted mean samples a pixel under variance sampling, margin included.
+    pub variance_spp: f64,
+    /// Predicted uniform samples a pixel for the same mean squared error.
+    pub uniform_spp: f64,
+}
+
 /// One thread's share.
 #[derive(Serialize, Debug, Clone)]
 pub struct ThreadReport {
@@ -435,6 +458,7 @@ impl Report {
         Report {
             version: 1,
             partial: false,
+            auto_aa: None,
             width,
             height,
             threads: per_thread.len(),
@@ -444,7 +468,7 @@ impl Report {
             total_rays,
             mrays_per_s: if seconds > 0.0 { total_rays as f64 / seconds / 1e6 } else { 0.0 },
             rays: total.kinds().into_iter().collect(),
-            adaptive_aa: matches!(settings.aa_mode, AaMode::Adaptive { .. } | AaMode::Variance { .. }).then(|| {
+            adaptive_aa: (settings.aa_mode != AaMode::Uniform).then(|| {
                 let rays = t.camera_rays + t.aa_corner_rays + t.aa_refine_rays + t.dof_probe_rays;
                 QueueReport::new(t.aa_pixels, t.aa_refined_pixels, rays, t.aa_uniform_rays)
             }),

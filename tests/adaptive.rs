@@ -218,6 +218,21 @@ fn variance_aa_stops_noiseless_pixels_at_the_first_round_and_threshold_zero_samp
 }
 
 #[test]
+fn auto_aa_chooses_uniform_on_a_noiseless_scene_and_reports_its_pilot() {
+    let sets =
+        ["render.aa.mode=auto", "render.aa.samples=32", "render.aa.min_samples=4", "render.shadows.mode=uniform"];
+    let out = render_text(&flat(), &sets, 2);
+    let c = out.auto.expect("auto mode reports its choice");
+    // One pilot pixel per 8×8 block: the centres (4, 4), (12, 4), (20, 4), (4, 12), ...
+    assert_eq!(c.pilot_pixels, 3 * 2);
+    assert_eq!((c.chose, c.max, c.threshold), ("uniform", 4, 0.0), "{c:?}");
+    assert_eq!(out.stats.camera_rays, 24 * 16 * 4 + 6 * 4, "the render and its pilot");
+    assert!(out.heat.level.iter().all(|&r| r == 1));
+    let one = render_text(&flat(), &sets, 1);
+    assert_eq!((one.image, one.auto), (out.image, Some(c)));
+}
+
+#[test]
 fn variance_aa_beats_uniform_at_equal_camera_rays_on_edges_and_penumbrae() {
     // Edges and 4-sample penumbrae: noise that is uneven across the image. With the
     // default 16-sample rounds, measured 0.63-0.78 of uniform's RMSE at thresholds

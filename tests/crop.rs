@@ -54,7 +54,7 @@ fn crops() -> Vec<Tile> {
 
 /// Every mode: uniform, adaptive AA with shared and with per-pixel corners, adaptive
 /// shadows, DOF-aware AA with early stopping (both corner kinds), one ray at a time,
-/// variance-driven AA.
+/// variance-driven AA, and auto (its pilot covers the whole image in every crop).
 const MODES: &[(&str, &[&str])] = &[
     ("uniform", &["render.aa.mode=uniform", "render.aa.samples=2", "render.shadows.mode=uniform"]),
     ("adaptive-aa", &["render.shadows.mode=uniform"]),
@@ -70,6 +70,7 @@ const MODES: &[(&str, &[&str])] = &[
         "variance",
         &["render.aa.mode=variance", "render.aa.samples=12", "render.aa.min_samples=4", "render.aa.threshold=0.05"],
     ),
+    ("auto", &["render.aa.mode=auto", "render.aa.samples=12", "render.aa.min_samples=4", "render.aa.threshold=0.05"]),
 ];
 
 #[test]

@@ -304,7 +304,7 @@ fn loaded(scene: Scene, src: &SceneSource, sets: &[String]) -> Outcome {
 pub fn small(scene: &Scene) -> bool {
     let s = &scene.settings;
     let per_pixel = match s.aa_mode {
-        AaMode::Uniform | AaMode::Variance { .. } => s.aa_samples as u64,
+        AaMode::Uniform | AaMode::Variance { .. } | AaMode::Auto { .. } => s.aa_samples as u64,
         AaMode::Adaptive { max_level, .. } => 1 << max_level.min(63),
     };
     s.width as u64 * s.height as u64 <= 16

@@ -20,13 +20,14 @@ use std::time::Instant;
 use adaptive::{AaState, CornerBlur};
 use meter::{Kind, Meter};
 use pipeline::Pipeline;
-use variance::VarianceState;
+pub use variance::{choose, PILOT_BLOCK, VARIANCE_MARGIN};
+use variance::{Rounds, VarianceState};
 
 use crate::accel::tracer::{Kernel, Tracer};
 use crate::film::{copy_tile, tiles, Heat, Image, SlotHeat, Tile, TileFilm, TILE};
 use crate::scene::{AaMode, Light, Scene, ShadowMode};
 use crate::stages::camera;
-use crate::stats::{Span, Stats};
+use crate::stats::{AutoChoice, Span, Stats};
 use crate::{Error, Result};
 
 /// Most rays one wave traces (camera rays of a batch, or a chunk of a deeper level); a
@@ -99,6 +100,8 @@ pub struct RenderOutput {
     /// unless `partial`. Corner-grid and focus tiles do not count; no pixel is final
     /// before its pixel tile is.
     pub finished_pixels: u64,
+    /// `render.aa.mode = "auto"`: what the pilot chose.
+    pub auto: Option<AutoChoice>,
 }
 
 /// One worker: its wavefront, its adaptive-AA buffers and the tile it is finishing.
@@ -241,8 +244,8 @@ fn grid_pass(ctx: &Ctx, tiles: &[Tile], lens: Option<&[f32]>) -> (PerThread, Vec
 fn pixel_pass(
     ctx: &Ctx,
     tiles: &[Tile],
-    grid: Option<&[Vec3]>,
-    blur: Option<CornerBlur>,
+    (grid, blur): (Option<&[Vec3]>, Option<CornerBlur>),
+    rounds: Option<Rounds>,
 ) -> (PerThread, Vec<Vec3>, Heat, Vec<Tile>) {
     let s = &ctx.scene.settings;
     let n = (s.width * s.height) as usize;
@@ -256,7 +259,9 @@ fn pixel_pass(
             match s.aa_mode {
                 AaMode::Uniform => wk.uniform_tile(ctx.scene, tile),
                 AaMode::Adaptive { .. } => wk.adaptive_tile(ctx.scene, tile, grid, blur),
-                AaMode::Variance { .. } => wk.variance_tile(ctx.scene, tile),
+                AaMode::Variance { .. } | AaMode::Auto { .. } => {
+                    wk.variance_tile(ctx.scene, tile, rounds.expect("variance and auto modes have rounds"))
+                }
             }
         },
         |wk, tile| {
@@ -269,6 +274,28 @@ fn pixel_pass(
     );
     let (pixels, heat) = result.into_inner().unwrap_or_else(|e| e.into_inner());
     (stats, pixels, heat, finished.into_inner().unwrap_or_else(|e| e.into_inner()))
+}
+
+/// The rounds of variance-driven AA: the scene's, or, in auto mode, what the pilot over
+/// `tiles` (the whole image's) chooses. `None` in the other modes.
+fn rounds_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Option<Rounds>, Option<AutoChoice>) {
+    let s = &ctx.scene.settings;
+    let (threshold, min_samples) = match s.aa_mode {
+        AaMode::Variance { threshold, min_samples } => {
+            return (Vec::new(), Some(Rounds { threshold, min_samples, max: s.aa_samples }), None)
+        }
+        AaMode::Auto { threshold, min_samples } => (threshold, min_samples),
+        _ => return (Vec::new(), None, None),
+    };
+    let errors = Mutex::new(Vec::new());
+    let stats =
+        for_tiles(ctx, tiles, |wk, tile| lock(&errors).extend(wk.pilot_tile(ctx.scene, tile, min_samples)), |_, _| {});
+    let mut errors = errors.into_inner().unwrap_or_else(|e| e.into_inner());
+    // In image order, whatever order the threads finished in: the same sums, the same choice.
+    errors.sort_unstable_by_key(|&(pixel, _)| pixel);
+    let errors: Vec<f32> = errors.into_iter().map(|(_, e)| e).collect();
+    let choice = choose(&errors, min_samples, threshold, s.aa_samples);
+    (stats, Some(Rounds::of(&choice)), Some(choice))
 }
 
 /// Splits each shared corner's heat equally between the pixels around it.
@@ -293,9 +320,10 @@ fn share_corner_heat(heat: &mut Heat, grid: &SlotHeat, w: u32, h: u32) {
 
 /// Merges the passes' per-thread counters (thread i of every pass is the same pool
 /// thread) and sums them over threads.
-fn merge_passes(passes: [PerThread; 3]) -> (Stats, Vec<Stats>, Vec<Vec<Span>>) {
-    let [mut per_thread, grid, main] = passes;
-    for pass in [grid, main] {
+fn merge_passes<const N: usize>(passes: [PerThread; N]) -> (Stats, Vec<Stats>, Vec<Vec<Span>>) {
+    let mut passes = passes.into_iter().filter(|p| !p.is_empty());
+    let mut per_thread = passes.next().unwrap_or_default();
+    for pass in passes {
         for (a, b) in per_thread.iter_mut().zip(pass) {
             // The passes' workers live one after the other: peak bytes, not the sum.
             let bytes = a.0.queue_bytes.max(b.0.queue_bytes);
@@ -355,24 +383,26 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let window = window(s, opts)?;
     let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
     let (focus_tiles, grid_tiles, pixel_tiles) = pass_tiles(s, &window);
-    let all_tiles = pixel_tiles.len() + grid_tiles.len() + focus_tiles.len();
+    let pilot_tiles = if matches!(s.aa_mode, AaMode::Auto { .. }) { tiles(w, h) } else { Vec::new() };
+    let all_tiles = pixel_tiles.len() + grid_tiles.len() + focus_tiles.len() + pilot_tiles.len();
     if let Some(pb) = &opts.progress {
         pb.set_length(all_tiles as u64);
     }
     let start = Instant::now();
     let ctx = Ctx { scene, opts, pool, wave: wave_size(scene), start, rays: AtomicU64::new(0) };
 
+    let (pilot_stats, rounds, auto) = rounds_pass(&ctx, &pilot_tiles);
     let (focus_stats, sharp, lens) = focus_pass(&ctx, &focus_tiles);
     let blur = s.dof_radius.is_some().then_some(CornerBlur { sharp: &sharp, lens: &lens });
     let (grid_stats, grid, grid_heat) = grid_pass(&ctx, &grid_tiles, blur.map(|b| b.lens));
     let (main_stats, pixels, mut heat, finished) =
-        pixel_pass(&ctx, &pixel_tiles, shared_grid.then_some(&grid[..]), blur);
+        pixel_pass(&ctx, &pixel_tiles, (shared_grid.then_some(&grid[..]), blur), rounds);
     let seconds = start.elapsed().as_secs_f64();
     if shared_grid {
         share_corner_heat(&mut heat, &grid_heat, w, h);
     }
 
-    let (stats, per_thread, spans) = merge_passes([focus_stats, grid_stats, main_stats]);
+    let (stats, per_thread, spans) = merge_passes([pilot_stats, focus_stats, grid_stats, main_stats]);
     let partial = stats.tiles < all_tiles as u64;
     let inside = |t: &Tile| {
         (t.x1.min(window.x1).saturating_sub(t.x0.max(window.x0)) as u64)
@@ -385,5 +415,5 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     } else {
         (image.crop(&window), heat.crop(w, &window))
     };
-    Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial, finished_pixels })
+    Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial, finished_pixels, auto })
 }

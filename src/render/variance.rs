@@ -1,6 +1,11 @@
 //! The variance-driven anti-aliasing rounds of a tile: a first round of `min_samples`
 //! in every pixel, then rounds of up to `min_samples` more in the pixels the converge
 //! stage keeps, until none is left or every one has `render.aa.samples`.
+//!
+//! `render.aa.mode = "auto"` first runs a pilot: one round in one pixel of every 8×8
+//! block of the whole image (whatever the crop, so every crop and thread count makes
+//! the same choice), whose errors [`choose`] turns into the rounds of the render:
+//! variance's, or one round of N samples everywhere, which is uniform sampling.
 
 use std::time::Instant;
 
@@ -10,10 +15,10 @@ use super::Worker;
 use crate::accel::Traversal;
 use crate::film::Tile;
 use crate::queue::VarianceQueues;
-use crate::scene::{AaMode, Scene};
+use crate::scene::Scene;
 use crate::stages::camera::{self, Lens, VariancePass};
 use crate::stages::converge;
-use crate::stats::Stage;
+use crate::stats::{AutoChoice, Stage};
 
 /// A worker's variance-AA buffers, reused from tile to tile.
 #[derive(Default)]
@@ -35,11 +40,103 @@ impl VarianceState {
     }
 }
 
+/// The rounds of a variance-driven render: a pixel stops once its error is below
+/// `threshold` or it has `max` samples; rounds add up to `min_samples`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rounds {
+    /// The error below which a pixel stops.
+    pub threshold: f32,
+    /// Samples per round.
+    pub min_samples: u32,
+    /// The most samples a pixel gets.
+    pub max: u32,
+}
+
+/// Side of the blocks the pilot takes one pixel of.
+pub const PILOT_BLOCK: u32 = 8;
+
+/// What variance sampling is charged for, beyond its predicted samples, before it is
+/// preferred: the 3×3 neighbourhood its rounds also sample, and the stratification over
+/// the pixel's whole count that uniform sampling has and separate rounds lose (edges
+/// converge faster than 1/√n under uniform stratification).
+pub const VARIANCE_MARGIN: f64 = 1.5;
+
+/// The auto mode's decision from the pilot's errors (each pixel's [`converge::pixel_error`]
+/// after `n0` samples, in a fixed order). Error falls as 1/√n, so under variance sampling
+/// pixel p would take n_p = n0·(e_p/threshold)² samples (rounded up to whole rounds, in
+/// n0..=max) and keep a squared error of e_p²·n0/n_p; uniform sampling with N samples
+/// everywhere has the same mean squared error at N = mean(e²) / mean(e²/n_p). Variance
+/// sampling is chosen when its mean n_p times [`VARIANCE_MARGIN`] is below N; otherwise
+/// one round of N (in n0..=max) in every pixel. A noiseless pilot gives uniform n0.
+pub fn choose(errors: &[f32], n0: u32, threshold: f32, max: u32) -> AutoChoice {
+    let need = |e: f64| -> f64 {
+        let n = if threshold > 0.0 { n0 as f64 * (e / threshold as f64).powi(2) } else { f64::INFINITY };
+        let rounds = (n / n0 as f64).ceil().max(1.0);
+        (rounds * n0 as f64).min(max as f64)
+    };
+    let m = errors.len().max(1) as f64;
+    let e2: Vec<f64> = errors.iter().map(|&e| if e.is_finite() { (e as f64).powi(2) } else { 0.0 }).collect();
+    let variance_spp = errors.iter().map(|&e| need(e as f64)).sum::<f64>() / m * VARIANCE_MARGIN;
+    let mean_e2 = e2.iter().sum::<f64>() / m;
+    let kept = e2.iter().zip(errors).map(|(&e2, &e)| e2 / need(e as f64)).sum::<f64>() / m;
+    let uniform_spp = if mean_e2 > 0.0 { mean_e2 / kept } else { n0 as f64 };
+    let pilot_pixels = errors.len();
+    let choice =
+        AutoChoice { chose: "variance", threshold, min_samples: n0, max, pilot_pixels, variance_spp, uniform_spp };
+    if variance_spp < uniform_spp {
+        return choice;
+    }
+    let n = (uniform_spp.ceil() as u32).clamp(n0, max);
+    AutoChoice { chose: "uniform", threshold: 0.0, min_samples: n, max: n, ..choice }
+}
+
+impl Rounds {
+    /// The rounds an auto choice renders.
+    pub fn of(c: &AutoChoice) -> Rounds {
+        Rounds { threshold: c.threshold, min_samples: c.min_samples, max: c.max }
+    }
+}
+
 impl Worker<'_> {
-    /// Variance-driven AA on one tile.
-    pub(super) fn variance_tile(&mut self, scene: &Scene, tile: &Tile) {
-        let AaMode::Variance { threshold, min_samples } = scene.settings.aa_mode else { return };
-        let (np, max, dof) = (tile.pixels(), scene.settings.aa_samples, scene.settings.dof_samples as u64);
+    /// The auto mode's pilot over one tile: one round of `n0` samples in the tile's
+    /// pilot pixels (one per 8×8 block of the image). Returns (image pixel, error) pairs.
+    pub(super) fn pilot_tile(&mut self, scene: &Scene, tile: &Tile, n0: u32) -> Vec<(u32, f32)> {
+        let (np, dof) = (tile.pixels(), scene.settings.dof_samples as u64);
+        let tw = tile.x1 - tile.x0;
+        let at = |p: u32| (tile.x0 + p % tw, tile.y0 + p / tw);
+        let half = PILOT_BLOCK / 2;
+        let v = &mut self.var;
+        converge::start(np, &mut v.queues);
+        v.queues.active.index.retain(|&p| {
+            let (x, y) = at(p);
+            x % PILOT_BLOCK == half && y % PILOT_BLOCK == half
+        });
+        let queue = &v.queues.active.index;
+        if queue.is_empty() {
+            return Vec::new();
+        }
+        lens_starts(&mut v.starts, queue.len(), |_| n0 as u64 * dof);
+        self.pipe.acc.begin(2 * np);
+        let pass = VariancePass { tile, pixels: queue, state: &v.queues.state };
+        let lens = Lens::PerPoint(&v.starts);
+        self.pipe.run(scene, lens.total(queue.len()), Kind::Camera, |ks, rays| {
+            camera::generate_variance(scene, pass, lens, ks, rays)
+        });
+        let sums = &self.pipe.acc.sums;
+        queue
+            .iter()
+            .map(|&p| {
+                let (x, y) = at(p);
+                let p = p as usize;
+                (y * scene.settings.width + x, converge::pixel_error(sums[2 * p], sums[2 * p + 1], n0))
+            })
+            .collect()
+    }
+
+    /// Variance-driven AA on one tile, in `rounds`.
+    pub(super) fn variance_tile(&mut self, scene: &Scene, tile: &Tile, rounds: Rounds) {
+        let Rounds { threshold, min_samples, max } = rounds;
+        let (np, dof) = (tile.pixels(), scene.settings.dof_samples as u64);
         let width = (tile.x1 - tile.x0) as usize;
         let v = &mut self.var;
         converge::start(np, &mut v.queues);
@@ -70,5 +167,29 @@ impl Worker<'_> {
         self.pipe.meter.stats.aa_refined_pixels += state.rounds.iter().filter(|&&r| r > 1).count() as u64;
         converge::finish(&v.queues, &mut self.tile.out);
         self.tile.heat.level.copy_from_slice(&state.rounds);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn choose_prefers_variance_where_error_is_concentrated() {
+        // 1 pixel in 100 ten times the threshold: variance gives it 100·16 → 256
+        // (max), the others 16; uniform needs far more for the same mean error.
+        let mut errors = vec![0.001; 99];
+        errors.push(0.1);
+        let c = choose(&errors, 16, 0.01, 256);
+        assert_eq!(c.chose, "variance", "{c:?}");
+        assert_eq!(Rounds::of(&c), Rounds { threshold: 0.01, min_samples: 16, max: 256 });
+        assert!((c.variance_spp - (99.0 * 16.0 + 256.0) / 100.0 * VARIANCE_MARGIN).abs() < 1e-9);
+        // Even error: every pixel needs the same, uniform gives it without the margin.
+        let c = choose(&[0.02; 100], 16, 0.01, 256);
+        assert_eq!(c.chose, "uniform", "{c:?}");
+        assert_eq!(Rounds::of(&c), Rounds { threshold: 0.0, min_samples: 64, max: 64 });
+        // Noiseless: uniform at the pilot's count.
+        let c = choose(&[0.0; 10], 16, 0.01, 256);
+        assert_eq!((c.chose, c.max), ("uniform", 16));
     }
 }

@@ -82,12 +82,14 @@ impl Default for RenderDesc {
 #[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct AaDesc {
-    /// Sampling mode: "uniform", "adaptive" (the paper's corners) or "variance"
-    /// (per-pixel error from two half-buffers; default "uniform").
+    /// Sampling mode: "uniform", "adaptive" (the paper's corners), "variance" (per-pixel
+    /// error from two half-buffers) or "auto" (uniform or variance, as a pilot pass
+    /// predicts is cheaper to `threshold`; default "uniform").
     pub mode: SamplingDesc,
     /// Uniform: stratified samples per pixel; variance: the most a pixel gets (default 16).
     pub samples: u32,
-    /// Variance: a pixel stops once its estimated error falls below this (default 0.01).
+    /// Variance: a pixel stops once its estimated error falls below this; auto: the
+    /// error aimed at (default 0.01).
     pub threshold: f32,
     /// Variance: samples every pixel gets before its error is first estimated, and the
     /// samples added to each unconverged pixel per round (default 16).
@@ -169,7 +171,7 @@ pub enum BvhDesc {
 }
 
 /// `render.aa.mode` and `render.shadows.mode`: "uniform", "adaptive" or (anti-aliasing
-/// only) "variance".
+/// only) "variance" and "auto".
 #[derive(Deserialize, Serialize, Debug, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum SamplingDesc {
@@ -179,6 +181,8 @@ pub enum SamplingDesc {
     Adaptive,
     /// Anti-aliasing only: more samples where two half-buffers disagree.
     Variance,
+    /// Anti-aliasing only: uniform or variance, chosen by a pilot pass.
+    Auto,
 }
 
 /// `render.shadows.probe`: the rays of the adaptive shadow-corner test.

@@ -57,6 +57,15 @@ pub enum AaMode {
         /// Samples of the first round and of every later one (the last may be cut short).
         min_samples: u32,
     },
+    /// Uniform or variance-driven, whichever a pilot pass (`min_samples` in one pixel of
+    /// every 8×8 block) predicts reaches the error `threshold` with fewer samples; see
+    /// `render::variance::choose`.
+    Auto {
+        /// The error aimed at, in the variance mode's measure.
+        threshold: f32,
+        /// The pilot's samples, and the variance mode's rounds.
+        min_samples: u32,
+    },
 }
 
 /// How shadow rays towards quad lights are placed.

@@ -174,7 +174,7 @@ fn image_size(r: &RenderDesc, ctx: &Ctx) -> Result<()> {
 fn aa_mode(aa: &AaDesc, ctx: &Ctx) -> Result<AaMode> {
     Ok(match aa.mode {
         SamplingDesc::Uniform => AaMode::Uniform,
-        SamplingDesc::Variance => {
+        SamplingDesc::Variance | SamplingDesc::Auto => {
             if !(aa.threshold >= 0.0 && aa.threshold.is_finite()) {
                 return Err(ctx.fail("render.aa.threshold", format!("{} must be finite and >= 0", aa.threshold)));
             }
@@ -189,7 +189,12 @@ fn aa_mode(aa: &AaDesc, ctx: &Ctx) -> Result<AaMode> {
                     ctx.fail(path, format!("min_samples ({}) must be in 2..=samples ({})", aa.min_samples, aa.samples))
                 );
             }
-            AaMode::Variance { threshold: aa.threshold, min_samples: aa.min_samples }
+            let (threshold, min_samples) = (aa.threshold, aa.min_samples);
+            if aa.mode == SamplingDesc::Auto {
+                AaMode::Auto { threshold, min_samples }
+            } else {
+                AaMode::Variance { threshold, min_samples }
+            }
         }
         SamplingDesc::Adaptive => {
             if aa.eps < 0.0 {
@@ -234,10 +239,10 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     let shadow_mode = match r.shadows.mode {
         SamplingDesc::Uniform => ShadowMode::Uniform,
         SamplingDesc::Adaptive => ShadowMode::Adaptive(probe),
-        SamplingDesc::Variance => {
+        SamplingDesc::Variance | SamplingDesc::Auto => {
             return Err(ctx.fail(
                 "render.shadows.mode",
-                "\"variance\" is an anti-aliasing mode; shadows are \"uniform\" or \"adaptive\"",
+                "\"variance\" and \"auto\" are anti-aliasing modes; shadows are \"uniform\" or \"adaptive\"",
             ))
         }
     };
@@ -256,7 +261,7 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     }
     let dof_samples = if cam.aperture > 0.0 { r.dof.samples } else { 1 };
     let per_pixel = match aa_mode {
-        AaMode::Uniform | AaMode::Variance { .. } => r.aa.samples as u64,
+        AaMode::Uniform | AaMode::Variance { .. } | AaMode::Auto { .. } => r.aa.samples as u64,
         AaMode::Adaptive { max_level, .. } => 1u64 << max_level,
     };
     if per_pixel * dof_samples as u64 > u32::MAX as u64 {
