@@ -181,28 +181,24 @@ fn adaptive_aa_converges_to_the_uniform_reference() {
 }
 
 #[test]
-fn adaptive_modes_are_bit_identical_across_thread_counts() {
-    let sets = ["render.width=40", "render.height=30", "render.aa.mode=adaptive", "render.shadows.mode=adaptive"];
-    let a = render_text(wavetrace::DEFAULT_SCENE, &sets, 1);
-    let b = render_text(wavetrace::DEFAULT_SCENE, &sets, 2);
-    let bits = |i: &Image| i.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect::<Vec<_>>();
-    assert!(bits(&a.image) == bits(&b.image));
-    assert_eq!(a.heat, b.heat);
-    assert_eq!(a.stats.total_rays(), b.stats.total_rays());
-}
-
-#[test]
-fn variance_aa_is_bit_identical_across_thread_counts() {
-    let sets = ["render.width=40", "render.height=30", "render.aa.mode=variance", "render.aa.samples=24"];
-    let sets = [&sets[..], &["render.aa.min_samples=6", "render.aa.threshold=0.02"]].concat();
-    let a = render_text(wavetrace::DEFAULT_SCENE, &sets, 1);
-    let b = render_text(wavetrace::DEFAULT_SCENE, &sets, 2);
-    let bits = |i: &Image| i.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect::<Vec<_>>();
-    assert!(bits(&a.image) == bits(&b.image));
-    assert_eq!(a.heat, b.heat);
-    assert_eq!(a.stats.total_rays(), b.stats.total_rays());
-    // Some pixels stop after the first round and some go on: the test decides.
-    assert!(a.heat.level.contains(&1) && a.heat.level.iter().any(|&r| r > 1), "{:?}", a.heat.level);
+fn adaptive_and_variance_modes_are_bit_identical_across_thread_counts() {
+    let size = ["render.width=40", "render.height=30"];
+    let adaptive = ["render.aa.mode=adaptive", "render.shadows.mode=adaptive"];
+    let variance =
+        ["render.aa.mode=variance", "render.aa.samples=24", "render.aa.min_samples=6", "render.aa.threshold=0.02"];
+    for mode in [&adaptive[..], &variance[..]] {
+        let sets = [&size[..], mode].concat();
+        let a = render_text(wavetrace::DEFAULT_SCENE, &sets, 1);
+        let b = render_text(wavetrace::DEFAULT_SCENE, &sets, 2);
+        let bits = |i: &Image| i.pixels.iter().flat_map(|p| p.to_array()).map(f32::to_bits).collect::<Vec<_>>();
+        assert!(bits(&a.image) == bits(&b.image), "{mode:?}");
+        assert_eq!(a.heat, b.heat);
+        assert_eq!(a.stats.total_rays(), b.stats.total_rays());
+        if mode == variance {
+            // Some pixels stop after the first round and some go on: the test decides.
+            assert!(a.heat.level.contains(&1) && a.heat.level.iter().any(|&r| r > 1), "{:?}", a.heat.level);
+        }
+    }
 }
 
 #[test]
