@@ -4,9 +4,10 @@
 
 use super::features::{self, Features};
 use super::manifest::{ScenePlan, Targets};
-use super::methods::Method;
+use super::methods::{Method, Needs};
 use super::search::{cheapest, targets_from_uniform, winner, worst_share, Cost, Entry};
 use super::{Choice, Counters, Pick, Row, SceneResult, StudyOptions, TargetResult};
+use crate::color::srgb_encode;
 use crate::film::Image;
 use crate::scene::load;
 use crate::tools::compare::metrics;
@@ -46,7 +47,8 @@ pub(super) fn scene(plan: &ScenePlan, opts: &StudyOptions, progress: &Progress) 
         Targets::Flip(_) => None,
     };
     features::from_rows(&mut feats, &rows, first_spp);
-    if plan.skipped.iter().any(|(m, why)| m == "adaptive-shadows" && why.contains("no quad or triangle light")) {
+    // No area light, no penumbra: known without the adaptive-shadow renders it skipped.
+    if feats.penumbra_fraction.is_none() && Needs::AreaLight.unmet(&base).is_some() {
         feats.penumbra_fraction = Some(0.0);
     }
     let result = SceneResult {
@@ -136,12 +138,15 @@ fn render_row(
     }
     let out = first.expect("runs >= 1");
     let m = metrics(&out.image, reference)?;
+    // Display values (clamped, sRGB), as FLIP sees them: in linear values a few bright
+    // pixels (a light's edge, a firefly) held nearly all the error of every scene.
+    let display = |v: f32| srgb_encode(v.clamp(0.0, 1.0)) as f64;
     let errors: Vec<f64> = out
         .image
         .pixels
         .iter()
         .zip(&reference.pixels)
-        .map(|(t, r)| (0..3).map(|c| (t[c] as f64 - r[c] as f64).powi(2)).sum())
+        .map(|(t, r)| (0..3).map(|c| (display(t[c]) - display(r[c])).powi(2)).sum())
         .collect();
     let row = Row {
         method: method.name,

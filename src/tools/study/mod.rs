@@ -139,7 +139,7 @@ pub struct Row {
     /// Error against the reference.
     #[serde(flatten)]
     pub metrics: Metrics,
-    /// Share of the squared error in the worst 10% of pixels.
+    /// Share of the squared error (display values: clamped, sRGB) in the worst 10% of pixels.
     pub worst10_share: f64,
     /// Adaptive counters.
     pub counters: Counters,

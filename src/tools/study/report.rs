@@ -261,11 +261,14 @@ fn scene_section(s: &SceneResult) -> String {
 #[cfg(feature = "plot")]
 fn plot(s: &SceneResult, path: &std::path::Path) -> Result<()> {
     use crate::tools::plot::{scatter_plot, Axis, Series};
-    let mut methods: Vec<&'static str> = s.rows.iter().map(|r| r.method).collect();
-    methods.dedup();
-    let series: Vec<Series> = methods
+    // A series for every method up to the last one rendered, empty where a method has no
+    // rows: the plot gives colours by position, so each method keeps its colour in every
+    // scene's plot (an empty series has no legend entry).
+    let last = super::methods::METHODS.iter().rposition(|m| s.rows.iter().any(|r| r.method == m.name)).unwrap_or(0);
+    let series: Vec<Series> = super::methods::METHODS[..=last]
         .iter()
-        .map(|&m| {
+        .map(|m| m.name)
+        .map(|m| {
             let rows: Vec<&Row> = s.rows.iter().filter(|r| r.method == m).collect();
             Series {
                 name: m.into(),

@@ -44,7 +44,10 @@ fn load_points(src: &SceneSource, sets: &[String], points: &[Vec<(String, String
 
 /// The cache file of a rendered reference in `out_dir`: named by a hash of everything
 /// that determines it (version, scene text and folder, sets, reference overrides), so
-/// the sweep and the study share a cached reference of the same scene and settings.
+/// the sweep and the study share a cached reference of the same scene and settings. An
+/// imported XML scene has no TOML text: its path, its bytes and its `-D` defines stand in
+/// (the files it includes are not read; without them every XML scene of a folder shared
+/// one cache file).
 pub(crate) fn reference_cache_path(
     out_dir: &Path,
     src: &SceneSource,
@@ -52,6 +55,16 @@ pub(crate) fn reference_cache_path(
     ref_overrides: &[String],
 ) -> PathBuf {
     let mut key = format!("wavetrace sweep reference\0{}\0", env!("CARGO_PKG_VERSION")).into_bytes();
+    if let Some(xml) = &src.xml {
+        key.extend_from_slice(xml.display().to_string().as_bytes());
+        key.push(0);
+        key.extend(std::fs::read(xml).unwrap_or_default());
+        key.push(0);
+        for (k, v) in &src.defines {
+            key.extend_from_slice(format!("{k}={v}").as_bytes());
+            key.push(0);
+        }
+    }
     for part in [src.text.as_str(), &src.dir.display().to_string()]
         .into_iter()
         .chain(sets.iter().map(String::as_str))
@@ -185,5 +198,24 @@ impl<'a> Plan<'a> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn xml_scenes_of_one_folder_get_their_own_cache_file() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (a, b) = (dir.path().join("a.xml"), dir.path().join("b.xml"));
+        std::fs::write(&a, "<scene version=\"3.0.0\"/>").expect("write");
+        std::fs::write(&b, "<scene version=\"3.0.0\"><!-- b --></scene>").expect("write");
+        let path = |p: &Path| {
+            let src = SceneSource::from_file(p).expect("source");
+            reference_cache_path(dir.path(), &src, &[], &["render.aa.samples=64".into()])
+        };
+        assert_ne!(path(&a), path(&b));
+        assert_eq!(path(&a), path(&a));
     }
 }
