@@ -6,7 +6,7 @@
 //! (exit 2). Numbers that must be at least 1 share one clap range ([`at_least_one`]).
 //!
 //! One module per subcommand: [`render`] (also what runs with no subcommand),
-//! [`compare`], [`sweep`], [`bench`], [`merge`].
+//! [`compare`], [`sweep`], [`study`], [`bench`], [`merge`].
 
 use clap::builder::{RangedU64ValueParser, TypedValueParser};
 use clap::error::ErrorKind;
@@ -21,6 +21,7 @@ pub mod bench;
 pub mod compare;
 pub mod merge;
 pub mod render;
+pub mod study;
 pub mod sweep;
 
 /// A wavefront CPU ray tracer with adaptive sampling, soft shadows, refraction and depth of field.
@@ -43,6 +44,9 @@ enum Command {
     /// Render the cross product of parameter values and measure each against a reference:
     /// DIR/sweep.csv, DIR/sweep.json and error-vs-rays / error-vs-seconds plots.
     Sweep(sweep::SweepArgs),
+    /// Where adaptive sampling pays: every method's cheapest setting per target FLIP, scene
+    /// by scene, against the scene features: DIR/study.md, study.csv, study.json and plots.
+    Study(study::StudyArgs),
     /// Trace fixed ray sets from a scene (primary, shadow, secondary) or a bare mesh with
     /// the packet, wide, interleaved, stream and hybrid kernels; print Mrays/s per set and kernel
     /// (median of --reps runs).
@@ -59,6 +63,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Some(Command::Render(a)) => render::run(a),
         Some(Command::Compare(a)) => compare::run(a).map(|_| 0),
         Some(Command::Sweep(a)) => sweep::run(a).map(|_| 0),
+        Some(Command::Study(a)) => study::run(a).map(|_| 0),
         Some(Command::Bench(a)) => bench::run(a).map(|_| 0),
         Some(Command::Merge(a)) => merge::run(a),
         None => render::run(cli.render),

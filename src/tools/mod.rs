@@ -8,6 +8,8 @@
 //! - [`compare`]: image error metrics (RMSE, relative MSE, PSNR, mean FLIP);
 //! - `flip`: NVIDIA's LDR-FLIP perceptual difference (feature `flip`);
 //! - [`sweep`]: error against rays and seconds over a cross product of settings;
+//! - [`study`]: where adaptive sampling pays: each method's cheapest setting per target
+//!   error, scene by scene, against the scene features;
 //! - `plot`: the sweep's scatter plots (feature `plot`);
 //! - [`bench`](mod@bench): traversal-kernel throughput on fixed ray sets;
 //! - [`merge`]: tile headers, and the exact merge of a render's tiles.
@@ -25,4 +27,5 @@ pub mod merge;
 pub mod output;
 #[cfg(feature = "plot")]
 pub mod plot;
+pub mod study;
 pub mod sweep;

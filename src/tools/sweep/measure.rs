@@ -6,10 +6,10 @@ use std::path::Path;
 use super::plan::{Plan, ReferenceSource};
 use super::{describe, overrides, Mode, Point, ReferenceInfo};
 use crate::film::Image;
-use crate::scene::load;
+use crate::scene::{load, SceneSource};
 use crate::tools::compare::metrics;
 use crate::tools::output::write_image;
-use crate::{render, Error, RenderOptions, Result};
+use crate::{render, Error, RenderOptions, RenderOutput, Result};
 
 impl Plan<'_> {
     /// The reference image and its report: the image at hand, or a new render written to
@@ -32,9 +32,7 @@ impl Plan<'_> {
             Some(img) => img,
             None => {
                 progress.say("reference".into());
-                let scene = load(&self.src, &self.reference_sets(&info.overrides))?;
-                let out = render(&scene, render_opts)?;
-                write_image(&info.path, &out.image)?;
+                let out = render_reference(&self.src, &self.reference_sets(&info.overrides), &info.path, render_opts)?;
                 progress.step();
                 info.rendered = true;
                 info.seconds = Some(out.seconds);
@@ -82,13 +80,27 @@ impl Plan<'_> {
     }
 }
 
+/// Loads the scene with `sets` (the reference's), renders it and writes the image to the
+/// cache file `path`.
+pub(crate) fn render_reference(
+    src: &SceneSource,
+    sets: &[String],
+    path: &Path,
+    render_opts: &RenderOptions,
+) -> Result<RenderOutput> {
+    let scene = load(src, sets)?;
+    let out = render(&scene, render_opts)?;
+    write_image(path, &out.image)?;
+    Ok(out)
+}
+
 /// The optional progress bar over the renders: one step per render, the current point as
 /// its message.
-pub(super) struct Progress(Option<indicatif::ProgressBar>);
+pub(crate) struct Progress(Option<indicatif::ProgressBar>);
 
 impl Progress {
     /// A bar of `renders` steps when `show` is set; otherwise nothing is drawn.
-    pub(super) fn new(show: bool, renders: u64) -> Progress {
+    pub(crate) fn new(show: bool, renders: u64) -> Progress {
         Progress(show.then(|| {
             let pb = indicatif::ProgressBar::new(renders);
             pb.set_style(
@@ -104,21 +116,21 @@ impl Progress {
     }
 
     /// Names the render under way.
-    pub(super) fn say(&self, msg: String) {
+    pub(crate) fn say(&self, msg: String) {
         if let Some(pb) = &self.0 {
             pb.set_message(msg);
         }
     }
 
     /// Counts one render done.
-    pub(super) fn step(&self) {
+    pub(crate) fn step(&self) {
         if let Some(pb) = &self.0 {
             pb.inc(1);
         }
     }
 
     /// Removes the bar once every render is done.
-    pub(super) fn finish(&self) {
+    pub(crate) fn finish(&self) {
         if let Some(pb) = &self.0 {
             pb.finish_and_clear();
         }

@@ -32,7 +32,6 @@ use crate::tools::output::{check_output, write_text};
 #[cfg(feature = "plot")]
 use crate::tools::plot::{scatter_plot, Axis, Series};
 use crate::{Error, RenderOptions, Result};
-use measure::Progress;
 use plan::Plan;
 
 /// Default `--reference-spp`.
@@ -320,7 +319,7 @@ pub fn reference_overrides(base: &Settings, params: &[(String, Vec<String>)], sp
 }
 
 /// The cross product of the params' values, the first key varying slowest.
-fn cross_product(params: &[(String, Vec<String>)]) -> Vec<Vec<(String, String)>> {
+pub(crate) fn cross_product(params: &[(String, Vec<String>)]) -> Vec<Vec<(String, String)>> {
     let mut points = vec![Vec::new()];
     for (key, values) in params {
         points = points
@@ -351,7 +350,7 @@ fn overrides(sets: &[String], point: &[(String, String)]) -> Vec<String> {
 }
 
 /// Creates the output folder if missing; its parent must exist.
-fn prepare_dir(dir: &Path) -> Result<()> {
+pub(crate) fn prepare_dir(dir: &Path) -> Result<()> {
     if dir.is_dir() {
         return Ok(());
     }
@@ -369,7 +368,7 @@ fn prepare_dir(dir: &Path) -> Result<()> {
 }
 
 /// Serializes pairs as a JSON object, keeping their order.
-fn ordered_map<S: Serializer, K: AsRef<str>, V: Serialize>(
+pub(crate) fn ordered_map<S: Serializer, K: AsRef<str>, V: Serialize>(
     pairs: &[(K, V)],
     ser: S,
 ) -> std::result::Result<S::Ok, S::Error> {
@@ -465,6 +464,10 @@ fn mark_pareto(rows: &mut [Point]) {
 mod measure;
 mod plan;
 mod report;
+
+pub(crate) use measure::{render_reference, Progress};
+pub(crate) use plan::{cached_reference, reference_cache_path};
+pub(crate) use report::csv_field;
 
 #[cfg(test)]
 mod tests {

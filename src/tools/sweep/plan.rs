@@ -1,7 +1,7 @@
 //! The checks a sweep makes before its first render: the params, every point's settings,
 //! and where the reference comes from with its size, so a bad value costs no render time.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::{cross_product, describe, fnv1a64, overrides, reference_overrides, Reference, SweepOptions};
 use crate::film::Image;
@@ -42,6 +42,49 @@ fn load_points(src: &SceneSource, sets: &[String], points: &[Vec<(String, String
     Ok(settings)
 }
 
+/// The cache file of a rendered reference in `out_dir`: named by a hash of everything
+/// that determines it (version, scene text and folder, sets, reference overrides), so
+/// the sweep and the study share a cached reference of the same scene and settings. An
+/// imported XML scene has no TOML text: its path, its bytes and its `-D` defines stand in
+/// (the files it includes are not read; without them every XML scene of a folder shared
+/// one cache file).
+pub(crate) fn reference_cache_path(
+    out_dir: &Path,
+    src: &SceneSource,
+    sets: &[String],
+    ref_overrides: &[String],
+) -> PathBuf {
+    let mut key = format!("wavetrace sweep reference\0{}\0", env!("CARGO_PKG_VERSION")).into_bytes();
+    if let Some(xml) = &src.xml {
+        key.extend_from_slice(xml.display().to_string().as_bytes());
+        key.push(0);
+        key.extend(std::fs::read(xml).unwrap_or_default());
+        key.push(0);
+        for (k, v) in &src.defines {
+            key.extend_from_slice(format!("{k}={v}").as_bytes());
+            key.push(0);
+        }
+    }
+    for part in [src.text.as_str(), &src.dir.display().to_string()]
+        .into_iter()
+        .chain(sets.iter().map(String::as_str))
+        .chain(ref_overrides.iter().map(String::as_str))
+    {
+        key.extend_from_slice(part.as_bytes());
+        key.push(0);
+    }
+    out_dir.join(format!("reference-{:016x}.exr", fnv1a64(&key)))
+}
+
+/// The cached reference at `path` when it can be read back and is `size`; `None` (render
+/// it anew) otherwise.
+pub(crate) fn cached_reference(path: &Path, size: (u32, u32)) -> Option<Image> {
+    if !path.is_file() {
+        return None;
+    }
+    load_linear(path).ok().filter(|i| (i.width, i.height) == size)
+}
+
 /// A sweep whose every point has loaded: what the later steps render from.
 pub(super) struct Plan<'a> {
     /// What was asked.
@@ -75,8 +118,8 @@ impl ReferenceSource {
     /// Takes the cached render when it can be read back and has the right size; otherwise
     /// the reference is rendered anew.
     pub(super) fn load_cached(&mut self) {
-        if self.image.is_none() && self.spp.is_some() && self.path.is_file() {
-            self.image = load_linear(&self.path).ok().filter(|i| (i.width, i.height) == self.size);
+        if self.image.is_none() && self.spp.is_some() {
+            self.image = cached_reference(&self.path, self.size);
         }
     }
 }
@@ -101,19 +144,9 @@ impl<'a> Plan<'a> {
         self.opts.sets.iter().chain(overrides).cloned().collect()
     }
 
-    /// The cache file of a rendered reference: named by a hash of everything that
-    /// determines it (version, scene text and folder, sets, reference overrides).
+    /// The cache file of a rendered reference; see [`reference_cache_path`].
     fn cache_path(&self, ref_overrides: &[String]) -> PathBuf {
-        let mut key = format!("wavetrace sweep reference\0{}\0", env!("CARGO_PKG_VERSION")).into_bytes();
-        for part in [self.src.text.as_str(), &self.src.dir.display().to_string()]
-            .into_iter()
-            .chain(self.opts.sets.iter().map(String::as_str))
-            .chain(ref_overrides.iter().map(String::as_str))
-        {
-            key.extend_from_slice(part.as_bytes());
-            key.push(0);
-        }
-        self.opts.out_dir.join(format!("reference-{:016x}.exr", fnv1a64(&key)))
+        reference_cache_path(&self.opts.out_dir, &self.src, &self.opts.sets, ref_overrides)
     }
 
     /// Where the reference comes from and its size, found without rendering: the given
@@ -165,5 +198,24 @@ impl<'a> Plan<'a> {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn xml_scenes_of_one_folder_get_their_own_cache_file() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (a, b) = (dir.path().join("a.xml"), dir.path().join("b.xml"));
+        std::fs::write(&a, "<scene version=\"3.0.0\"/>").expect("write");
+        std::fs::write(&b, "<scene version=\"3.0.0\"><!-- b --></scene>").expect("write");
+        let path = |p: &Path| {
+            let src = SceneSource::from_file(p).expect("source");
+            reference_cache_path(dir.path(), &src, &[], &["render.aa.samples=64".into()])
+        };
+        assert_ne!(path(&a), path(&b));
+        assert_eq!(path(&a), path(&a));
     }
 }

@@ -3,7 +3,7 @@
 use super::*;
 
 /// Quotes a CSV field when it holds a comma, a quote or a line break (RFC 4180).
-pub(super) fn csv_field(s: &str) -> String {
+pub(crate) fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {

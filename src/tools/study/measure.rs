@@ -1,0 +1,244 @@
+//! The renders of one scene: its reference (cached, shared with the sweep), every
+//! method's grid, each measured against the reference; then the scene's targets, picks,
+//! winners and features.
+
+use super::features::{self, Features};
+use super::manifest::{ScenePlan, Targets};
+use super::methods::{Method, Needs};
+use super::search::{cheapest, targets_from_uniform, winner, worst_share, Cost, Entry};
+use super::{Choice, Counters, Pick, Row, SceneResult, StudyOptions, TargetResult};
+use crate::color::srgb_encode;
+use crate::film::Image;
+use crate::scene::load;
+use crate::tools::compare::metrics;
+use crate::tools::sweep::{
+    cached_reference, pareto_front, reference_cache_path, render_reference, Progress, ReferenceInfo,
+};
+use crate::{RenderOptions, Result};
+
+/// Renders and measures one scene. Also returns the worker threads of its renders.
+pub(super) fn scene(plan: &ScenePlan, opts: &StudyOptions, progress: &Progress) -> Result<(SceneResult, usize)> {
+    let render_opts = RenderOptions { threads: opts.threads, ..Default::default() };
+    let base = load(&plan.src, &plan.sets)?;
+    let size = (base.settings.width, base.settings.height);
+    let (reference, info) = reference(plan, size, &opts.out_dir, &render_opts, progress)?;
+    let (mut rows, mut notes, mut threads) = (Vec::new(), Vec::new(), opts.threads.unwrap_or(0));
+    for m in &plan.methods {
+        for point in &m.points {
+            progress.say(format!("{} {}", plan.name, m.method.name));
+            match render_row(m.method, point, plan, &reference, &render_opts, opts.runs) {
+                Ok((row, t)) => {
+                    rows.push(row);
+                    threads = t;
+                }
+                // A combination the per-value check could not see (or a size mismatch):
+                // reported, not fatal, so one bad point costs no finished renders.
+                Err(e) => notes.push(format!("{} {}: skipped: {e}", m.method.name, describe(point))),
+            }
+            progress.step();
+        }
+    }
+    mark_pareto(&mut rows);
+    let targets = targets(plan, &rows);
+    let mut feats = Features { path: base.settings.path(), ..Features::default() };
+    (feats.glossy_fraction, feats.coc_spread, feats.coc_mean_px) = features::probe(&base);
+    let first_spp = match &plan.targets {
+        Targets::UniformSpp(spp) => spp.first().copied(),
+        Targets::Flip(_) => None,
+    };
+    features::from_rows(&mut feats, &rows, first_spp);
+    // No area light, no penumbra: known without the adaptive-shadow renders it skipped.
+    if feats.penumbra_fraction.is_none() && Needs::AreaLight.unmet(&base).is_some() {
+        feats.penumbra_fraction = Some(0.0);
+    }
+    let result = SceneResult {
+        name: plan.name.clone(),
+        file: plan.file.clone(),
+        held_out: plan.held_out,
+        sets: plan.sets.clone(),
+        size,
+        reference: info,
+        features: feats,
+        targets: targets.iter().map(|(label, flip)| answer(label, *flip, plan, &rows)).collect(),
+        skipped: plan.skipped.clone(),
+        notes,
+        rows,
+    };
+    Ok((result, threads))
+}
+
+/// `k=v k=v` for notes.
+fn describe(point: &[(String, String)]) -> String {
+    point.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")
+}
+
+/// The scene's reference: the cached render when it is there and the right size, else a
+/// new render written to the cache.
+fn reference(
+    plan: &ScenePlan,
+    size: (u32, u32),
+    out_dir: &std::path::Path,
+    render_opts: &RenderOptions,
+    progress: &Progress,
+) -> Result<(Image, ReferenceInfo)> {
+    let overrides = vec![
+        "render.aa.mode=uniform".to_string(),
+        format!("render.aa.samples={}", plan.reference_spp),
+        "render.shadows.mode=uniform".to_string(),
+        format!("render.shadows.samples={}", plan.reference_shadow_samples),
+    ];
+    let path = reference_cache_path(out_dir, &plan.src, &plan.sets, &overrides);
+    let mut info = ReferenceInfo {
+        path: path.clone(),
+        spp: Some(plan.reference_spp),
+        rendered: false,
+        overrides: overrides.clone(),
+        seconds: None,
+        total_rays: None,
+    };
+    if let Some(image) = cached_reference(&path, size) {
+        progress.step();
+        return Ok((image, info));
+    }
+    progress.say(format!("{} reference", plan.name));
+    let sets: Vec<String> = plan.sets.iter().chain(&overrides).cloned().collect();
+    let out = render_reference(&plan.src, &sets, &path, render_opts)?;
+    progress.step();
+    info.rendered = true;
+    info.seconds = Some(out.seconds);
+    info.total_rays = Some(out.stats.total_rays());
+    Ok((out.image, info))
+}
+
+/// Renders one setting of `method` `runs` times and measures the first image (every
+/// run's image is the same: renders are deterministic).
+fn render_row(
+    method: &'static Method,
+    point: &[(String, String)],
+    plan: &ScenePlan,
+    reference: &Image,
+    render_opts: &RenderOptions,
+    runs: u32,
+) -> Result<(Row, usize)> {
+    // The scene's sets, then the method's, then the point's: later ones win.
+    let sets: Vec<String> = plan
+        .sets
+        .iter()
+        .cloned()
+        .chain(method.fixed.iter().map(|f| f.to_string()))
+        .chain(point.iter().map(|(k, v)| format!("{k}={v}")))
+        .collect();
+    let scene = load(&plan.src, &sets)?;
+    let mut secs = Vec::with_capacity(runs as usize);
+    let mut first = None;
+    for _ in 0..runs {
+        let out = crate::render(&scene, render_opts)?;
+        secs.push(out.seconds);
+        first.get_or_insert(out);
+    }
+    let out = first.expect("runs >= 1");
+    let m = metrics(&out.image, reference)?;
+    // Display values (clamped, sRGB), as FLIP sees them: in linear values a few bright
+    // pixels (a light's edge, a firefly) held nearly all the error of every scene.
+    let display = |v: f32| srgb_encode(v.clamp(0.0, 1.0)) as f64;
+    let errors: Vec<f64> = out
+        .image
+        .pixels
+        .iter()
+        .zip(&reference.pixels)
+        .map(|(t, r)| (0..3).map(|c| (display(t[c]) - display(r[c])).powi(2)).sum())
+        .collect();
+    let row = Row {
+        method: method.name,
+        params: point.to_vec(),
+        total_rays: out.stats.total_rays(),
+        rays: out.stats.kinds().iter().map(|&(k, n)| (k.to_string(), n)).collect(),
+        seconds: median(&secs),
+        runs: secs,
+        metrics: m,
+        worst10_share: worst_share(&errors, 0.1),
+        counters: Counters::of(&out.stats),
+        pareto_seconds: false,
+        pareto_rays: false,
+    };
+    Ok((row, out.per_thread.len()))
+}
+
+/// The median (the mean of the middle two for an even count); NaN for none.
+pub(super) fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => s[n / 2],
+        n => (s[n / 2 - 1] + s[n / 2]) / 2.0,
+    }
+}
+
+/// Marks each row's place on its method's Pareto fronts in FLIP.
+fn mark_pareto(rows: &mut [Row]) {
+    let mut methods: Vec<&'static str> = rows.iter().map(|r| r.method).collect();
+    methods.dedup();
+    for name in methods {
+        let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].method == name).collect();
+        let secs = pareto_front(&idx.iter().map(|&i| (rows[i].seconds, rows[i].metrics.flip)).collect::<Vec<_>>());
+        let rays =
+            pareto_front(&idx.iter().map(|&i| (rows[i].total_rays as f64, rows[i].metrics.flip)).collect::<Vec<_>>());
+        for (k, &i) in idx.iter().enumerate() {
+            rows[i].pareto_seconds = secs[k];
+            rows[i].pareto_rays = rays[k];
+        }
+    }
+}
+
+/// The scene's targets, each with where it comes from.
+fn targets(plan: &ScenePlan, rows: &[Row]) -> Vec<(String, f64)> {
+    match &plan.targets {
+        Targets::Flip(t) => t.iter().map(|&f| ("given".to_string(), f)).collect(),
+        Targets::UniformSpp(spp) => {
+            let uniform: Vec<(u32, f64)> = rows
+                .iter()
+                .filter(|r| r.method == "uniform")
+                .filter_map(|r| Some((r.param("render.aa.samples")?.parse().ok()?, r.metrics.flip)))
+                .collect();
+            targets_from_uniform(&uniform, spp).into_iter().map(|(n, f)| (format!("uniform {n} spp"), f)).collect()
+        }
+    }
+}
+
+/// Every method's cheapest settings for one target, and the winners.
+fn answer(label: &str, flip: f64, plan: &ScenePlan, rows: &[Row]) -> TargetResult {
+    let pick = |idx: &[usize], cost: Cost| {
+        let measures: Vec<_> = idx.iter().map(|&i| rows[i].measure()).collect();
+        cheapest(&measures, flip, cost).map(|k| {
+            let r = &rows[idx[k]];
+            Pick { row: idx[k], setting: r.setting(), seconds: r.seconds, rays: r.total_rays, flip: r.metrics.flip }
+        })
+    };
+    let choices: Vec<Choice> = plan
+        .methods
+        .iter()
+        .map(|m| {
+            let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].method == m.method.name).collect();
+            Choice { method: m.method.name, by_seconds: pick(&idx, Cost::Seconds), by_rays: pick(&idx, Cost::Rays) }
+        })
+        .collect();
+    let win = |cost: Cost| {
+        let entries: Vec<Entry> = choices
+            .iter()
+            .enumerate()
+            .filter_map(|(i, c)| {
+                let p = if cost == Cost::Seconds { c.by_seconds.as_ref() } else { c.by_rays.as_ref() }?;
+                Some(Entry { method: i, measure: rows[p.row].measure() })
+            })
+            .collect();
+        winner(&entries, cost).map(|i| choices[i].method)
+    };
+    TargetResult {
+        label: label.to_string(),
+        flip,
+        winner_seconds: win(Cost::Seconds),
+        winner_rays: win(Cost::Rays),
+        choices,
+    }
+}
