@@ -396,24 +396,25 @@ pub struct SceneReport {
     pub notes: Vec<String>,
 }
 
-/// What `render.aa.mode = "auto"` chose from its pilot pass, and the prediction behind it
-/// (see `render::choose`).
+/// What `render.aa.mode = "auto"` chose, why, and the pilot's prediction behind it (see
+/// `render::variance_pays` and `render::uniform_samples`).
 #[derive(Serialize, Debug, Clone, PartialEq)]
 pub struct AutoChoice {
     /// "uniform" or "variance".
     pub chose: &'static str,
+    /// Why.
+    pub why: &'static str,
     /// The rounds rendered: a pixel stops below this error (0 for uniform) ...
     pub threshold: f32,
     /// ... rounds add this many samples (uniform: one round of `max`) ...
     pub min_samples: u32,
     /// ... up to this many a pixel.
     pub max: u32,
-    /// Pixels in the pilot.
+    /// Pixels in the pilot (none when variance is chosen: it needs no prediction).
     pub pilot_pixels: usize,
-    /// Predicted mean samples a pixel under variance sampling, margin included.
-    pub variance_spp: f64,
-    /// Predicted uniform samples a pixel for the same mean squared error.
-    pub uniform_spp: f64,
+    /// Uniform: the samples a pixel the pilot predicts for variance sampling's mean
+    /// squared error at `threshold`, before rounding up.
+    pub uniform_spp: Option<f64>,
 }
 
 /// One thread's share.

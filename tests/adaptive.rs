@@ -214,7 +214,7 @@ fn variance_aa_stops_noiseless_pixels_at_the_first_round_and_threshold_zero_samp
 }
 
 #[test]
-fn auto_aa_chooses_uniform_on_a_noiseless_scene_and_reports_its_pilot() {
+fn auto_aa_chooses_uniform_through_a_pinhole_and_variance_through_a_lens() {
     let sets =
         ["render.aa.mode=auto", "render.aa.samples=32", "render.aa.min_samples=4", "render.shadows.mode=uniform"];
     let out = render_text(&flat(), &sets, 2);
@@ -226,6 +226,11 @@ fn auto_aa_chooses_uniform_on_a_noiseless_scene_and_reports_its_pilot() {
     assert!(out.heat.level.iter().all(|&r| r == 1));
     let one = render_text(&flat(), &sets, 1);
     assert_eq!((one.image, one.auto), (out.image, Some(c)));
+    // A lens: variance's rounds, no pilot.
+    let lens = render_text(&flat(), &[&sets[..], &["camera.aperture=0.05", "camera.focus_distance=4"]].concat(), 2);
+    let c = lens.auto.expect("auto mode reports its choice");
+    assert_eq!((c.chose, c.pilot_pixels, c.max, c.min_samples), ("variance", 0, 32, 4), "{c:?}");
+    assert_eq!(lens.stats.camera_rays % 4, 0);
 }
 
 #[test]

@@ -20,7 +20,7 @@ use std::time::Instant;
 use adaptive::{AaState, CornerBlur};
 use meter::{Kind, Meter};
 use pipeline::Pipeline;
-pub use variance::{choose, PILOT_BLOCK, VARIANCE_MARGIN};
+pub use variance::{uniform_samples, variance_pays, PILOT_BLOCK};
 use variance::{Rounds, VarianceState};
 
 use crate::accel::tracer::{Kernel, Tracer};
@@ -276,8 +276,9 @@ fn pixel_pass(
     (stats, pixels, heat, finished.into_inner().unwrap_or_else(|e| e.into_inner()))
 }
 
-/// The rounds of variance-driven AA: the scene's, or, in auto mode, what the pilot over
-/// `tiles` (the whole image's) chooses. `None` in the other modes.
+/// The rounds of variance-driven AA: the scene's, or, in auto mode, variance's where the
+/// study's map says it pays and otherwise uniform's, at the samples the pilot over `tiles`
+/// (the whole image's) calls for. `None` in the other modes.
 fn rounds_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Option<Rounds>, Option<AutoChoice>) {
     let s = &ctx.scene.settings;
     let (threshold, min_samples) = match s.aa_mode {
@@ -287,6 +288,10 @@ fn rounds_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Option<Rounds>, Option<
         AaMode::Auto { threshold, min_samples } => (threshold, min_samples),
         _ => return (Vec::new(), None, None),
     };
+    if let Some(why) = variance_pays(ctx.scene) {
+        let choice = AutoChoice::variance(why, threshold, min_samples, s.aa_samples);
+        return (Vec::new(), Some(Rounds::of(&choice)), Some(choice));
+    }
     let errors = Mutex::new(Vec::new());
     let stats =
         for_tiles(ctx, tiles, |wk, tile| lock(&errors).extend(wk.pilot_tile(ctx.scene, tile, min_samples)), |_, _| {});
@@ -294,7 +299,7 @@ fn rounds_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Option<Rounds>, Option<
     // In image order, whatever order the threads finished in: the same sums, the same choice.
     errors.sort_unstable_by_key(|&(pixel, _)| pixel);
     let errors: Vec<f32> = errors.into_iter().map(|(_, e)| e).collect();
-    let choice = choose(&errors, min_samples, threshold, s.aa_samples);
+    let choice = AutoChoice::uniform(&errors, min_samples, threshold, s.aa_samples);
     (stats, Some(Rounds::of(&choice)), Some(choice))
 }
 

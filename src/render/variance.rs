@@ -2,10 +2,11 @@
 //! in every pixel, then rounds of up to `min_samples` more in the pixels the converge
 //! stage keeps, until none is left or every one has `render.aa.samples`.
 //!
-//! `render.aa.mode = "auto"` first runs a pilot: one round in one pixel of every 8×8
-//! block of the whole image (whatever the crop, so every crop and thread count makes
-//! the same choice), whose errors [`choose`] turns into the rounds of the render:
-//! variance's, or one round of N samples everywhere, which is uniform sampling.
+//! `render.aa.mode = "auto"` renders variance's rounds where the study's map says they
+//! pay ([`variance_pays`]); elsewhere it first runs a pilot, one round in one pixel of
+//! every 8×8 block of the whole image (whatever the crop, so every crop and thread count
+//! makes the same choice), whose errors [`uniform_samples`] turns into one round of N
+//! samples everywhere, which is uniform sampling.
 
 use std::time::Instant;
 
@@ -55,45 +56,70 @@ pub struct Rounds {
 /// Side of the blocks the pilot takes one pixel of.
 pub const PILOT_BLOCK: u32 = 8;
 
-/// What variance sampling is charged for, beyond its predicted samples, before it is
-/// preferred: the 3×3 neighbourhood its rounds also sample, and the stratification over
-/// the pixel's whole count that uniform sampling has and separate rounds lose (edges
-/// converge faster than 1/√n under uniform stratification).
-pub const VARIANCE_MARGIN: f64 = 1.5;
+/// The auto mode's rule, from the study's map (docs/adaptive.md): variance sampling
+/// wins where a pixel's noise comes from more than its area (paths that bounce, a lens),
+/// which stratifying the film position does not reduce; where the noise is the pixel's
+/// area alone (edges, shading and light samples seen by a pinhole through a Whitted
+/// render), uniform stratified sampling wins at every target. Returns why variance is
+/// chosen, or `None` for uniform.
+pub fn variance_pays(scene: &Scene) -> Option<&'static str> {
+    if scene.settings.path() {
+        Some("the path transport: noise from every bounce")
+    } else if scene.camera.aperture > 0.0 {
+        Some("an open aperture: noise from the lens")
+    } else {
+        None
+    }
+}
 
-/// The auto mode's decision from the pilot's errors (each pixel's [`converge::pixel_error`]
-/// after `n0` samples, in a fixed order). Error falls as 1/√n, so under variance sampling
-/// pixel p would take n_p = n0·(e_p/threshold)² samples (rounded up to whole rounds, in
-/// n0..=max) and keep a squared error of e_p²·n0/n_p; uniform sampling with N samples
-/// everywhere has the same mean squared error at N = mean(e²) / mean(e²/n_p). Variance
-/// sampling is chosen when its mean n_p times [`VARIANCE_MARGIN`] is below N; otherwise
-/// one round of N (in n0..=max) in every pixel. A noiseless pilot gives uniform n0.
-pub fn choose(errors: &[f32], n0: u32, threshold: f32, max: u32) -> AutoChoice {
+/// Auto mode, uniform: the samples every pixel gets, from the pilot's errors (each
+/// pixel's [`converge::pixel_error`] after `n0` samples, in a fixed order). Error falls
+/// as 1/√n, so variance sampling to `threshold` would give pixel p n_p = n0·(e_p/threshold)²
+/// samples (whole rounds, in n0..=max) and leave it a squared error of e_p²·n0/n_p;
+/// uniform sampling has the same mean squared error with N = mean(e²) / mean(e²/n_p)
+/// samples everywhere (in n0..=max). A noiseless pilot gives n0.
+pub fn uniform_samples(errors: &[f32], n0: u32, threshold: f32, max: u32) -> f64 {
     let need = |e: f64| -> f64 {
         let n = if threshold > 0.0 { n0 as f64 * (e / threshold as f64).powi(2) } else { f64::INFINITY };
         let rounds = (n / n0 as f64).ceil().max(1.0);
         (rounds * n0 as f64).min(max as f64)
     };
-    let m = errors.len().max(1) as f64;
     let e2: Vec<f64> = errors.iter().map(|&e| if e.is_finite() { (e as f64).powi(2) } else { 0.0 }).collect();
-    let variance_spp = errors.iter().map(|&e| need(e as f64)).sum::<f64>() / m * VARIANCE_MARGIN;
-    let mean_e2 = e2.iter().sum::<f64>() / m;
-    let kept = e2.iter().zip(errors).map(|(&e2, &e)| e2 / need(e as f64)).sum::<f64>() / m;
-    let uniform_spp = if mean_e2 > 0.0 { mean_e2 / kept } else { n0 as f64 };
-    let pilot_pixels = errors.len();
-    let choice =
-        AutoChoice { chose: "variance", threshold, min_samples: n0, max, pilot_pixels, variance_spp, uniform_spp };
-    if variance_spp < uniform_spp {
-        return choice;
-    }
-    let n = (uniform_spp.ceil() as u32).clamp(n0, max);
-    AutoChoice { chose: "uniform", threshold: 0.0, min_samples: n, max: n, ..choice }
+    let mean_e2 = e2.iter().sum::<f64>();
+    let kept = e2.iter().zip(errors).map(|(&e2, &e)| e2 / need(e as f64)).sum::<f64>();
+    let n = if mean_e2 > 0.0 { mean_e2 / kept } else { n0 as f64 };
+    n.clamp(n0 as f64, max as f64)
 }
 
 impl Rounds {
     /// The rounds an auto choice renders.
     pub fn of(c: &AutoChoice) -> Rounds {
         Rounds { threshold: c.threshold, min_samples: c.min_samples, max: c.max }
+    }
+}
+
+impl AutoChoice {
+    /// Variance sampling to `threshold` in rounds of `n0`, up to `max`, for `why`.
+    pub fn variance(why: &'static str, threshold: f32, n0: u32, max: u32) -> AutoChoice {
+        AutoChoice { chose: "variance", why, threshold, min_samples: n0, max, pilot_pixels: 0, uniform_spp: None }
+    }
+
+    /// Uniform sampling at the samples the pilot's `errors` call for (see
+    /// [`uniform_samples`]).
+    pub fn uniform(errors: &[f32], n0: u32, threshold: f32, max: u32) -> AutoChoice {
+        let spp = uniform_samples(errors, n0, threshold, max);
+        let n = spp.ceil() as u32;
+        let why = "noise from the pixel's area only: stratification pays";
+        let pilot_pixels = errors.len();
+        AutoChoice {
+            chose: "uniform",
+            why,
+            threshold: 0.0,
+            min_samples: n,
+            max: n,
+            pilot_pixels,
+            uniform_spp: Some(spp),
+        }
     }
 }
 
@@ -175,21 +201,22 @@ mod tests {
     use super::*;
 
     #[test]
-    fn choose_prefers_variance_where_error_is_concentrated() {
-        // 1 pixel in 100 ten times the threshold: variance gives it 100·16 → 256
-        // (max), the others 16; uniform needs far more for the same mean error.
+    fn uniform_samples_match_variance_samplings_mean_squared_error() {
+        // Even error twice the threshold: variance gives every pixel 4 rounds, so does
+        // uniform.
+        assert_eq!(uniform_samples(&[0.02; 100], 16, 0.01, 256), 64.0);
+        // 1 pixel in 100 ten times the threshold: variance gives it 256 (max), the others
+        // 16, leaving squared errors 0.01·16/256 and 1e-6; uniform matches their mean
+        // (223 samples).
         let mut errors = vec![0.001; 99];
         errors.push(0.1);
-        let c = choose(&errors, 16, 0.01, 256);
-        assert_eq!(c.chose, "variance", "{c:?}");
-        assert_eq!(Rounds::of(&c), Rounds { threshold: 0.01, min_samples: 16, max: 256 });
-        assert!((c.variance_spp - (99.0 * 16.0 + 256.0) / 100.0 * VARIANCE_MARGIN).abs() < 1e-9);
-        // Even error: every pixel needs the same, uniform gives it without the margin.
-        let c = choose(&[0.02; 100], 16, 0.01, 256);
-        assert_eq!(c.chose, "uniform", "{c:?}");
-        assert_eq!(Rounds::of(&c), Rounds { threshold: 0.0, min_samples: 64, max: 64 });
-        // Noiseless: uniform at the pilot's count.
-        let c = choose(&[0.0; 10], 16, 0.01, 256);
-        assert_eq!((c.chose, c.max), ("uniform", 16));
+        let want = (99.0 * 1e-6 + 0.01) / (99.0 * 1e-6 / 16.0 + 0.01 / 256.0);
+        let got = uniform_samples(&errors, 16, 0.01, 256);
+        assert!((got / want - 1.0).abs() < 1e-5, "{got} vs {want}");
+        // Noiseless: the pilot's count; a threshold of 0: the most.
+        assert_eq!(uniform_samples(&[0.0; 10], 16, 0.01, 256), 16.0);
+        assert_eq!(uniform_samples(&[0.05; 10], 16, 0.0, 256), 256.0);
+        let c = AutoChoice::uniform(&[0.02; 100], 16, 0.01, 256);
+        assert_eq!((c.chose, Rounds::of(&c)), ("uniform", Rounds { threshold: 0.0, min_samples: 64, max: 64 }));
     }
 }

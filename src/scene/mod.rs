@@ -57,9 +57,10 @@ pub enum AaMode {
         /// Samples of the first round and of every later one (the last may be cut short).
         min_samples: u32,
     },
-    /// Uniform or variance-driven, whichever a pilot pass (`min_samples` in one pixel of
-    /// every 8×8 block) predicts reaches the error `threshold` with fewer samples; see
-    /// `render::variance::choose`.
+    /// Variance-driven where the study's map says it pays (path transport, an open
+    /// aperture), else uniform with the samples a pilot pass (`min_samples` in one pixel
+    /// of every 8×8 block) predicts for the error `threshold`; see
+    /// `render::variance_pays` and `render::uniform_samples`.
     Auto {
         /// The error aimed at, in the variance mode's measure.
         threshold: f32,

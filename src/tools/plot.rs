@@ -19,13 +19,14 @@ pub const HEIGHT: u32 = 600;
 
 /// Colours of the series, in order: uniform and adaptive come first in a sweep, so they
 /// get the blue and orange of the usual categorical palette.
-const COLORS: [RGBColor; 6] = [
+const COLORS: [RGBColor; 7] = [
     RGBColor(31, 119, 180),
     RGBColor(230, 110, 0),
     RGBColor(44, 160, 44),
     RGBColor(214, 39, 40),
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
 ];
 
 /// One named set of points. The i-th series of a plot gets the i-th colour.

@@ -64,6 +64,8 @@ const QUICK_SPP: &[&str] = &["1", "4", "16"];
 const QUICK_SHADOW: &[&str] = &["1", "4"];
 /// Adaptive AA's display-value tolerance: the paper's 0.01 and two looser ones.
 const EPS: &[&str] = &["0.1", "0.03", "0.01"];
+/// Variance and auto AA's error threshold.
+const THRESHOLD: &[&str] = &["0.1", "0.03", "0.01"];
 /// Adaptive AA's last level (2^level rays): 4, 16, 64.
 const LEVEL: &[&str] = &["2", "4", "6"];
 
@@ -115,17 +117,18 @@ pub const METHODS: &[Method] = &[
     Method {
         name: "variance",
         about: "variance-driven AA: min_samples everywhere, more up to samples where the estimate's error is above threshold",
-        fixed: &["render.aa.mode=variance", "render.aa.min_samples=4", "render.shadows.mode=uniform"],
-        grid: &[("render.aa.threshold", &["0.03", "0.01", "0.003"]), ("render.aa.samples", &["16", "64"]), ("render.shadows.samples", &["4", "16"])],
-        quick: &[("render.aa.threshold", &["0.03", "0.01"]), ("render.aa.samples", &["16"]), ("render.shadows.samples", QUICK_SHADOW)],
+        // Rounds of 8: 4 samples a half-buffer before the first estimate.
+        fixed: &["render.aa.mode=variance", "render.aa.min_samples=8", "render.aa.samples=32", "render.shadows.mode=uniform"],
+        grid: &[("render.aa.threshold", THRESHOLD), ("render.aa.samples", &["32", "128"]), ("render.shadows.samples", SHADOW)],
+        quick: &[("render.aa.threshold", &["0.1", "0.01"]), ("render.aa.samples", &["16"]), ("render.shadows.samples", QUICK_SHADOW)],
         needs: Needs::Nothing,
     },
     Method {
         name: "auto",
-        about: "the renderer's own choice of AA sampler per scene (`render.aa.mode=auto`)",
-        fixed: &["render.aa.mode=auto", "render.shadows.mode=uniform"],
-        grid: &[("render.aa.samples", &["4", "16", "64"]), ("render.shadows.samples", &["4", "16"])],
-        quick: &[("render.aa.samples", QUICK_SPP), ("render.shadows.samples", QUICK_SHADOW)],
+        about: "uniform or variance, as a pilot pass predicts is cheaper to the threshold (`render.aa.mode=auto`)",
+        fixed: &["render.aa.mode=auto", "render.aa.min_samples=8", "render.aa.samples=128", "render.shadows.mode=uniform"],
+        grid: &[("render.aa.threshold", THRESHOLD), ("render.shadows.samples", SHADOW)],
+        quick: &[("render.aa.threshold", &["0.1", "0.01"]), ("render.aa.samples", &["16"]), ("render.shadows.samples", QUICK_SHADOW)],
         needs: Needs::Nothing,
     },
 ];
