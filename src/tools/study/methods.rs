@@ -125,10 +125,12 @@ pub const METHODS: &[Method] = &[
     },
     Method {
         name: "auto",
-        about: "uniform or variance, as a pilot pass predicts is cheaper to the threshold (`render.aa.mode=auto`)",
-        fixed: &["render.aa.mode=auto", "render.aa.min_samples=8", "render.aa.samples=128", "render.shadows.mode=uniform"],
-        grid: &[("render.aa.threshold", THRESHOLD), ("render.shadows.samples", SHADOW)],
-        quick: &[("render.aa.threshold", &["0.1", "0.01"]), ("render.aa.samples", &["16"]), ("render.shadows.samples", QUICK_SHADOW)],
+        about: "variance under the path transport or a lens, else uniform (`render.aa.mode=auto`); samples caps both",
+        // A small threshold: where auto picks uniform, the pilot asks for more than the
+        // cap and `samples` is the count, so its grid is uniform's.
+        fixed: &["render.aa.mode=auto", "render.aa.min_samples=4", "render.aa.samples=64", "render.shadows.mode=uniform"],
+        grid: &[("render.aa.threshold", &["0.03", "0.01"]), ("render.aa.samples", &["4", "16", "64"]), ("render.shadows.samples", SHADOW)],
+        quick: &[("render.aa.threshold", &["0.01"]), ("render.aa.samples", &["4", "16"]), ("render.shadows.samples", QUICK_SHADOW)],
         needs: Needs::Nothing,
     },
 ];

@@ -113,12 +113,47 @@ impl StudyResult {
             self.runs
         );
         out += &map_tables(&self.map);
+        out += &ratio_table(&self.scenes);
         out += &features_table(&self.scenes);
         for s in &self.scenes {
             out += &scene_section(s);
         }
         out
     }
+}
+
+/// Seconds of a method's cheapest setting for a target, if it reaches it.
+fn seconds_of(t: &TargetResult, method: &str) -> Option<f64> {
+    t.choices.iter().find(|c| c.method == method).and_then(|c| c.by_seconds.as_ref()).map(|p| p.seconds)
+}
+
+/// The two ratios the study's targets are stated in, per scene and target: variance
+/// against uniform, and auto against the best fixed method (every other method).
+fn ratio_table(scenes: &[SceneResult]) -> String {
+    let mut out = String::from(
+        "## Ratios: variance ÷ uniform, auto ÷ best fixed method\n\nSeconds of each method's cheapest setting \
+         that reaches the target, divided; `–` where either reaches none.\n\n\
+         | scene | target | variance ÷ uniform | auto ÷ best fixed (which) |\n|---|---|---|---|\n",
+    );
+    let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) if b > 0.0 => num(a / b),
+        _ => "–".into(),
+    };
+    for s in scenes {
+        for t in &s.targets {
+            let best = t
+                .choices
+                .iter()
+                .filter(|c| c.method != "auto")
+                .filter_map(|c| c.by_seconds.as_ref().map(|p| (p.seconds, c.method)))
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let auto = ratio(seconds_of(t, "auto"), best.map(|b| b.0));
+            let which = best.map_or(String::new(), |b| format!(" ({})", b.1));
+            let variance = ratio(seconds_of(t, "variance"), seconds_of(t, "uniform"));
+            out += &format!("| {} | {} | {variance} | {auto}{which} |\n", s.name, t.label);
+        }
+    }
+    out + "\n"
 }
 
 /// The map: per scene, its features and winners; per method, where it wins; held-out
