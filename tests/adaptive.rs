@@ -231,6 +231,7 @@ fn auto_aa_chooses_uniform_through_a_pinhole_and_variance_through_a_lens() {
     let c = lens.auto.expect("auto mode reports its choice");
     assert_eq!((c.chose, c.pilot_pixels, c.max, c.min_samples), ("variance", 0, 32, 4), "{c:?}");
     assert_eq!(lens.stats.camera_rays % 4, 0);
+    assert!(!lens.partial, "no pilot tiles are counted when there is no pilot");
 }
 
 #[test]

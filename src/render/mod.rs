@@ -388,7 +388,10 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let window = window(s, opts)?;
     let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
     let (focus_tiles, grid_tiles, pixel_tiles) = pass_tiles(s, &window);
-    let pilot_tiles = if matches!(s.aa_mode, AaMode::Auto { .. }) { tiles(w, h) } else { Vec::new() };
+    // Auto mode's pilot, over the whole image whatever the crop, when the map leaves the
+    // choice to it.
+    let pilot = matches!(s.aa_mode, AaMode::Auto { .. }) && variance_pays(scene).is_none();
+    let pilot_tiles = if pilot { tiles(w, h) } else { Vec::new() };
     let all_tiles = pixel_tiles.len() + grid_tiles.len() + focus_tiles.len() + pilot_tiles.len();
     if let Some(pb) = &opts.progress {
         pb.set_length(all_tiles as u64);
