@@ -7,7 +7,7 @@ mod support;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use support::{FloorScene, Quad, QuadLight, Sphere};
+use support::FloorScene;
 use wavetrace::tools::study::{self, StudyOptions, StudyResult};
 
 const BIN: &str = env!("CARGO_BIN_EXE_wavetrace");
@@ -38,18 +38,7 @@ radiance = [4, 4, 4]
 
 /// A quad light over a floor with a sphere: edges and a penumbra.
 fn tiny() -> String {
-    FloorScene {
-        render: "[render]\nwidth = 16\nheight = 16\nmax_depth = 0\n",
-        position: [0.0, 2.0, 4.0],
-        look_at: [0.0, 0.3, 0.0],
-        fov_y: Some(45.0),
-        materials: vec![FloorScene::diffuse("grey", [0.7; 3])],
-        light: QuadLight::square(2.0, 1.0, 5.0),
-        floor: Quad::floor(3.0, "grey"),
-        spheres: vec![Sphere { center: [0.0, 0.6, 0.0], radius: 0.35, material: "grey" }],
-        ..FloorScene::default()
-    }
-    .toml()
+    FloorScene::tiny("[render]\nwidth = 16\nheight = 16\nmax_depth = 0\n").toml()
 }
 
 /// Writes `files` (name, text) into a fresh temporary folder.

@@ -6,23 +6,15 @@
 mod support;
 
 use std::path::{Path, PathBuf};
-use support::{FloorScene, Quad, QuadLight, Sphere};
+use support::FloorScene;
 use wavetrace::tools::sweep::{self, parse_param, Reference, SweepOptions};
 use wavetrace::Error;
 
 /// A quad light over a floor with a sphere: soft shadows, and edges for AA.
 fn tiny() -> String {
-    FloorScene {
-        render: "[render]\nwidth = 16\nheight = 16\nmax_depth = 0\n[render.aa]\nsamples = 2\n[render.shadows]\nsamples = 4\n",
-        position: [0.0, 2.0, 4.0],
-        look_at: [0.0, 0.3, 0.0],
-        fov_y: Some(45.0),
-        materials: vec![FloorScene::diffuse("grey", [0.7; 3])],
-        light: QuadLight::square(2.0, 1.0, 5.0),
-        floor: Quad::floor(3.0, "grey"),
-        spheres: vec![Sphere { center: [0.0, 0.6, 0.0], radius: 0.35, material: "grey" }],
-        ..FloorScene::default()
-    }
+    FloorScene::tiny(
+        "[render]\nwidth = 16\nheight = 16\nmax_depth = 0\n[render.aa]\nsamples = 2\n[render.shadows]\nsamples = 4\n",
+    )
     .toml()
 }
 

@@ -15,7 +15,7 @@ use super::{at_least_one, say};
 #[derive(Args, Debug)]
 pub struct StudyArgs {
     /// The study manifest (TOML): scenes, methods, grids (see `wavetrace::tools::study::manifest`).
-    #[arg(default_value = "scenes/study.toml")]
+    #[arg(default_value = "benches/study.toml")]
     manifest: PathBuf,
     /// Output folder (created if missing; its parent must exist). The references are
     /// cached there, so a rerun renders only the grids.

@@ -125,6 +125,23 @@ impl FloorScene {
         }
     }
 
+    /// A grey 6×6 floor under a 1×1 quad light at height 2, with a sphere of radius 0.35
+    /// on it: edges and a soft shadow, for the sweep and study tests; `render` is the
+    /// `[render]` block.
+    pub fn tiny(render: &'static str) -> FloorScene {
+        FloorScene {
+            render,
+            position: [0.0, 2.0, 4.0],
+            look_at: [0.0, 0.3, 0.0],
+            fov_y: Some(45.0),
+            materials: vec![FloorScene::diffuse("grey", [0.7; 3])],
+            light: QuadLight::square(2.0, 1.0, 5.0),
+            floor: Quad::floor(3.0, "grey"),
+            spheres: vec![Sphere { center: [0.0, 0.6, 0.0], radius: 0.35, material: "grey" }],
+            ..FloorScene::default()
+        }
+    }
+
     /// The scene text.
     pub fn toml(&self) -> String {
         let fov = self.fov_y.map(|f| format!("fov_y={f}"));

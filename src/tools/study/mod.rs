@@ -77,7 +77,7 @@ pub struct StudyOptions {
 impl Default for StudyOptions {
     fn default() -> Self {
         StudyOptions {
-            manifest: PathBuf::from("scenes/study.toml"),
+            manifest: PathBuf::from("benches/study.toml"),
             out_dir: PathBuf::from("study"),
             quick: false,
             only: Vec::new(),

@@ -1,11 +1,9 @@
 //! What a study writes: `study.csv` (every render), `study.json` (everything),
 //! `study.md` (the tables) and one FLIP-against-seconds plot per scene.
 
-use serde::Serialize;
-
 use super::map::Map;
 use super::*;
-use crate::tools::sweep::csv_field;
+use crate::tools::sweep::{csv_field, versioned_json};
 
 /// Writes every file of the study.
 pub(super) fn write(result: &StudyResult) -> Result<()> {
@@ -87,14 +85,7 @@ impl StudyResult {
     /// The text of `study.json`: `version`, then the fields of [`StudyResult`]. NaN and
     /// infinite numbers become `null`.
     pub fn json(&self) -> Result<String> {
-        #[derive(Serialize)]
-        struct Doc<'a> {
-            version: u32,
-            #[serde(flatten)]
-            result: &'a StudyResult,
-        }
-        serde_json::to_string_pretty(&Doc { version: JSON_VERSION, result: self })
-            .map_err(|e| Error::Internal(e.to_string()))
+        versioned_json(JSON_VERSION, self)
     }
 
     /// The markdown report: how it was made, the map, the features, then per scene the

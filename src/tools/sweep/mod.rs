@@ -467,7 +467,7 @@ mod report;
 
 pub(crate) use measure::{render_reference, Progress};
 pub(crate) use plan::{cached_reference, reference_cache_path};
-pub(crate) use report::csv_field;
+pub(crate) use report::{csv_field, versioned_json};
 
 #[cfg(test)]
 mod tests {

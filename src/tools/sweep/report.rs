@@ -2,6 +2,18 @@
 
 use super::*;
 
+/// `value` as pretty JSON with a leading `version` field, its own fields after in order.
+pub(crate) fn versioned_json<T: Serialize>(version: u32, value: &T) -> Result<String> {
+    #[derive(Serialize)]
+    struct Doc<'a, T> {
+        version: u32,
+        #[serde(flatten)]
+        result: &'a T,
+    }
+    // Serialized straight to text: going through serde_json::Value would sort the keys.
+    serde_json::to_string_pretty(&Doc { version, result: value }).map_err(|e| Error::Internal(e.to_string()))
+}
+
 /// Quotes a CSV field when it holds a comma, a quote or a line break (RFC 4180).
 pub(crate) fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) {
@@ -39,15 +51,7 @@ impl SweepResult {
     /// (`files` left out). Maps keep their order: params as swept, ray kinds as in the
     /// stats. Non-finite numbers, such as the PSNR of an exact match, become `null`.
     pub fn json(&self) -> Result<String> {
-        #[derive(Serialize)]
-        struct Doc<'a> {
-            version: u32,
-            #[serde(flatten)]
-            result: &'a SweepResult,
-        }
-        // Serialized straight to text: going through serde_json::Value would sort the keys.
-        serde_json::to_string_pretty(&Doc { version: JSON_VERSION, result: self })
-            .map_err(|e| Error::Internal(e.to_string()))
+        versioned_json(JSON_VERSION, self)
     }
 
     /// A text table of the points, for the terminal.
