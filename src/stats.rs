@@ -305,6 +305,9 @@ pub struct Report {
     /// `render.aa.mode = "auto"`: what the pilot chose.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_aa: Option<AutoChoice>,
+    /// `render.shadows.mode = "auto"`: what the pilot chose.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_shadows: Option<ShadowChoice>,
     /// The shadow-corner and penumbra queues, when shadows are adaptive.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adaptive_shadows: Option<QueueReport>,
@@ -417,6 +420,24 @@ pub struct AutoChoice {
     pub uniform_spp: Option<f64>,
 }
 
+/// What `render.shadows.mode = "auto"` chose, and the pilot's counts behind it (see
+/// `render::shadows_pay`).
+#[derive(Serialize, Debug, Clone, PartialEq)]
+pub struct ShadowChoice {
+    /// "adaptive" or "uniform".
+    pub chose: &'static str,
+    /// Why.
+    pub why: &'static str,
+    /// Shading point × probed light pairs the pilot tested (0 without a pilot).
+    pub pilot_points: u64,
+    /// The share of them in the penumbra.
+    pub penumbra_fraction: f64,
+    /// Probe and penumbra rays the pilot cast, against uniform mode's for its points.
+    pub adaptive_rays: u64,
+    /// Uniform mode's shadow rays for the pilot's points.
+    pub uniform_rays: u64,
+}
+
 /// One thread's share.
 #[derive(Serialize, Debug, Clone)]
 pub struct ThreadReport {
@@ -460,6 +481,7 @@ impl Report {
             version: 1,
             partial: false,
             auto_aa: None,
+            auto_shadows: None,
             width,
             height,
             threads: per_thread.len(),
@@ -473,11 +495,13 @@ impl Report {
                 let rays = t.camera_rays + t.aa_corner_rays + t.aa_refine_rays + t.dof_probe_rays;
                 QueueReport::new(t.aa_pixels, t.aa_refined_pixels, rays, t.aa_uniform_rays)
             }),
-            adaptive_shadows: matches!(settings.shadow_mode, ShadowMode::Adaptive(_)).then(|| {
-                let rays = t.shadow_corner_rays + t.penumbra_rays;
-                let report = QueueReport::new(t.shadow_points, t.penumbra_points, rays, t.shadow_uniform_rays);
-                QueueReport { uniform_fallback: Some(t.shadow_uniform_fallback), ..report }
-            }),
+            adaptive_shadows: matches!(settings.shadow_mode, ShadowMode::Adaptive(_) | ShadowMode::Auto(_)).then(
+                || {
+                    let rays = t.shadow_corner_rays + t.penumbra_rays;
+                    let report = QueueReport::new(t.shadow_points, t.penumbra_points, rays, t.shadow_uniform_rays);
+                    QueueReport { uniform_fallback: Some(t.shadow_uniform_fallback), ..report }
+                },
+            ),
             penumbra_early_stop: settings.penumbra_stop.map(|_| EarlyStopReport {
                 points: t.penumbra_points,
                 stopped: t.penumbra_stopped,

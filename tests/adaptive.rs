@@ -223,9 +223,11 @@ fn auto_aa_chooses_uniform_through_a_pinhole_and_variance_through_a_lens() {
     assert_eq!(c.pilot_pixels, 3 * 2);
     assert_eq!((c.chose, c.max, c.threshold), ("uniform", 4, 0.0), "{c:?}");
     assert_eq!(out.stats.camera_rays, 24 * 16 * 4 + 6 * 4, "the render and its pilot");
-    assert!(out.heat.level.iter().all(|&r| r == 1));
     let one = render_text(&flat(), &sets, 1);
-    assert_eq!((one.image, one.auto), (out.image, Some(c)));
+    assert_eq!((&one.image, one.auto), (&out.image, Some(c)));
+    // Uniform's own tiles: uniform mode's image at the chosen count, bit for bit.
+    let uniform = render_text(&flat(), &["render.aa.mode=uniform", "render.aa.samples=4", sets[3]], 2);
+    assert_eq!((uniform.image, uniform.heat.level), (out.image, out.heat.level));
     // A lens: variance's rounds, no pilot.
     let lens = render_text(&flat(), &[&sets[..], &["camera.aperture=0.05", "camera.focus_distance=4"]].concat(), 2);
     let c = lens.auto.expect("auto mode reports its choice");
@@ -317,4 +319,33 @@ fn a_light_probed_with_as_many_rays_as_samples_renders_as_uniform_mode() {
     // Five samples: the light is probed again.
     let probed = render_text(&flat(), &["render.shadows.samples=5", sets[1]], 2);
     assert!(probed.stats.shadow_points > 0 && probed.stats.shadow_uniform_fallback == 0);
+}
+
+#[test]
+fn auto_shadows_are_adaptive_only_where_the_pilots_probes_save_rays() {
+    use wavetrace::render::SHADOW_MARGIN;
+    let mode = |m: &str, n: u32| {
+        penumbra_scene(&[&format!("render.shadows.mode={m}"), &format!("render.shadows.samples={n}")])
+    };
+    // 64 samples a penumbra point against 9 probes: adaptive, with adaptive mode's image.
+    let auto = mode("auto", 64);
+    let c = auto.auto_shadows.clone().expect("auto shadows report their choice");
+    assert_eq!(c.chose, "adaptive", "{c:?}");
+    assert!(c.pilot_points > 0 && c.adaptive_rays as f64 <= SHADOW_MARGIN * c.uniform_rays as f64, "{c:?}");
+    assert!(c.penumbra_fraction > 0.0 && c.penumbra_fraction < 1.0, "{c:?}");
+    assert_eq!(auto.image, mode("adaptive", 64).image);
+    assert_eq!(auto.image, penumbra_scene(&["render.shadows.mode=auto", "render.shadows.samples=64"]).image);
+    // 12 samples: 9 probes save rays only below a penumbra fraction of 0.9 - 9/12 = 0.15,
+    // which this scene's shadows exceed: uniform, with uniform mode's image.
+    let auto = mode("auto", 12);
+    let c = auto.auto_shadows.clone().expect("auto shadows report their choice");
+    assert!(c.penumbra_fraction > 0.15, "{c:?}");
+    assert_eq!(c.chose, "uniform", "{c:?}");
+    assert!(c.adaptive_rays as f64 > SHADOW_MARGIN * c.uniform_rays as f64, "{c:?}");
+    assert_eq!(auto.image, mode("uniform", 12).image);
+    // 4 samples: fewer than the probes, so no pilot; uniform's image and rays.
+    let (auto, uniform) = (mode("auto", 4), mode("uniform", 4));
+    let c = auto.auto_shadows.clone().expect("auto shadows report their choice");
+    assert_eq!((c.chose, c.pilot_points), ("uniform", 0), "{c:?}");
+    assert_eq!((auto.image, auto.stats.total_rays()), (uniform.image, uniform.stats.total_rays()));
 }

@@ -54,7 +54,8 @@ fn crops() -> Vec<Tile> {
 
 /// Every mode: uniform, adaptive AA with shared and with per-pixel corners, adaptive
 /// shadows, DOF-aware AA with early stopping (both corner kinds), one ray at a time,
-/// variance-driven AA, and auto (its pilot covers the whole image in every crop).
+/// variance-driven AA, and the auto modes (their pilot covers the whole image in every
+/// crop).
 const MODES: &[(&str, &[&str])] = &[
     ("uniform", &["render.aa.mode=uniform", "render.aa.samples=2", "render.shadows.mode=uniform"]),
     ("adaptive-aa", &["render.shadows.mode=uniform"]),
@@ -71,6 +72,7 @@ const MODES: &[(&str, &[&str])] = &[
         &["render.aa.mode=variance", "render.aa.samples=12", "render.aa.min_samples=4", "render.aa.threshold=0.05"],
     ),
     ("auto", &["render.aa.mode=auto", "render.aa.samples=12", "render.aa.min_samples=4", "render.aa.threshold=0.05"]),
+    ("auto-shadows", &["render.aa.mode=uniform", "render.shadows.mode=auto", "render.shadows.samples=64"]),
 ];
 
 #[test]

@@ -48,7 +48,7 @@ fn shade(scene: &Scene, rays: &RayQueue, hits: &HitQueue) -> Shaded {
         specular: &mut specular,
         film: &mut film,
     };
-    let counts = shade_stage::shade(scene, rays, hits, out);
+    let counts = shade_stage::shade(scene, scene.settings.shadow_mode, rays, hits, out);
     Shaded { shadow, points, surfaces, specular: specular.index, film, counts }
 }
 
@@ -62,12 +62,12 @@ struct Cornered {
 
 /// The shadow-corner stage (the only call of `shadow_corner::shadow_corners` here).
 fn shadow_corners(scene: &mut Scene, probe: Probe, surfaces: &SurfaceQueue, points: &ShadowPointQueue) -> Cornered {
-    // The stage reads its probe set from the scene's settings.
     scene.settings.shadow_mode = ShadowMode::Adaptive(probe);
     let (mut film, mut penumbra, mut probes) = (FilmQueue::default(), IndexQueue::default(), ShadowQueue::default());
     let mut tracer = Tracer::new(&scene.accel, Kernel::render(scene.settings.packets), false);
     let shading = ShadowPoints { surfaces, points };
-    let cast = shadow_corner::shadow_corners(scene, &mut tracer, shading, &mut probes, &mut film, &mut penumbra);
+    let cast =
+        shadow_corner::shadow_corners((scene, probe), &mut tracer, shading, &mut probes, &mut film, &mut penumbra);
     Cornered { film, penumbra: penumbra.index, cast }
 }
 
@@ -171,7 +171,7 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
         let mut rays = RayQueue::default();
         let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 16, y1: 12 };
         let small = support::scene_in(dir, &text, &["render.width=16", "render.height=12", "render.aa.samples=4"]);
-        wavetrace::stages::camera::generate(&small, &tile, 0..16 * 12 * 4, &mut rays);
+        wavetrace::stages::camera::generate(&small, &tile, small.settings.aa_samples, 0..16 * 12 * 4, &mut rays);
         let (lo, hi) = scene
             .accel
             .prims()
@@ -371,7 +371,7 @@ fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
         let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 24, y1: 18 };
         let mut rays = RayQueue::default();
         let spp = scene.settings.aa_samples as u64 * scene.settings.dof_samples as u64;
-        wavetrace::stages::camera::generate(&scene, &tile, 0..24 * 18 * spp, &mut rays);
+        wavetrace::stages::camera::generate(&scene, &tile, scene.settings.aa_samples, 0..24 * 18 * spp, &mut rays);
         let hits = trace(&scene, &rays);
         let out = shade(&scene, &rays, &hits);
         let mut want = ShadowQueue::default();

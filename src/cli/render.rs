@@ -420,7 +420,7 @@ fn report(scene: &wavetrace::Scene, out: &RenderOutput, load_seconds: f64) -> Re
             notes: info.notes.clone(),
         },
     );
-    Report { partial: out.partial, auto_aa: out.auto.clone(), ..report }
+    Report { partial: out.partial, auto_aa: out.auto.clone(), auto_shadows: out.auto_shadows.clone(), ..report }
 }
 
 /// Writes every output all or nothing ([`Batch`]): the image and heatmaps (unless the

@@ -8,6 +8,7 @@
 //! per round per tile (`render/variance.rs`).
 
 mod adaptive;
+mod auto;
 mod meter;
 mod pipeline;
 mod variance;
@@ -18,16 +19,18 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use adaptive::{AaState, CornerBlur};
+use auto::Sampling;
+pub use auto::{shadows_pay, SHADOW_MARGIN};
 use meter::{Kind, Meter};
 use pipeline::Pipeline;
+use variance::VarianceState;
 pub use variance::{uniform_samples, variance_pays, PILOT_BLOCK};
-use variance::{Rounds, VarianceState};
 
 use crate::accel::tracer::{Kernel, Tracer};
 use crate::film::{copy_tile, tiles, Heat, Image, SlotHeat, Tile, TileFilm, TILE};
 use crate::scene::{AaMode, Light, Scene, ShadowMode};
 use crate::stages::camera;
-use crate::stats::{AutoChoice, Span, Stats};
+use crate::stats::{AutoChoice, ShadowChoice, Span, Stats};
 use crate::{Error, Result};
 
 /// Most rays one wave traces (camera rays of a batch, or a chunk of a deeper level); a
@@ -41,14 +44,14 @@ pub const SHADOW_RAYS_PER_WAVE: u64 = 1 << 18;
 /// rays, so that the shadow queues stay below SHADOW_RAYS_PER_WAVE entries. Together
 /// with depth-first draining of the bounce levels this bounds every queue: a worker
 /// holds at most (max_depth + 1) levels of at most 2 waves each.
-pub fn wave_size(scene: &Scene) -> u64 {
+pub fn wave_size(scene: &Scene, shadows: ShadowMode) -> u64 {
     let s = &scene.settings;
     let per_hit: u64 = scene
         .lights
         .iter()
-        .map(|l| match (l, s.shadow_mode) {
+        .map(|l| match (l, shadows) {
             (Light::Point { .. } | Light::Directional { .. }, _) => 1,
-            (_, ShadowMode::Uniform) => s.shadow_samples as u64,
+            (_, ShadowMode::Uniform | ShadowMode::Auto(_)) => s.shadow_samples as u64,
             (l, ShadowMode::Adaptive(p)) if crate::light::probes_light(l, p, s.shadow_samples) => {
                 crate::light::probe_count(l, p) as u64 + s.shadow_samples as u64
             }
@@ -102,6 +105,8 @@ pub struct RenderOutput {
     pub finished_pixels: u64,
     /// `render.aa.mode = "auto"`: what the pilot chose.
     pub auto: Option<AutoChoice>,
+    /// `render.shadows.mode = "auto"`: what the pilot chose.
+    pub auto_shadows: Option<ShadowChoice>,
 }
 
 /// One worker: its wavefront, its adaptive-AA buffers and the tile it is finishing.
@@ -113,12 +118,13 @@ struct Worker<'a> {
 }
 
 impl Worker<'_> {
-    /// Uniform AA: every pixel gets aa_samples × dof_samples camera rays.
-    fn uniform_tile(&mut self, scene: &Scene, tile: &Tile) {
-        let spp = scene.settings.aa_samples as u64 * scene.settings.dof_samples as u64;
+    /// Uniform AA: every pixel gets `aa` × dof_samples camera rays.
+    fn uniform_tile(&mut self, scene: &Scene, tile: &Tile, aa: u32) {
+        let spp = aa as u64 * scene.settings.dof_samples as u64;
         self.pipe.acc.begin(tile.pixels());
-        self.pipe
-            .run(scene, tile.pixels() as u64 * spp, Kind::Camera, |ks, rays| camera::generate(scene, tile, ks, rays));
+        self.pipe.run(scene, tile.pixels() as u64 * spp, Kind::Camera, |ks, rays| {
+            camera::generate(scene, tile, aa, ks, rays)
+        });
         self.tile.out.copy_from_slice(&self.pipe.acc.sums);
         self.tile.collect_heat(&self.pipe.acc.heat, 1);
     }
@@ -135,6 +141,8 @@ struct Ctx<'a> {
     opts: &'a RenderOptions,
     pool: rayon::ThreadPool,
     wave: u64,
+    /// The shadow mode of the passes (the pilot's, then the plan's; never `Auto`).
+    shadows: ShadowMode,
     start: Instant,
     rays: AtomicU64,
 }
@@ -183,7 +191,7 @@ fn new_worker<'a>(ctx: &'a Ctx) -> Box<Worker<'a>> {
     let kernel = Kernel::render(ctx.scene.settings.packets);
     let tracer = Tracer::new(&ctx.scene.accel, kernel, !ctx.opts.no_counters);
     let meter = Meter::new(ctx.opts.trace.then_some(ctx.start));
-    let pipe = Pipeline::new(tracer, meter, ctx.wave, ctx.opts.cancel.clone());
+    let pipe = Pipeline::new(tracer, meter, (ctx.wave, ctx.shadows), ctx.opts.cancel.clone());
     Box::new(Worker { pipe, aa: AaState::default(), var: VarianceState::default(), tile: TileFilm::default() })
 }
 
@@ -245,7 +253,7 @@ fn pixel_pass(
     ctx: &Ctx,
     tiles: &[Tile],
     (grid, blur): (Option<&[Vec3]>, Option<CornerBlur>),
-    rounds: Option<Rounds>,
+    sampling: Sampling,
 ) -> (PerThread, Vec<Vec3>, Heat, Vec<Tile>) {
     let s = &ctx.scene.settings;
     let n = (s.width * s.height) as usize;
@@ -256,12 +264,11 @@ fn pixel_pass(
         tiles,
         |wk, tile| {
             wk.tile.begin(tile.pixels());
-            match s.aa_mode {
-                AaMode::Uniform => wk.uniform_tile(ctx.scene, tile),
-                AaMode::Adaptive { .. } => wk.adaptive_tile(ctx.scene, tile, grid, blur),
-                AaMode::Variance { .. } | AaMode::Auto { .. } => {
-                    wk.variance_tile(ctx.scene, tile, rounds.expect("variance and auto modes have rounds"))
-                }
+            match (sampling, s.aa_mode) {
+                (Sampling::Uniform(aa), _) => wk.uniform_tile(ctx.scene, tile, aa),
+                (Sampling::Rounds(rounds), _) => wk.variance_tile(ctx.scene, tile, rounds),
+                (Sampling::Scene, AaMode::Adaptive { .. }) => wk.adaptive_tile(ctx.scene, tile, grid, blur),
+                (Sampling::Scene, _) => wk.uniform_tile(ctx.scene, tile, s.aa_samples),
             }
         },
         |wk, tile| {
@@ -274,33 +281,6 @@ fn pixel_pass(
     );
     let (pixels, heat) = result.into_inner().unwrap_or_else(|e| e.into_inner());
     (stats, pixels, heat, finished.into_inner().unwrap_or_else(|e| e.into_inner()))
-}
-
-/// The rounds of variance-driven AA: the scene's, or, in auto mode, variance's where the
-/// study's map says it pays and otherwise uniform's, at the samples the pilot over `tiles`
-/// (the whole image's) calls for. `None` in the other modes.
-fn rounds_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Option<Rounds>, Option<AutoChoice>) {
-    let s = &ctx.scene.settings;
-    let (threshold, min_samples) = match s.aa_mode {
-        AaMode::Variance { threshold, min_samples } => {
-            return (Vec::new(), Some(Rounds { threshold, min_samples, max: s.aa_samples }), None)
-        }
-        AaMode::Auto { threshold, min_samples } => (threshold, min_samples),
-        _ => return (Vec::new(), None, None),
-    };
-    if let Some(why) = variance_pays(ctx.scene) {
-        let choice = AutoChoice::variance(why, threshold, min_samples, s.aa_samples);
-        return (Vec::new(), Some(Rounds::of(&choice)), Some(choice));
-    }
-    let errors = Mutex::new(Vec::new());
-    let stats =
-        for_tiles(ctx, tiles, |wk, tile| lock(&errors).extend(wk.pilot_tile(ctx.scene, tile, min_samples)), |_, _| {});
-    let mut errors = errors.into_inner().unwrap_or_else(|e| e.into_inner());
-    // In image order, whatever order the threads finished in: the same sums, the same choice.
-    errors.sort_unstable_by_key(|&(pixel, _)| pixel);
-    let errors: Vec<f32> = errors.into_iter().map(|(_, e)| e).collect();
-    let choice = AutoChoice::uniform(&errors, min_samples, threshold, s.aa_samples);
-    (stats, Some(Rounds::of(&choice)), Some(choice))
 }
 
 /// Splits each shared corner's heat equally between the pixels around it.
@@ -388,23 +368,23 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let window = window(s, opts)?;
     let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
     let (focus_tiles, grid_tiles, pixel_tiles) = pass_tiles(s, &window);
-    // Auto mode's pilot, over the whole image whatever the crop, when the map leaves the
-    // choice to it.
-    let pilot = matches!(s.aa_mode, AaMode::Auto { .. }) && variance_pays(scene).is_none();
-    let pilot_tiles = if pilot { tiles(w, h) } else { Vec::new() };
+    // The auto modes' pilot, over the whole image whatever the crop, when one is needed.
+    let pilot_tiles = if auto::needs_pilot(scene) { tiles(w, h) } else { Vec::new() };
     let all_tiles = pixel_tiles.len() + grid_tiles.len() + focus_tiles.len() + pilot_tiles.len();
     if let Some(pb) = &opts.progress {
         pb.set_length(all_tiles as u64);
     }
     let start = Instant::now();
-    let ctx = Ctx { scene, opts, pool, wave: wave_size(scene), start, rays: AtomicU64::new(0) };
+    let shadows = auto::pilot_shadows(scene);
+    let mut ctx = Ctx { scene, opts, pool, wave: wave_size(scene, shadows), shadows, start, rays: AtomicU64::new(0) };
 
-    let (pilot_stats, rounds, auto) = rounds_pass(&ctx, &pilot_tiles);
+    let (pilot_stats, plan) = auto::pilot_pass(&ctx, &pilot_tiles);
+    (ctx.shadows, ctx.wave) = (plan.shadows, wave_size(scene, plan.shadows));
     let (focus_stats, sharp, lens) = focus_pass(&ctx, &focus_tiles);
     let blur = s.dof_radius.is_some().then_some(CornerBlur { sharp: &sharp, lens: &lens });
     let (grid_stats, grid, grid_heat) = grid_pass(&ctx, &grid_tiles, blur.map(|b| b.lens));
     let (main_stats, pixels, mut heat, finished) =
-        pixel_pass(&ctx, &pixel_tiles, (shared_grid.then_some(&grid[..]), blur), rounds);
+        pixel_pass(&ctx, &pixel_tiles, (shared_grid.then_some(&grid[..]), blur), plan.sampling);
     let seconds = start.elapsed().as_secs_f64();
     if shared_grid {
         share_corner_heat(&mut heat, &grid_heat, w, h);
@@ -423,5 +403,6 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     } else {
         (image.crop(&window), heat.crop(w, &window))
     };
-    Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial, finished_pixels, auto })
+    let (auto, auto_shadows) = (plan.aa, plan.shadow);
+    Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial, finished_pixels, auto, auto_shadows })
 }

@@ -40,11 +40,18 @@ pub(super) struct Pipeline<'a> {
     /// The render's cancel flag, and whether this worker saw it mid-tile.
     cancel: Option<Arc<AtomicBool>>,
     pub aborted: bool,
+    /// The render's shadow mode: the scene's, or what its auto mode chose (never `Auto`).
+    shadows: ShadowMode,
 }
 
 impl<'a> Pipeline<'a> {
     /// A pipeline with empty queues.
-    pub fn new(tracer: Tracer<'a>, meter: Meter, wave: u64, cancel: Option<Arc<AtomicBool>>) -> Self {
+    pub fn new(
+        tracer: Tracer<'a>,
+        meter: Meter,
+        (wave, shadows): (u64, ShadowMode),
+        cancel: Option<Arc<AtomicBool>>,
+    ) -> Self {
         Pipeline {
             q: WaveQueues::default(),
             levels: Vec::new(),
@@ -56,6 +63,7 @@ impl<'a> Pipeline<'a> {
             wave,
             cancel,
             aborted: false,
+            shadows,
         }
     }
 
@@ -147,7 +155,7 @@ impl<'a> Pipeline<'a> {
     /// record of it.
     fn wave(&mut self, scene: &Scene, coherence: Coherence) {
         let (q, tr, m, acc) = (&mut self.q, &mut self.tracer, &mut self.meter, &mut self.acc);
-        let heat = &mut acc.heat;
+        let (heat, shadows) = (&mut acc.heat, self.shadows);
         q.film.clear();
         let mut t = Instant::now();
 
@@ -161,16 +169,16 @@ impl<'a> Pipeline<'a> {
             specular: &mut q.specular,
             film: &mut q.film,
         };
-        let counts = shade::shade(scene, &q.rays, &q.hits, out);
+        let counts = shade::shade(scene, shadows, &q.rays, &q.hits, out);
         t = m.shade(q, counts, t);
 
         let lit = shadow::occlusion(tr, &q.shadow, &mut q.film);
         t = m.shadow(q, heat, lit, tr, t);
 
-        if let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode {
+        if let ShadowMode::Adaptive(probe) = shadows {
             let shading = ShadowPoints { surfaces: &q.surfaces, points: &q.points };
             let (probes, film, pen) = (&mut q.probes, &mut q.film, &mut q.penumbra);
-            let cast = shadow_corner::shadow_corners(scene, tr, shading, probes, film, pen);
+            let cast = shadow_corner::shadow_corners((scene, probe), tr, shading, probes, film, pen);
             // Probe rays per point depend on the light's shape (a triangle's 3x3 set is 7).
             let probes = |li: u32| crate::light::probe_count(&scene.lights[li as usize], probe) as f32;
             t = m.shadow_corners(q, heat, (cast, &probes), tr, t);
@@ -186,7 +194,7 @@ impl<'a> Pipeline<'a> {
         if scene.has_specular || path {
             scatter::scatter(scene, &q.rays, &q.hits, &q.specular, &mut q.next, &mut q.shadow);
             if path {
-                bounce::bounce(scene, &q.rays, &q.surfaces, &mut q.next);
+                bounce::bounce(scene, shadows, &q.rays, &q.surfaces, &mut q.next);
             }
             t = m.scatter(q, t);
 

@@ -133,7 +133,8 @@ impl Default for AaDesc {
 #[derive(Deserialize, Serialize, Debug, Clone)]
 #[serde(deny_unknown_fields, default)]
 pub struct ShadowsDesc {
-    /// Sampling mode: "uniform" or "adaptive" (default "uniform").
+    /// Sampling mode: "uniform", "adaptive", or "auto": adaptive where a pilot pass
+    /// measures a penumbra small enough for the probes to save rays (default "uniform").
     pub mode: SamplingDesc,
     /// Shadow rays per quad light per shading point (uniform), or per penumbra point
     /// (adaptive) (default 16).
@@ -170,8 +171,8 @@ pub enum BvhDesc {
     High,
 }
 
-/// `render.aa.mode` and `render.shadows.mode`: "uniform", "adaptive" or (anti-aliasing
-/// only) "variance" and "auto".
+/// `render.aa.mode` and `render.shadows.mode`: "uniform", "adaptive", "auto" or
+/// (anti-aliasing only) "variance".
 #[derive(Deserialize, Serialize, Debug, Clone, Copy, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum SamplingDesc {
@@ -181,7 +182,7 @@ pub enum SamplingDesc {
     Adaptive,
     /// Anti-aliasing only: more samples where two half-buffers disagree.
     Variance,
-    /// Anti-aliasing only: uniform or variance, chosen by a pilot pass.
+    /// The cheaper of the others for the scene, chosen by a pilot pass.
     Auto,
 }
 

@@ -77,6 +77,9 @@ pub enum ShadowMode {
     /// The paper's shadow-corner test (§2.2): probe rays first, `samples` rays only for
     /// points in the penumbra.
     Adaptive(Probe),
+    /// Adaptive or uniform, whichever casts fewer rays at the penumbra fraction a pilot
+    /// pass measures (`render::shadows_pay`).
+    Auto(Probe),
 }
 
 /// The rays of the adaptive shadow test.

@@ -22,20 +22,21 @@ use crate::surface::diffuse_brdf;
 /// Appends to `next` the bounce ray of every point of `surfaces` (the diffuse hits of
 /// `rays` that may still scatter): a cosine-distributed direction about the shading
 /// normal, from point `sample` of the path's Owen-scrambled Sobol sequence keyed by its
-/// key and [`dim::BOUNCE`] (stratified over the pixel's samples).
-pub fn bounce(scene: &Scene, rays: &RayQueue, surfaces: &SurfaceQueue, next: &mut RayQueue) {
+/// key and [`dim::BOUNCE`] (stratified over the pixel's samples). `shadows` is the
+/// render's shadow mode (never `Auto`).
+pub fn bounce(scene: &Scene, shadows: ShadowMode, rays: &RayQueue, surfaces: &SurfaceQueue, next: &mut RayQueue) {
     let mut start = 0;
     while start < surfaces.len() {
         let count = (surfaces.len() - start).min(LANES);
         let ids: [u32; LANES] = std::array::from_fn(|k| (start + k.min(count - 1)) as u32);
-        bounce_lanes(scene, rays, surfaces, &ids, count, next);
+        bounce_lanes((scene, shadows), rays, surfaces, &ids, count, next);
         start += count;
     }
 }
 
 /// The bounce rays of surface points `ids` (the first `count` real).
 fn bounce_lanes(
-    scene: &Scene,
+    (scene, shadows): (&Scene, ShadowMode),
     rays: &RayQueue,
     q: &SurfaceQueue,
     ids: &[u32; LANES],
@@ -78,8 +79,10 @@ fn bounce_lanes(
     }
     // The density over the light samples' count (their weights are for n samples), or
     // -1: the light samples took the emitters' whole weight.
-    let pdf = match s.shadow_mode {
-        ShadowMode::Uniform => (cos * f32x16::splat(FRAC_1_PI / s.shadow_samples as f32)).to_array(),
+    let pdf = match shadows {
+        ShadowMode::Uniform | ShadowMode::Auto(_) => {
+            (cos * f32x16::splat(FRAC_1_PI / s.shadow_samples as f32)).to_array()
+        }
         ShadowMode::Adaptive(_) => [-1.0; LANES],
     };
     let o = v3(&q.ox, &q.oy, &q.oz).lanes();

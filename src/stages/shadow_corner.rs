@@ -14,15 +14,15 @@ use crate::accel::tracer::Tracer;
 use crate::light::{probe_count, probe_targets, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, FilmQueue, IndexQueue, ShadowPoints, ShadowQueue};
 use crate::sampling::hash;
-use crate::scene::{Scene, ShadowMode};
+use crate::scene::{Probe, Scene};
 
 /// Tests every queued point (`points`, whose surfaces are in `surfaces`) against its
-/// light with the probe set of `render.shadows.probe`: writes the probe rays to `probes`
+/// light with the probe set `probe`: writes the probe rays to `probes`
 /// (cleared first; slot: the point), traces them, and appends the lit points'
 /// unoccluded contributions to `film`; penumbra points go to `penumbra` (cleared first;
 /// indices into `points`). Returns the number of probe rays cast.
 pub fn shadow_corners(
-    scene: &Scene,
+    (scene, probe): (&Scene, Probe),
     tracer: &mut Tracer,
     shading: ShadowPoints,
     probes: &mut ShadowQueue,
@@ -32,7 +32,6 @@ pub fn shadow_corners(
     let ShadowPoints { surfaces, points } = shading;
     penumbra.clear();
     probes.clear();
-    let ShadowMode::Adaptive(probe) = scene.settings.shadow_mode else { return 0 };
     for k in 0..points.len() {
         let s = points.surface[k] as usize;
         let o = surfaces.origin(s);

@@ -126,7 +126,7 @@ pub fn step_all(scene: &Scene, rays: &RayQueue) -> (RayQueue, HitQueue, ShadowQu
         specular: &mut spec,
         film: &mut film,
     };
-    shade::shade(scene, rays, &hits, out);
+    shade::shade(scene, scene.settings.shadow_mode, rays, &hits, out);
     let mut next = RayQueue::default();
     scatter::scatter(scene, rays, &hits, &spec, &mut next, &mut ShadowQueue::default());
     (next, hits, shadow, film)

@@ -239,10 +239,11 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     let shadow_mode = match r.shadows.mode {
         SamplingDesc::Uniform => ShadowMode::Uniform,
         SamplingDesc::Adaptive => ShadowMode::Adaptive(probe),
-        SamplingDesc::Variance | SamplingDesc::Auto => {
+        SamplingDesc::Auto => ShadowMode::Auto(probe),
+        SamplingDesc::Variance => {
             return Err(ctx.fail(
                 "render.shadows.mode",
-                "\"variance\" and \"auto\" are anti-aliasing modes; shadows are \"uniform\" or \"adaptive\"",
+                "\"variance\" is an anti-aliasing mode; shadows are \"uniform\", \"adaptive\" or \"auto\"",
             ))
         }
     };
@@ -269,7 +270,8 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     }
     let adaptive_aa = matches!(aa_mode, AaMode::Adaptive { .. });
     let dof_radius = (adaptive_aa && r.aa.dof_aware && cam.aperture > 0.0).then_some(r.aa.dof_radius);
-    let penumbra_stop = (matches!(shadow_mode, ShadowMode::Adaptive(_)) && r.shadows.tolerance > 0.0)
+    let penumbra_stop = (matches!(shadow_mode, ShadowMode::Adaptive(_) | ShadowMode::Auto(_))
+        && r.shadows.tolerance > 0.0)
         .then_some(PenumbraStop { tolerance: r.shadows.tolerance, batch: r.shadows.batch });
     Ok(Settings {
         width: r.width,

@@ -54,15 +54,15 @@ pub struct Shaded<'a> {
 
 /// Shades every ray of `rays` at its hit in `hits`: sorts the hits ([`sort_hits`]), then
 /// casts the diffuse points' shadow rays or queues them for the adaptive test
-/// ([`light_points`]).
-pub fn shade(scene: &Scene, rays: &RayQueue, hits: &HitQueue, out: Shaded) -> ShadeCounts {
+/// ([`light_points`]) as `shadows` (the render's mode, never `Auto`) says.
+pub fn shade(scene: &Scene, shadows: ShadowMode, rays: &RayQueue, hits: &HitQueue, out: Shaded) -> ShadeCounts {
     let Shaded { shadow, points, surfaces, specular, film } = out;
     shadow.clear();
     points.clear();
     surfaces.clear();
     specular.clear();
     sort_hits(scene, rays, hits, surfaces, specular, film);
-    light_points(scene, surfaces, shadow, points)
+    light_points(scene, shadows, surfaces, shadow, points)
 }
 
 /// Settles every hit that needs no shadow ray (the background of a miss, an emitter seen,
@@ -166,22 +166,23 @@ fn shared_environment(scene: &Scene, rays: &RayQueue, ids: &[u32], film: &mut Fi
 /// reaches the film).
 fn light_points(
     scene: &Scene,
+    shadows: ShadowMode,
     surfaces: &SurfaceQueue,
     shadow: &mut ShadowQueue,
     points: &mut ShadowPointQueue,
 ) -> ShadeCounts {
     let s = &scene.settings;
     // The lights the adaptive test probes; the others are sampled as in uniform mode.
-    let probed = |li: usize| match s.shadow_mode {
+    let probed = |li: usize| match shadows {
         ShadowMode::Adaptive(probe) => probes_light(&scene.lights[li], probe, s.shadow_samples),
-        ShadowMode::Uniform => false,
+        ShadowMode::Uniform | ShadowMode::Auto(_) => false,
     };
     let mut counts = ShadeCounts::default();
-    if s.path() && s.shadow_mode == ShadowMode::Uniform {
+    if s.path() && shadows == ShadowMode::Uniform {
         path_lights(scene, surfaces, shadow);
         return counts;
     }
-    if let ShadowMode::Adaptive(probe) = s.shadow_mode {
+    if let ShadowMode::Adaptive(probe) = shadows {
         let fallback = scene.lights.iter().filter(|l| l.lit_area() && !probes_light(l, probe, s.shadow_samples));
         counts.uniform_fallback = fallback.count() as u64 * surfaces.len() as u64;
     }

@@ -204,20 +204,20 @@ fn lens_rays(
 /// lens rays, or, with one lens ray per AA sample, sample j of an Owen-scrambled Sobol
 /// sequence of the pixel (stratified over the pixel's AA samples). Slot: the pixel's index
 /// in the tile. Each ray carries weight 1 / spp, so a pixel's sum is its mean.
-pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue) {
+pub fn generate(scene: &Scene, tile: &Tile, aa: u32, ks: Range<u64>, rays: &mut RayQueue) {
     rays.clear();
     if ks.is_empty() {
         return;
     }
     let s = &scene.settings;
-    let spp = s.aa_samples as u64 * s.dof_samples as u64;
+    let spp = aa as u64 * s.dof_samples as u64;
     // A pixel with at least as many samples as lanes fills them alone; fewer share them.
     if spp >= LANES as u64 {
         let mut k = ks.start;
         while k < ks.end {
             let q = k / spp;
             let end = (ks.end - q * spp).min(spp);
-            pixel_samples(scene, tile, q as u32, (k - q * spp) as u32..end as u32, rays);
+            pixel_samples(scene, tile, aa, q as u32, (k - q * spp) as u32..end as u32, rays);
             k = q * spp + end;
         }
         return;
@@ -228,7 +228,7 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
     // 16 (pixel, sample) indices at a time, consecutive pixels sharing the lanes where a
     // pixel has fewer samples than lanes; each lane has its pixel's keys.
     let (spp, mut q, mut j) = (spp as u32, (ks.start / spp) as u32, (ks.start % spp) as u32);
-    let mut at = Pixel::new(scene, tile, q);
+    let mut at = Pixel::new(scene, tile, aa, q);
     let mut lane = Lanes::default();
     for k0 in ks.clone().step_by(LANES) {
         let count = (ks.end - k0).min(LANES as u64) as usize;
@@ -236,7 +236,7 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
             j += 1;
             if j == spp {
                 (q, j) = (q + 1, 0);
-                at = Pixel::new(scene, tile, q);
+                at = Pixel::new(scene, tile, aa, q);
             }
         }
         for k in 0..LANES {
@@ -246,14 +246,14 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
                 j += 1;
                 if j == spp {
                     (q, j) = (q + 1, 0);
-                    at = Pixel::new(scene, tile, q);
+                    at = Pixel::new(scene, tile, aa, q);
                 }
             }
             lane.set(k, &at, j);
         }
         let js = u32x16::from(lane.j);
-        let aa = if dof == 1 { js } else { js.div_rem(dof).0 };
-        let (cx, cy, _) = cmj_keyed(aa, s.aa_samples, lane.cmj.map(u32x16::from));
+        let sample = if dof == 1 { js } else { js.div_rem(dof).0 };
+        let (cx, cy, _) = cmj_keyed(sample, aa, lane.cmj.map(u32x16::from));
         let (fx, fy) = (f32x16::from(lane.x) + cx, f32x16::from(lane.y) + cy);
         let d = cam.pinhole_dirs(fx, fy, s.width, s.height);
         if cam.aperture > 0.0 {
@@ -263,7 +263,7 @@ pub fn generate(scene: &Scene, tile: &Tile, ks: Range<u64>, rays: &mut RayQueue)
             let (x, y) = if dof == 1 {
                 sobol_owen_lanes(js, u32x16::from(lane.lens_seed))
             } else {
-                let (aw, mut lens) = (words(aa), [[0.0; LANES]; 2]);
+                let (aw, mut lens) = (words(sample), [[0.0; LANES]; 2]);
                 for k in 0..LANES {
                     let (pixel, jk) = (lane.pixel[k], lane.j[k]);
                     (lens[0][k], lens[1][k]) = lens_sample(scene, pixel, aw[k], jk % dof, jk, lane.lens_seed[k]).into();
@@ -295,7 +295,7 @@ struct Pixel {
 
 impl Pixel {
     /// The `q`-th pixel of `tile` in [`block_slot`] order.
-    fn new(scene: &Scene, tile: &Tile, q: u32) -> Pixel {
+    fn new(scene: &Scene, tile: &Tile, aa: u32, q: u32) -> Pixel {
         let s = &scene.settings;
         let slot = block_slot(tile, q);
         let tw = tile.x1 - tile.x0;
@@ -306,7 +306,7 @@ impl Pixel {
             x,
             y,
             pixel,
-            cmj: CmjKey::new(hash(&[s.seed, pixel, dim::PIXEL]), s.aa_samples),
+            cmj: CmjKey::new(hash(&[s.seed, pixel, dim::PIXEL]), aa),
             path: hash(&[s.seed, pixel, dim::PATH]),
             lens_seed: hash(&[s.seed, pixel, dim::LENS]),
         }
@@ -341,11 +341,11 @@ impl Lanes {
 /// Samples `js` of the `q`-th pixel of `tile` (see [`generate`]), a pixel with at least
 /// as many samples as lanes: 16 at a time on SIMD lanes (film position, pinhole
 /// direction, lens), or one at a time past the lanes' CMJ pattern.
-fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut RayQueue) {
+fn pixel_samples(scene: &Scene, tile: &Tile, n: u32, q: u32, js: Range<u32>, rays: &mut RayQueue) {
     let s = &scene.settings;
     let cam = &scene.camera;
     let dof = s.dof_samples;
-    let spp = s.aa_samples * dof;
+    let spp = n * dof;
     let weight = Vec3::splat(1.0 / spp as f32);
     let w = weight.to_array().map(|x| [x; LANES]);
     let slot = block_slot(tile, q);
@@ -358,7 +358,7 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
     if spp > CMJ_LANES_MAX {
         for j in js {
             let (aa, l) = (j / dof, j % dof);
-            let film = Vec2::new(x as f32, y as f32) + cmj(aa, s.aa_samples, pattern);
+            let film = Vec2::new(x as f32, y as f32) + cmj(aa, n, pattern);
             let lens = || lens_sample(scene, pixel, aa, l, j, lens_seed);
             push(scene, film, lens, slot, weight, (key, j), rays);
         }
@@ -370,7 +370,7 @@ fn pixel_samples(scene: &Scene, tile: &Tile, q: u32, js: Range<u32>, rays: &mut 
         // Lanes past the last sample repeat it (a valid index) and are not written.
         let j = iota(j0).min(u32x16::splat(js.end - 1));
         let aa = if dof == 1 { j } else { j.div_rem(dof).0 };
-        let (cx, cy, _) = cmj_lanes(aa, s.aa_samples, pattern);
+        let (cx, cy, _) = cmj_lanes(aa, n, pattern);
         let (fx, fy) = (fx0 + cx, fy0 + cy);
         let d = cam.pinhole_dirs(fx, fy, s.width, s.height);
         let jw = words(j);
@@ -549,6 +549,12 @@ pub fn generate_refine(scene: &Scene, pass: RefinePass, lens: Lens, ks: Range<u6
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
         let key = hash(&[s.seed, pixel, level, dim::REFINE]);
+        if count == 1 && scene.camera.aperture <= 0.0 && n <= CMJ_LANES_MAX {
+            // A pinhole: the lens position is never asked for.
+            let no_lens = |_| (f32x16::ZERO, f32x16::ZERO);
+            film_samples(scene, (x, y, key, n), js, (|_| [slot; LANES], no_lens, w), rays);
+            continue;
+        }
         // Ray j of the pixel is lens ray j % count of its sample j / count: a run of
         // one sample's lens rays at a time.
         let mut j = js.start;
@@ -580,7 +586,9 @@ pub struct VariancePass<'a> {
 /// into listed pixel i and its ray j, of (its samples) × `dof_samples` rays: sample
 /// j / dof_samples, lens ray j % dof_samples. A pixel's sample g (counted over its rounds)
 /// goes to slot 2·(its index in the tile) + g % 2, its half-buffer; weight
-/// 1 / dof_samples, so a slot sums its samples' estimates.
+/// 1 / dof_samples, so a slot sums its samples' estimates. Lens positions: with one lens
+/// ray per sample, point g of the pixel's Owen-scrambled Sobol sequence (uniform mode's,
+/// so rounds extend one stratified sequence); with several, a CMJ pattern per sample.
 pub fn generate_variance(scene: &Scene, pass: VariancePass, lens: Lens, ks: Range<u64>, rays: &mut RayQueue) {
     let VariancePass { tile, pixels, state } = pass;
     rays.clear();
@@ -595,6 +603,11 @@ pub fn generate_variance(scene: &Scene, pass: VariancePass, lens: Lens, ks: Rang
         let (x, y) = (tile.x0 + p % tw, tile.y0 + p / tw);
         let pixel = y * s.width + x;
         let key = hash(&[s.seed, pixel, round, dim::VARIANCE]);
+        if count == 1 {
+            let lens_seed = hash(&[s.seed, pixel, dim::LENS]);
+            variance_samples(scene, (x, y, 2 * p), (key, n, before, lens_seed), js, rays);
+            continue;
+        }
         let mut j = js.start;
         while j < js.end {
             let (sample, l0) = (j / count, j % count);
@@ -608,191 +621,55 @@ pub fn generate_variance(scene: &Scene, pass: VariancePass, lens: Lens, ks: Rang
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn lanes_give_the_rays_of_the_scalar_formulas() {
-        use crate::scene::{load, SceneSource};
-        let cases = [
-            (37, 1, 0.0),
-            (64, 1, 0.0),
-            (5, 3, 0.0),
-            (16, 1, 0.1),
-            (6, 4, 0.1),
-            (4, 1, 0.0),
-            (1, 1, 0.1),
-            (3, 1, 0.1),
-            (2, 3, 0.1),
-        ];
-        for (aa, dof, aperture) in cases {
-            let sets = [
-                "render.width=13".to_string(),
-                "render.height=7".to_string(),
-                format!("render.aa.samples={aa}"),
-                format!("render.dof.samples={dof}"),
-                format!("camera.aperture={aperture}"),
-            ];
-            let scene = load(&SceneSource::default_scene(), &sets).unwrap();
-            let s = &scene.settings;
-            let tile = Tile { x0: 2, y0: 1, x1: 11, y1: 6 };
-            let dof = s.dof_samples; // a pinhole takes one lens ray whatever is asked
-            let spp = (aa * dof) as u64;
-            let total = 45 * spp;
-            // Ranges that start and end inside pixels and inside a 16-lane group.
-            for ks in [0..total, 3..total - 5, spp + 17..3 * spp + 40] {
-                let mut rays = RayQueue::default();
-                generate(&scene, &tile, ks.clone(), &mut rays);
-                assert_eq!(rays.len() as u64, ks.end - ks.start);
-                for (i, k) in ks.enumerate() {
-                    let slot = block_slot(&tile, (k / spp) as u32);
-                    let j = (k % spp) as u32;
-                    let (x, y) = (tile.x0 + slot % 9, tile.y0 + slot / 9);
-                    let pixel = y * s.width + x;
-                    let film = Vec2::new(x as f32, y as f32) + cmj(j / dof, aa, hash(&[s.seed, pixel, dim::PIXEL]));
-                    let mut d = scene.camera.pinhole_dir(film, s.width, s.height);
-                    let mut o = scene.camera.position;
-                    if aperture > 0.0 {
-                        let lens = lens_sample(&scene, pixel, j / dof, j % dof, j, hash(&[s.seed, pixel, dim::LENS]));
-                        (o, d) = thin_lens(&scene, d, lens);
-                    }
-                    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
-                    assert_eq!((bits(rays.origin(i)), bits(rays.dir(i))), (bits(o), bits(d)), "{sets:?} ray {k}");
-                    assert_eq!((rays.slot[i], rays.sample[i], rays.depth[i]), (slot, j, 0));
-                    assert_eq!(rays.key[i], hash(&[s.seed, pixel, dim::PATH]));
-                    assert_eq!(rays.weight(i), Vec3::splat(1.0 / spp as f32));
-                }
-            }
+/// [`generate_variance`]'s samples `js` of one pixel at (`x`, `y`) with its half-buffers
+/// at `slot0`, one ray each: film position `cmj(j, n, key)`, lens position Sobol point
+/// `before + j` of `lens_seed`.
+fn variance_samples(
+    scene: &Scene,
+    (x, y, slot0): (u32, u32, u32),
+    (key, n, before, lens_seed): (u32, u32, u32, u32),
+    js: Range<u32>,
+    rays: &mut RayQueue,
+) {
+    if n > CMJ_LANES_MAX {
+        for j in js {
+            let film = Vec2::new(x as f32, y as f32) + cmj(j, n, key);
+            let lens = || sobol_owen(before + j, lens_seed);
+            push(scene, film, lens, slot0 + ((before + j) & 1), Vec3::ONE, (key, j), rays);
         }
+        return;
     }
+    let one = u32x16::splat(1);
+    let slot = |j: u32x16| words(u32x16::splat(slot0) + ((j + u32x16::splat(before)) & one));
+    let lens = |j: u32x16| sobol_owen_lanes(j + u32x16::splat(before), u32x16::splat(lens_seed));
+    film_samples(scene, (x, y, key, n), js, (slot, lens, Vec3::ONE), rays);
+}
 
-    #[test]
-    fn lens_rays_on_lanes_give_the_rays_of_the_scalar_formulas() {
-        use crate::scene::{load, SceneSource};
-        let sets = ["render.width=13", "render.height=7", "camera.aperture=0.1"].map(String::from);
-        let scene = load(&SceneSource::default_scene(), &sets).unwrap();
-        let s = &scene.settings;
-        let tile = Tile { x0: 2, y0: 1, x1: 11, y1: 6 };
-        let starts = [0u64, 1, 4, 4 + 70, 4 + 70 + 17, 4 + 70 + 17 + 33];
-        let bits = |q: &RayQueue, i: usize| {
-            let v = [q.origin(i), q.dir(i), q.weight(i)].map(|v| v.to_array().map(f32::to_bits));
-            (v, q.slot[i], q.key[i], q.sample[i], q.depth[i])
-        };
-        let check =
-            |name: &str, total: u64, gen: &dyn Fn(Range<u64>, &mut RayQueue), want: &dyn Fn(u64, &mut RayQueue)| {
-                // Ranges that start and end inside points and inside a 16-lane group.
-                for ks in [0..total, 3..total - 5, 17..total / 2 + 9] {
-                    let (mut got, mut expect) = (RayQueue::default(), RayQueue::default());
-                    gen(ks.clone(), &mut got);
-                    for k in ks.clone() {
-                        want(k, &mut expect);
-                    }
-                    assert_eq!(got.len(), expect.len(), "{name} {ks:?}");
-                    for i in 0..got.len() {
-                        assert_eq!(bits(&got, i), bits(&expect, i), "{name} {ks:?} ray {i}");
-                    }
-                }
-            };
-        let grid = Tile { x0: 1, y0: 0, x1: 6, y1: 3 };
-        for lens in [Lens::Fixed(70), Lens::Fixed(5), Lens::PerPoint(&starts)] {
-            let corner = |ci: u32, l: u32, count: u32, slot: u32, q: &mut RayQueue| {
-                let (cx, cy) = (ci % (s.width + 1), ci / (s.width + 1));
-                let pattern = hash(&[s.seed, ci, dim::CORNER]);
-                let w = Vec3::splat(1.0 / count as f32);
-                push(&scene, Vec2::new(cx as f32, cy as f32), || cmj(l, count, pattern), slot, w, (pattern, l), q);
-            };
-            let points = 5;
-            check(
-                "corner grid",
-                lens.total(points),
-                &|ks, q| generate_corner_grid(&scene, &grid, lens, ks, q),
-                &|k, q| {
-                    let (slot, l, count) = lens.split(k);
-                    corner(corner_index(&scene, grid.x0 + slot % 5, grid.y0 + slot / 5), l, count, slot, q);
-                },
-            );
-            check(
-                "pixel corners",
-                lens.total(points),
-                &|ks, q| generate_pixel_corners(&scene, &tile, lens, ks, q),
-                &|k, q| {
-                    let (slot, l, count) = lens.split(k);
-                    let (p, c) = (slot / 4, slot % 4);
-                    let (x, y) = (tile.x0 + p % 9 + (c & 1), tile.y0 + p / 9 + (c >> 1));
-                    corner(corner_index(&scene, x, y), l, count, slot, q);
-                },
-            );
-            check("centres", lens.total(points), &|ks, q| generate_centres(&scene, &tile, lens, ks, q), &|k, q| {
-                let (slot, l, count) = lens.split(k);
-                let (x, y) = (tile.x0 + slot % 9, tile.y0 + slot / 9);
-                let pattern = hash(&[s.seed, y * s.width + x, dim::CENTRE]);
-                let film = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                push(&scene, film, || cmj(l, count, pattern), slot, Vec3::splat(1.0 / count as f32), (pattern, l), q);
-            });
-        }
-        // Refinement: 2^level samples per pixel, each with its lens rays.
-        let pixels = [0u32, 3, 4, 20, 44];
-        for (level, per) in [(1u32, 5u64), (2, 70), (3, 3)] {
-            let lens = Lens::Fixed(per << level);
-            let n = 1u32 << level;
-            check(
-                "refine",
-                lens.total(pixels.len()),
-                &|ks, q| generate_refine(&scene, RefinePass { tile: &tile, pixels: &pixels, level }, lens, ks, q),
-                &|k, q| {
-                    let (i, j, all) = lens.split(k);
-                    let (slot, count) = (pixels[i as usize], all >> level);
-                    let (sample, l) = (j / count, j % count);
-                    let (x, y) = (tile.x0 + slot % 9, tile.y0 + slot / 9);
-                    let pixel = y * s.width + x;
-                    let key = hash(&[s.seed, pixel, level, dim::REFINE]);
-                    let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, key);
-                    let lens = || cmj(l, count, hash(&[s.seed, pixel, level, sample, dim::LENS]));
-                    push(&scene, film, lens, slot, Vec3::splat(1.0 / (n * count) as f32), (key, j), q);
-                },
-            );
-        }
-    }
-
-    #[test]
-    fn lens_runs_walk_as_split_says() {
-        // A point with no ray (the fourth) is skipped.
-        let starts = [0u64, 1, 4, 4 + 70, 4 + 70, 4 + 70 + 2];
-        for lens in [Lens::Fixed(3), Lens::Fixed(1), Lens::PerPoint(&starts)] {
-            let total = lens.total(5);
-            for a in 0..total {
-                for b in a..=total.min(a + 9) {
-                    let split: Vec<_> = (a..b).map(|k| lens.split(k)).collect();
-                    let runs: Vec<_> = lens.runs(a..b).flat_map(|(p, rs, n)| rs.map(move |r| (p, r, n))).collect();
-                    assert_eq!(runs, split, "{lens:?} {a}..{b} in runs");
-                }
-            }
-        }
-        assert_eq!(Lens::PerPoint(&starts).split(3), (1, 2, 3));
-        assert_eq!(Lens::PerPoint(&starts).split(4), (2, 0, 70));
-    }
-
-    #[test]
-    fn block_order_visits_every_pixel_once_in_squares() {
-        for tw in 1..=16 {
-            for th in 1..=16 {
-                let tile = Tile { x0: 32, y0: 16, x1: 32 + tw, y1: 16 + th };
-                let mut seen = vec![false; (tw * th) as usize];
-                for q in 0..tw * th {
-                    let s = block_slot(&tile, q) as usize;
-                    assert!(!seen[s], "{tw}x{th}: slot {s} twice");
-                    seen[s] = true;
-                }
-            }
-        }
-        // A full tile: each run of 16 is one 4×4 square.
-        let tile = Tile { x0: 0, y0: 0, x1: 16, y1: 16 };
-        for run in 0..16 {
-            let xy: Vec<(u32, u32)> =
-                (run * 16..run * 16 + 16).map(|q| block_slot(&tile, q)).map(|s| (s % 16, s / 16)).collect();
-            let (x0, y0) = xy[0];
-            assert!(xy.iter().all(|&(x, y)| x - x0 < 4 && y - y0 < 4), "{xy:?}");
-        }
+/// One pixel's samples `js`, one ray each, 16 at a time on lanes: film position
+/// `cmj(j, n, key)` in pixel (`x`, `y`), slot `slot(j)`, lens position `lens(j)` (not
+/// evaluated for a pinhole), weight `w`, path `(key, j)`. `n` is at most
+/// [`CMJ_LANES_MAX`].
+fn film_samples(
+    scene: &Scene,
+    (x, y, key, n): (u32, u32, u32, u32),
+    js: Range<u32>,
+    (slot, lens, w): (impl Fn(u32x16) -> [u32; LANES], impl Fn(u32x16) -> (f32x16, f32x16), Vec3),
+    rays: &mut RayQueue,
+) {
+    let (s, cam) = (&scene.settings, &scene.camera);
+    let ck = CmjKey::new(key, n).0.map(u32x16::splat);
+    let w = w.to_array().map(|x| [x; LANES]);
+    let (fx0, fy0) = (f32x16::splat(x as f32), f32x16::splat(y as f32));
+    for j0 in js.clone().step_by(LANES) {
+        let m = (js.end - j0).min(LANES as u32) as usize;
+        // Lanes past the last sample repeat it (a valid index) and are not written.
+        let j = iota(j0).min(u32x16::splat(js.end - 1));
+        let (cx, cy, _) = cmj_keyed(j, n, ck);
+        let d = cam.pinhole_dirs(fx0 + cx, fy0 + cy, s.width, s.height);
+        let lens = (cam.aperture > 0.0).then(|| lens(j));
+        push_lanes(scene, d, lens, (slot(j), [key; LANES], words(j)), w, m, rays);
     }
 }
+
+#[cfg(test)]
+mod tests;
