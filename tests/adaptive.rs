@@ -234,6 +234,10 @@ fn auto_aa_chooses_uniform_through_a_pinhole_and_variance_through_a_lens() {
     assert_eq!((c.chose, c.pilot_pixels, c.max, c.min_samples), ("variance", 0, 32, 4), "{c:?}");
     assert_eq!(lens.stats.camera_rays % 4, 0);
     assert!(!lens.partial, "no pilot tiles are counted when there is no pilot");
+    // Fewer samples than four rounds: uniform, even through a lens.
+    let few = ["camera.aperture=0.05", "camera.focus_distance=4", "render.aa.samples=12"];
+    let few = render_text(&flat(), &[&sets[..], &few].concat(), 2);
+    assert_eq!(few.auto.expect("auto mode reports its choice").chose, "uniform");
 }
 
 #[test]

@@ -2,6 +2,13 @@
 
 use super::*;
 
+/// Ray `i` of `q`, every field as bits.
+#[allow(clippy::type_complexity)]
+fn ray_bits(q: &RayQueue, i: usize) -> ([[u32; 3]; 3], u32, u32, u32, u32) {
+    let v = [q.origin(i), q.dir(i), q.weight(i)].map(|v| v.to_array().map(f32::to_bits));
+    (v, q.slot[i], q.key[i], q.sample[i], q.depth[i])
+}
+
 #[test]
 fn lanes_give_the_rays_of_the_scalar_formulas() {
     use crate::scene::{load, SceneSource};
@@ -65,10 +72,7 @@ fn lens_rays_on_lanes_give_the_rays_of_the_scalar_formulas() {
     let s = &scene.settings;
     let tile = Tile { x0: 2, y0: 1, x1: 11, y1: 6 };
     let starts = [0u64, 1, 4, 4 + 70, 4 + 70 + 17, 4 + 70 + 17 + 33];
-    let bits = |q: &RayQueue, i: usize| {
-        let v = [q.origin(i), q.dir(i), q.weight(i)].map(|v| v.to_array().map(f32::to_bits));
-        (v, q.slot[i], q.key[i], q.sample[i], q.depth[i])
-    };
+    let bits = ray_bits;
     let check = |name: &str, total: u64, gen: &dyn Fn(Range<u64>, &mut RayQueue), want: &dyn Fn(u64, &mut RayQueue)| {
         // Ranges that start and end inside points and inside a 16-lane group.
         for ks in [0..total, 3..total - 5, 17..total / 2 + 9] {
@@ -181,11 +185,7 @@ fn variance_rounds_on_lanes_give_the_rays_of_the_scalar_formulas() {
             }
             assert_eq!(got.len(), want.len(), "{sets:?} {ks:?}");
             for i in 0..got.len() {
-                let bits = |q: &RayQueue| {
-                    let v = [q.origin(i), q.dir(i), q.weight(i)].map(|v| v.to_array().map(f32::to_bits));
-                    (v, q.slot[i], q.key[i], q.sample[i])
-                };
-                assert_eq!(bits(&got), bits(&want), "{sets:?} {ks:?} ray {i}");
+                assert_eq!(ray_bits(&got, i), ray_bits(&want, i), "{sets:?} {ks:?} ray {i}");
             }
         }
     }
@@ -216,11 +216,7 @@ fn pinhole_refinement_on_lanes_gives_the_rays_of_the_scalar_formulas() {
             }
             assert_eq!(got.len(), want.len());
             for i in 0..got.len() {
-                let bits = |q: &RayQueue| {
-                    let v = [q.origin(i), q.dir(i), q.weight(i)].map(|v| v.to_array().map(f32::to_bits));
-                    (v, q.slot[i], q.key[i], q.sample[i])
-                };
-                assert_eq!(bits(&got), bits(&want), "level {level} {ks:?} ray {i}");
+                assert_eq!(ray_bits(&got, i), ray_bits(&want, i), "level {level} {ks:?} ray {i}");
             }
         }
     }

@@ -126,18 +126,20 @@ pub const METHODS: &[Method] = &[
     Method {
         name: "auto",
         about: "`render.aa.mode=auto` and `render.shadows.mode=auto`: each picked by the pilot; samples cap both",
-        // A small threshold: where auto picks uniform AA, the pilot asks for more than the
-        // cap and `samples` is the count, so its grid is uniform's.
         fixed: &[
             "render.aa.mode=auto",
             "render.aa.min_samples=4",
             "render.aa.samples=64",
-            "render.aa.threshold=0.01",
             "render.shadows.mode=auto",
             "render.shadows.probe=3x3",
             "render.shadows.tolerance=0",
         ],
-        grid: &[("render.aa.samples", &["4", "16", "64"]), ("render.shadows.samples", &["1", "4", "16", "64"])],
+        // A threshold of 0.002 lets the pilot ask for up to `samples` where 0.01 stops short.
+        grid: &[
+            ("render.aa.threshold", &["0.01", "0.002"]),
+            ("render.aa.samples", &["4", "16", "64"]),
+            ("render.shadows.samples", &["1", "4", "16", "64"]),
+        ],
         quick: &[("render.aa.samples", &["4", "16"]), ("render.shadows.samples", &["1", "16"])],
         needs: Needs::Nothing,
     },
