@@ -3,10 +3,9 @@
 //! stage keeps, until none is left or every one has `render.aa.samples`.
 //!
 //! `render.aa.mode = "auto"` renders variance's rounds where the study's map says they
-//! pay ([`variance_pays`]); elsewhere it first runs a pilot, one round in one pixel of
-//! every 8×8 block of the whole image (whatever the crop, so every crop and thread count
-//! makes the same choice), whose errors [`uniform_samples`] turns into one round of N
-//! samples everywhere, which is uniform sampling.
+//! pay ([`variance_pays`]); elsewhere its pilot (`render/auto.rs`, one round in one
+//! pixel of every 8×8 block, `Worker::pilot_tile`) gives errors that
+//! [`uniform_samples`] turns into a uniform count N, rendered as uniform mode's tiles.
 
 use std::time::Instant;
 
