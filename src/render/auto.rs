@@ -148,3 +148,29 @@ pub(super) fn pilot_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Plan) {
     };
     (stats, Plan { sampling, shadows, aa, shadow })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shadows_pay_at_most_the_margin_of_uniforms_rays() {
+        let pilot = |corner: u64, penumbra: u64, uniform: u64| Stats {
+            shadow_points: 100,
+            penumbra_points: 10,
+            shadow_corner_rays: corner,
+            penumbra_rays: penumbra,
+            shadow_uniform_rays: uniform,
+            ..Stats::default()
+        };
+        // 9 probes and 10% of points in a 64-ray penumbra against 64 rays each.
+        let c = shadows_pay(&pilot(900, 640, 6400));
+        assert_eq!((c.chose, c.penumbra_fraction, c.adaptive_rays, c.uniform_rays), ("adaptive", 0.1, 1540, 6400));
+        // Exactly the margin still pays; one ray more does not.
+        assert_eq!(shadows_pay(&pilot(900, 540, 1600)).chose, "adaptive");
+        assert_eq!(shadows_pay(&pilot(900, 541, 1600)).chose, "uniform");
+        // No tested point: nothing to go on, uniform.
+        let none = shadows_pay(&Stats::default());
+        assert_eq!((none.chose, none.pilot_points, none.penumbra_fraction), ("uniform", 0, 0.0));
+    }
+}
