@@ -555,17 +555,32 @@ pub fn generate_refine(scene: &Scene, pass: RefinePass, lens: Lens, ks: Range<u6
             film_samples(scene, (x, y, key, n), js, (|_| [slot; LANES], no_lens, w), rays);
             continue;
         }
-        // Ray j of the pixel is lens ray j % count of its sample j / count: a run of
-        // one sample's lens rays at a time.
-        let mut j = js.start;
-        while j < js.end {
-            let (sample, l0) = (j / count, j % count);
-            let l1 = count.min(l0 + (js.end - j));
-            let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, key);
-            let pattern = hash(&[s.seed, pixel, level, sample, dim::LENS]);
-            lens_rays(scene, film, (l0..l1, count, pattern), (slot, w), (key, sample * count), rays);
-            j += l1 - l0;
-        }
+        sample_lens_rays(scene, (x, y, pixel, level), (key, n, count), js, (|_| slot, w), rays);
+    }
+}
+
+/// One pixel's rays `js` when each of its `n` samples has `count` lens rays: ray j is
+/// lens ray j % count of sample j / count, through film position `cmj(sample, n, key)`
+/// and a CMJ pattern of lens positions keyed by the pixel, its `pass` (refinement level
+/// or variance round) and the sample; slot `slot(sample)`, weight `w`, path
+/// `(key, j)`. One sample's lens rays at a time, on lanes ([`lens_rays`]).
+fn sample_lens_rays(
+    scene: &Scene,
+    (x, y, pixel, pass): (u32, u32, u32, u32),
+    (key, n, count): (u32, u32, u32),
+    js: Range<u32>,
+    (slot, w): (impl Fn(u32) -> u32, Vec3),
+    rays: &mut RayQueue,
+) {
+    let s = &scene.settings;
+    let mut j = js.start;
+    while j < js.end {
+        let (sample, l0) = (j / count, j % count);
+        let l1 = count.min(l0 + (js.end - j));
+        let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, key);
+        let pattern = hash(&[s.seed, pixel, pass, sample, dim::LENS]);
+        lens_rays(scene, film, (l0..l1, count, pattern), (slot(sample), w), (key, sample * count), rays);
+        j += l1 - l0;
     }
 }
 
@@ -608,16 +623,8 @@ pub fn generate_variance(scene: &Scene, pass: VariancePass, lens: Lens, ks: Rang
             variance_samples(scene, (x, y, 2 * p), (key, n, before, lens_seed), js, rays);
             continue;
         }
-        let mut j = js.start;
-        while j < js.end {
-            let (sample, l0) = (j / count, j % count);
-            let l1 = count.min(l0 + (js.end - j));
-            let film = Vec2::new(x as f32, y as f32) + cmj(sample, n, key);
-            let pattern = hash(&[s.seed, pixel, round, sample, dim::LENS]);
-            let slot = 2 * p + ((before + sample) & 1);
-            lens_rays(scene, film, (l0..l1, count, pattern), (slot, w), (key, sample * count), rays);
-            j += l1 - l0;
-        }
+        let slot = |sample: u32| 2 * p + ((before + sample) & 1);
+        sample_lens_rays(scene, (x, y, pixel, round), (key, n, count), js, (slot, w), rays);
     }
 }
 

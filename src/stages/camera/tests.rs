@@ -72,7 +72,6 @@ fn lens_rays_on_lanes_give_the_rays_of_the_scalar_formulas() {
     let s = &scene.settings;
     let tile = Tile { x0: 2, y0: 1, x1: 11, y1: 6 };
     let starts = [0u64, 1, 4, 4 + 70, 4 + 70 + 17, 4 + 70 + 17 + 33];
-    let bits = ray_bits;
     let check = |name: &str, total: u64, gen: &dyn Fn(Range<u64>, &mut RayQueue), want: &dyn Fn(u64, &mut RayQueue)| {
         // Ranges that start and end inside points and inside a 16-lane group.
         for ks in [0..total, 3..total - 5, 17..total / 2 + 9] {
@@ -83,7 +82,7 @@ fn lens_rays_on_lanes_give_the_rays_of_the_scalar_formulas() {
             }
             assert_eq!(got.len(), expect.len(), "{name} {ks:?}");
             for i in 0..got.len() {
-                assert_eq!(bits(&got, i), bits(&expect, i), "{name} {ks:?} ray {i}");
+                assert_eq!(ray_bits(&got, i), ray_bits(&expect, i), "{name} {ks:?} ray {i}");
             }
         }
     };
