@@ -152,7 +152,7 @@ fn threads(flag: Option<usize>) -> Result<Option<usize>> {
 
 /// Sizes rayon's global pool, which the scene's load runs on (meshes read ahead, trees
 /// built), to the worker threads asked for: `--threads 1` then loads on one thread as
-/// it renders on one. The render itself runs on a pool of its own of that size.
+/// it renders on one. The render then runs on that pool too.
 fn bound_threads(threads: Option<usize>) {
     if let Some(n) = threads {
         // Fails only when the pool already exists (a second run in one process), which

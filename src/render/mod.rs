@@ -139,7 +139,9 @@ impl Worker<'_> {
 struct Ctx<'a> {
     scene: &'a Scene,
     opts: &'a RenderOptions,
-    pool: rayon::ThreadPool,
+    /// The render's own pool, or `None` to run on rayon's global pool, which already has
+    /// the threads asked for (the command line sizes it for the load).
+    pool: Option<rayon::ThreadPool>,
     wave: u64,
     /// The shadow mode of the passes (the pilot's, then the plan's; never `Auto`).
     shadows: ShadowMode,
@@ -159,7 +161,7 @@ fn for_tiles(
     store: impl Fn(&Worker, &Tile) + Sync,
 ) -> PerThread {
     let next = AtomicUsize::new(0);
-    ctx.pool.broadcast(|_| {
+    let each = |_: rayon::BroadcastContext| {
         let mut w = new_worker(ctx);
         while let Some(tile) = tiles.get(next.fetch_add(1, Ordering::Relaxed)) {
             let before = w.pipe.meter.stats.total_rays();
@@ -179,7 +181,11 @@ fn for_tiles(
         }
         w.pipe.meter.stats.queue_bytes = w.bytes();
         (w.pipe.meter.stats, w.pipe.meter.spans)
-    })
+    };
+    match &ctx.pool {
+        Some(pool) => pool.broadcast(each),
+        None => rayon::broadcast(each),
+    }
 }
 
 /// A pool thread's worker, on the heap: the stages' stack frames below it then sit at
@@ -360,10 +366,18 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     if threads == 0 {
         return Err(Error::input("--threads must be at least 1"));
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::Internal(format!("cannot start {threads} threads: {e}")))?;
+    // A second pool of the same size would only cost its threads' start (a fixed cost
+    // of every small render); from inside a pool, or at another size, the render has its own.
+    let global = rayon::current_thread_index().is_none() && rayon::current_num_threads() == threads;
+    let pool = match global {
+        true => None,
+        false => Some(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map_err(|e| Error::Internal(format!("cannot start {threads} threads: {e}")))?,
+        ),
+    };
     let (w, h) = (s.width, s.height);
     let window = window(s, opts)?;
     let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });

@@ -93,7 +93,11 @@ impl SceneSource {
 pub(super) struct Ctx<'a> {
     /// The scene's text and where it came from.
     pub(super) src: &'a SceneSource,
-    doc: Option<toml_edit::ImDocument<&'a str>>,
+    /// The TOML text's document with its spans, parsed on the first error that needs a
+    /// position (most loads meet none, and the parse costs what the load's own does).
+    doc: std::sync::OnceLock<Option<toml_edit::ImDocument<&'a str>>>,
+    /// Whether `src.text` is the scene's TOML (an imported scene's positions are in `places`).
+    toml: bool,
     /// The `--set KEY=VALUE` overrides, in order.
     pub(super) sets: &'a [String],
     /// For an imported scene: field prefix → the element it came from.
@@ -101,15 +105,18 @@ pub(super) struct Ctx<'a> {
 }
 
 impl<'a> Ctx<'a> {
-    /// The context of `src` (its parsed document where it is TOML, for positions), with
-    /// its `--set` overrides and, for an imported scene, each field prefix's element.
-    pub(super) fn new(
-        src: &'a SceneSource,
-        doc: Option<toml_edit::ImDocument<&'a str>>,
-        sets: &'a [String],
-        places: &'a [(String, Loc)],
-    ) -> Ctx<'a> {
-        Ctx { src, doc, sets, places }
+    /// The context of `src` (`toml`: its text is the scene's TOML, whose positions errors
+    /// give), with its `--set` overrides and, for an imported scene, each field prefix's
+    /// element.
+    pub(super) fn new(src: &'a SceneSource, toml: bool, sets: &'a [String], places: &'a [(String, Loc)]) -> Ctx<'a> {
+        Ctx { src, doc: std::sync::OnceLock::new(), toml, sets, places }
+    }
+
+    /// The TOML document, parsed on first use; `None` for an imported scene or a text
+    /// that does not parse.
+    fn doc(&self) -> Option<&toml_edit::ImDocument<&'a str>> {
+        let text: &'a str = self.src.text.as_str();
+        self.doc.get_or_init(|| self.toml.then(|| toml_edit::ImDocument::parse(text).ok()).flatten()).as_ref()
     }
 
     /// A bad-input error about field `path`, placed at the `--set` that gave it, the
@@ -134,7 +141,7 @@ impl<'a> Ctx<'a> {
     }
 
     fn locate(&self, path: &str) -> Option<(usize, usize)> {
-        let doc = self.doc.as_ref()?;
+        let doc = self.doc()?;
         let mut item = doc.as_item();
         let mut span = None;
         for seg in path.split('.') {
@@ -196,7 +203,7 @@ impl<'a> Ctx<'a> {
                 found
             })
         }
-        in_table(self.doc.as_ref()?.as_table(), offset, &mut Vec::new())
+        in_table(self.doc()?.as_table(), offset, &mut Vec::new())
     }
 }
 

@@ -38,8 +38,7 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
     if let Some(path) = &src.xml {
         return load_xml(src, path, sets);
     }
-    let doc = toml_edit::ImDocument::parse(src.text.as_str()).ok();
-    let ctx = Ctx::new(src, doc, sets, &[]);
+    let ctx = Ctx::new(src, true, sets, &[]);
     // A serde error in the file: located, with the field it is about when it points at a
     // value (a bad `mode` or `probe`, a wrong type).
     let toml_err = |e: toml::de::Error| {
@@ -54,8 +53,17 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
     };
     let mut value: toml::Value = toml::from_str::<toml::Table>(&src.text).map(toml::Value::Table).map_err(toml_err)?;
     check_finite(&value, "", &ctx)?;
-    // Deserialize the file alone first, so its errors carry line and column.
-    let mut file: SceneFile = toml::from_str(&src.text).map_err(toml_err)?;
+    // The file alone first, so its errors carry line and column: from the parsed value,
+    // and only on an error again from the text, whose error has the position.
+    let mut file = match SceneFile::deserialize(value.clone()) {
+        Ok(file) => file,
+        Err(e) => {
+            return Err(match toml::from_str::<SceneFile>(&src.text) {
+                Err(located) => toml_err(located),
+                Ok(_) => Error::input(format!("{}: {}", src.name, e.message().trim())),
+            })
+        }
+    };
     // Apply overrides one at a time so an error names the --set that caused it.
     for set in sets {
         apply_set(&mut value, set, &src.name)?;
@@ -72,7 +80,7 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
 /// dotted paths as the TOML format), and builds it.
 fn load_xml(src: &SceneSource, path: &Path, sets: &[String]) -> Result<Scene> {
     let imported = super::mitsuba::import(path, &src.defines)?;
-    let ctx = Ctx::new(src, None, sets, &imported.places);
+    let ctx = Ctx::new(src, false, sets, &imported.places);
     let mut file = imported.file;
     if !sets.is_empty() {
         let mut value = toml::Value::try_from(&file).map_err(|e| Error::Internal(format!("imported scene: {e}")))?;
