@@ -413,11 +413,14 @@ pub struct AutoChoice {
     pub min_samples: u32,
     /// ... up to this many a pixel.
     pub max: u32,
-    /// Pixels in the pilot (none when variance is chosen: it needs no prediction).
+    /// Pixels in the pilot (none when variance is chosen without one: a lens or paths).
     pub pilot_pixels: usize,
-    /// Uniform: the samples a pixel the pilot predicts for variance sampling's mean
-    /// squared error at `threshold`, before rounding up.
+    /// With a pilot: the samples a pixel uniform sampling needs for the mean squared
+    /// error the pilot predicts for variance sampling at `threshold`, before rounding up.
     pub uniform_spp: Option<f64>,
+    /// With a pilot: the samples a pixel variance sampling spends on average, as the
+    /// pilot predicts.
+    pub variance_spp: Option<f64>,
 }
 
 /// What `render.shadows.mode = "auto"` chose, and the pilot's counts behind it (see

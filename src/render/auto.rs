@@ -120,11 +120,11 @@ pub(super) fn pilot_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Plan) {
         AaMode::Auto { threshold, min_samples } => {
             let choice = match variance_pays(scene) {
                 Some(why) => AutoChoice::variance(why, threshold, min_samples, s.aa_samples),
-                None => AutoChoice::uniform(&errors, min_samples, threshold, s.aa_samples),
+                None => AutoChoice::from_pilot(&errors, min_samples, threshold, s.aa_samples),
             };
-            let sampling = match choice.uniform_spp {
-                Some(_) => Sampling::Uniform(choice.max),
-                None => Sampling::Rounds(Rounds::of(&choice)),
+            let sampling = match choice.chose {
+                "uniform" => Sampling::Uniform(choice.max),
+                _ => Sampling::Rounds(Rounds::of(&choice)),
             };
             (sampling, Some(choice))
         }

@@ -3,9 +3,11 @@
 //! stage keeps, until none is left or every one has `render.aa.samples`.
 //!
 //! `render.aa.mode = "auto"` renders variance's rounds where the study's map says they
-//! pay ([`variance_pays`]); elsewhere its pilot (`render/auto.rs`, one round in one
-//! pixel of every 8×8 block, `Worker::pilot_tile`) gives errors that
-//! [`uniform_samples`] turns into a uniform count N, rendered as uniform mode's tiles.
+//! pay without a pilot ([`variance_pays`]); elsewhere its pilot (`render/auto.rs`, one
+//! round in one pixel of every 8×8 block, `Worker::pilot_tile`) gives errors from which
+//! [`variance_samples`] and [`uniform_samples`] predict each method's samples, and the
+//! cheaper is rendered ([`AutoChoice::from_pilot`]): variance's rounds, or uniform
+//! mode's tiles at N.
 
 use std::time::Instant;
 
@@ -55,13 +57,13 @@ pub struct Rounds {
 /// Side of the blocks the pilot takes one pixel of.
 pub const PILOT_BLOCK: u32 = 8;
 
-/// The auto mode's rule, from the study's map (docs/adaptive.md): variance sampling
-/// wins where a pixel's noise comes from more than its area (paths that bounce, a lens),
-/// which stratifying the film position does not reduce, and only when `samples` leaves
-/// it at least four rounds to adapt in (with fewer it took 1.4–1.7× uniform's time to
-/// the 4-spp targets); where the noise is the pixel's area alone (edges, shading and
-/// light samples seen by a pinhole through a Whitted render), uniform stratified
-/// sampling wins. Returns why variance is chosen, or `None` for uniform.
+/// The auto mode's rule without a pilot, from the study's map (docs/adaptive.md):
+/// variance sampling wins where a pixel's noise comes from more than its area (paths
+/// that bounce, a lens), which stratifying the film position does not reduce, when
+/// `samples` leaves it at least four rounds to adapt in (with fewer it took 1.4–1.7×
+/// uniform's time to the 4-spp targets). Elsewhere (a pinhole through a Whitted render)
+/// the pilot decides ([`AutoChoice::from_pilot`]). Returns why variance is chosen
+/// without a pilot, or `None`.
 pub fn variance_pays(scene: &Scene) -> Option<&'static str> {
     let s = &scene.settings;
     let AaMode::Auto { min_samples, .. } = s.aa_mode else { return None };
@@ -83,17 +85,36 @@ pub fn variance_pays(scene: &Scene) -> Option<&'static str> {
 /// uniform sampling has the same mean squared error with N = mean(e²) / mean(e²/n_p)
 /// samples everywhere (in n0..=max). A noiseless pilot gives n0.
 pub fn uniform_samples(errors: &[f32], n0: u32, threshold: f32, max: u32) -> f64 {
-    let need = |e: f64| -> f64 {
-        let n = if threshold > 0.0 { n0 as f64 * (e / threshold as f64).powi(2) } else { f64::INFINITY };
-        let rounds = (n / n0 as f64).ceil().max(1.0);
-        (rounds * n0 as f64).min(max as f64)
-    };
     let e2: Vec<f64> = errors.iter().map(|&e| if e.is_finite() { (e as f64).powi(2) } else { 0.0 }).collect();
     let mean_e2 = e2.iter().sum::<f64>();
-    let kept = e2.iter().zip(errors).map(|(&e2, &e)| e2 / need(e as f64)).sum::<f64>();
+    let kept = e2.iter().zip(errors).map(|(&e2, &e)| e2 / samples_needed(e, n0, threshold, max)).sum::<f64>();
     let n = if mean_e2 > 0.0 { mean_e2 / kept } else { n0 as f64 };
     n.clamp(n0 as f64, max as f64)
 }
+
+/// Auto mode: the mean samples a pixel variance sampling would spend, from the pilot's
+/// errors (n_p of [`uniform_samples`], averaged). n0 for an empty pilot.
+pub fn variance_samples(errors: &[f32], n0: u32, threshold: f32, max: u32) -> f64 {
+    match errors.len() {
+        0 => n0 as f64,
+        n => errors.iter().map(|&e| samples_needed(e, n0, threshold, max)).sum::<f64>() / n as f64,
+    }
+}
+
+/// n_p: the samples variance sampling gives a pixel whose error after `n0` samples is
+/// `e`, in whole rounds of `n0`, at most `max` (a non-finite error counts as none).
+fn samples_needed(e: f32, n0: u32, threshold: f32, max: u32) -> f64 {
+    let e = if e.is_finite() { e as f64 } else { 0.0 };
+    let n = if threshold > 0.0 { n0 as f64 * (e / threshold as f64).powi(2) } else { f64::INFINITY };
+    let rounds = (n / n0 as f64).ceil().max(1.0);
+    (rounds * n0 as f64).min(max as f64)
+}
+
+/// Auto mode through a pinhole under Whitted transport: variance sampling is chosen when
+/// the pilot predicts it spends at most this share of the samples uniform sampling needs
+/// for the same mean squared error (and `samples` leaves four rounds). Chosen, not
+/// measured: it keeps near-ties uniform, whose single pass has no rounds to schedule.
+pub const VARIANCE_MARGIN: f64 = 0.8;
 
 impl Rounds {
     /// The rounds an auto choice renders.
@@ -105,16 +126,30 @@ impl Rounds {
 impl AutoChoice {
     /// Variance sampling to `threshold` in rounds of `n0`, up to `max`, for `why`.
     pub fn variance(why: &'static str, threshold: f32, n0: u32, max: u32) -> AutoChoice {
-        AutoChoice { chose: "variance", why, threshold, min_samples: n0, max, pilot_pixels: 0, uniform_spp: None }
+        let (pilot_pixels, uniform_spp, variance_spp) = (0, None, None);
+        AutoChoice { chose: "variance", why, threshold, min_samples: n0, max, pilot_pixels, uniform_spp, variance_spp }
     }
 
-    /// Uniform sampling at the samples the pilot's `errors` call for (see
-    /// [`uniform_samples`]).
-    pub fn uniform(errors: &[f32], n0: u32, threshold: f32, max: u32) -> AutoChoice {
+    /// From the pilot's `errors`: variance sampling in rounds of `n0` when it spends at
+    /// most [`VARIANCE_MARGIN`] of uniform's samples ([`variance_samples`] against
+    /// [`uniform_samples`]) and `max` leaves four rounds, else uniform sampling at the
+    /// samples the errors call for.
+    pub fn from_pilot(errors: &[f32], n0: u32, threshold: f32, max: u32) -> AutoChoice {
         let spp = uniform_samples(errors, n0, threshold, max);
+        let variance_spp = variance_samples(errors, n0, threshold, max);
+        let (pilot_pixels, uniform_spp, variance_spp) = (errors.len(), Some(spp), Some(variance_spp));
+        let rounds = max as u64 >= 4 * n0 as u64;
+        if rounds && variance_spp.unwrap_or(f64::INFINITY) <= VARIANCE_MARGIN * spp.ceil() {
+            let why = "uneven noise: the pilot's variance sampling needs at most 0.8 of uniform's samples";
+            return AutoChoice {
+                pilot_pixels,
+                uniform_spp,
+                variance_spp,
+                ..AutoChoice::variance(why, threshold, n0, max)
+            };
+        }
         let n = spp.ceil() as u32;
-        let why = "noise from the pixel's area only: stratification pays";
-        let pilot_pixels = errors.len();
+        let why = "even noise: uniform's one stratified pattern needs no more samples than variance's rounds";
         AutoChoice {
             chose: "uniform",
             why,
@@ -122,7 +157,8 @@ impl AutoChoice {
             min_samples: n,
             max: n,
             pilot_pixels,
-            uniform_spp: Some(spp),
+            uniform_spp,
+            variance_spp,
         }
     }
 }
@@ -220,7 +256,22 @@ mod tests {
         // Noiseless: the pilot's count; a threshold of 0: the most.
         assert_eq!(uniform_samples(&[0.0; 10], 16, 0.01, 256), 16.0);
         assert_eq!(uniform_samples(&[0.05; 10], 16, 0.0, 256), 256.0);
-        let c = AutoChoice::uniform(&[0.02; 100], 16, 0.01, 256);
+    }
+
+    #[test]
+    fn the_pilot_picks_variance_where_its_rounds_spend_under_the_margin_of_uniforms_samples() {
+        // Even error: variance spends what uniform does (64 a pixel), so uniform.
+        let c = AutoChoice::from_pilot(&[0.02; 100], 16, 0.01, 256);
         assert_eq!((c.chose, Rounds::of(&c)), ("uniform", Rounds { threshold: 0.0, min_samples: 64, max: 64 }));
+        assert_eq!((c.uniform_spp, c.variance_spp), (Some(64.0), Some(64.0)));
+        // One pixel in 100 ten times the threshold: variance 18.4 a pixel on average,
+        // uniform 223: variance, in rounds of 16 to the threshold.
+        let mut errors = vec![0.001; 99];
+        errors.push(0.1);
+        let c = AutoChoice::from_pilot(&errors, 16, 0.01, 256);
+        assert_eq!((c.chose, Rounds::of(&c)), ("variance", Rounds { threshold: 0.01, min_samples: 16, max: 256 }));
+        assert_eq!(c.variance_spp, Some((99.0 * 16.0 + 256.0) / 100.0));
+        // The same errors with room for three rounds only: uniform.
+        assert_eq!(AutoChoice::from_pilot(&errors, 16, 0.01, 48).chose, "uniform");
     }
 }

@@ -167,20 +167,22 @@ fn variance_rounds_on_lanes_give_the_rays_of_the_scalar_formulas() {
             generate_variance(&scene, pass, lens, ks.clone(), &mut got);
             let mut want = RayQueue::default();
             for k in ks.clone() {
-                let (i, j, all) = lens.split(k);
+                let (i, j, _) = lens.split(k);
                 let p = pixels[i as usize];
                 let (before, round) = (state.count[p as usize], state.rounds[p as usize] as u32);
                 let (sample, l) = (j / count, j % count);
                 let (x, y) = (tile.x0 + p % 9, tile.y0 + p / 9);
                 let pixel = y * s.width + x;
-                let key = hash(&[s.seed, pixel, round, dim::VARIANCE]);
-                let film = Vec2::new(x as f32, y as f32) + cmj(sample, all / count, key);
+                // The pixel's sample g, of one key and one film sequence over its rounds.
+                let (key, g) = (hash(&[s.seed, pixel, dim::VARIANCE]), before + sample);
+                let film_seed = hash(&[s.seed, pixel, dim::PIXEL, dim::VARIANCE]);
+                let film = Vec2::new(x as f32, y as f32) + sobol_owen(g, film_seed);
                 let lens = || match count {
-                    1 => sobol_owen(before + sample, hash(&[s.seed, pixel, dim::LENS])),
+                    1 => sobol_owen(g, hash(&[s.seed, pixel, dim::LENS])),
                     _ => cmj(l, count, hash(&[s.seed, pixel, round, sample, dim::LENS])),
                 };
-                let (slot, w) = (2 * p + ((before + sample) & 1), Vec3::splat(1.0 / count as f32));
-                push(&scene, film, lens, slot, w, (key, j), &mut want);
+                let (slot, w) = (2 * p + (g & 1), Vec3::splat(1.0 / count as f32));
+                push(&scene, film, lens, slot, w, (key, g * count + l), &mut want);
             }
             assert_eq!(got.len(), want.len(), "{sets:?} {ks:?}");
             for i in 0..got.len() {

@@ -134,9 +134,10 @@ pub const METHODS: &[Method] = &[
             "render.shadows.probe=3x3",
             "render.shadows.tolerance=0",
         ],
-        // A threshold of 0.002 lets the pilot ask for up to `samples` where 0.01 stops short.
+        // A threshold of 0.002 lets the pilot ask for up to `samples` where 0.01 stops
+        // short; 0.05 lets the variance it picks stop where variance mode's winners do.
         grid: &[
-            ("render.aa.threshold", &["0.01", "0.002"]),
+            ("render.aa.threshold", &["0.05", "0.01", "0.002"]),
             ("render.aa.samples", &["4", "16", "64"]),
             ("render.shadows.samples", &["1", "4", "16", "64"]),
         ],
