@@ -60,14 +60,13 @@ pub const PILOT_BLOCK: u32 = 8;
 /// The auto mode's rule without a pilot, from the study's map (docs/adaptive.md):
 /// variance sampling wins where a pixel's noise comes from more than its area (paths
 /// that bounce, a lens), which stratifying the film position does not reduce, when
-/// `samples` leaves it at least four rounds to adapt in (with fewer it took 1.4–1.7×
-/// uniform's time to the 4-spp targets). Elsewhere (a pinhole through a Whitted render)
-/// the pilot decides ([`AutoChoice::from_pilot`]). Returns why variance is chosen
-/// without a pilot, or `None`.
+/// `samples` leaves it at least four rounds to adapt in ([`room_to_adapt`]). Elsewhere
+/// (a pinhole through a Whitted render) the pilot decides ([`AutoChoice::from_pilot`]).
+/// Returns why variance is chosen without a pilot, or `None`.
 pub fn variance_pays(scene: &Scene) -> Option<&'static str> {
     let s = &scene.settings;
     let AaMode::Auto { min_samples, .. } = s.aa_mode else { return None };
-    if (s.aa_samples as u64) < 4 * min_samples as u64 {
+    if !room_to_adapt(s.aa_samples, min_samples) {
         None
     } else if s.path() {
         Some("the path transport: noise from every bounce")
@@ -110,6 +109,12 @@ fn samples_needed(e: f32, n0: u32, threshold: f32, max: u32) -> f64 {
     (rounds * n0 as f64).min(max as f64)
 }
 
+/// Whether `samples` leaves variance sampling at least four rounds of `min_samples` to
+/// adapt in: with fewer it took 1.4–1.7× uniform's time to the study's 4-spp targets.
+fn room_to_adapt(samples: u32, min_samples: u32) -> bool {
+    samples as u64 >= 4 * min_samples as u64
+}
+
 /// Auto mode through a pinhole under Whitted transport: variance sampling is chosen when
 /// the pilot predicts it spends at most this share of the samples uniform sampling needs
 /// for the same mean squared error (and `samples` leaves four rounds). Chosen, not
@@ -135,11 +140,10 @@ impl AutoChoice {
     /// [`uniform_samples`]) and `max` leaves four rounds, else uniform sampling at the
     /// samples the errors call for.
     pub fn from_pilot(errors: &[f32], n0: u32, threshold: f32, max: u32) -> AutoChoice {
-        let spp = uniform_samples(errors, n0, threshold, max);
-        let variance_spp = variance_samples(errors, n0, threshold, max);
-        let (pilot_pixels, uniform_spp, variance_spp) = (errors.len(), Some(spp), Some(variance_spp));
-        let rounds = max as u64 >= 4 * n0 as u64;
-        if rounds && variance_spp.unwrap_or(f64::INFINITY) <= VARIANCE_MARGIN * spp.ceil() {
+        let (spp, mean_np) =
+            (uniform_samples(errors, n0, threshold, max), variance_samples(errors, n0, threshold, max));
+        let (pilot_pixels, uniform_spp, variance_spp) = (errors.len(), Some(spp), Some(mean_np));
+        if room_to_adapt(max, n0) && mean_np <= VARIANCE_MARGIN * spp.ceil() {
             let why = "uneven noise: the pilot's variance sampling needs at most 0.8 of uniform's samples";
             return AutoChoice {
                 pilot_pixels,
