@@ -400,7 +400,7 @@ pub struct SceneReport {
 }
 
 /// What `render.aa.mode = "auto"` chose, why, and the pilot's prediction behind it (see
-/// `render::variance_pays` and `render::uniform_samples`).
+/// `render::uniform_samples`).
 #[derive(Serialize, Debug, Clone, PartialEq)]
 pub struct AutoChoice {
     /// "uniform" or "variance".
@@ -413,14 +413,13 @@ pub struct AutoChoice {
     pub min_samples: u32,
     /// ... up to this many a pixel.
     pub max: u32,
-    /// Pixels in the pilot (none when variance is chosen without one: a lens or paths).
+    /// Pixels in the pilot (one per 8×8 block of the image).
     pub pilot_pixels: usize,
-    /// With a pilot: the samples a pixel uniform sampling needs for the mean squared
-    /// error the pilot predicts for variance sampling at `threshold`, before rounding up.
-    pub uniform_spp: Option<f64>,
-    /// With a pilot: the samples a pixel variance sampling spends on average, as the
-    /// pilot predicts.
-    pub variance_spp: Option<f64>,
+    /// The samples a pixel uniform sampling needs for the mean squared error the pilot
+    /// predicts for variance sampling at `threshold`, before rounding up.
+    pub uniform_spp: f64,
+    /// The samples a pixel variance sampling spends on average, as the pilot predicts.
+    pub variance_spp: f64,
 }
 
 /// What `render.shadows.mode = "auto"` chose, and the pilot's counts behind it (see

@@ -138,6 +138,11 @@ fn quick_study_of_a_small_scene_writes_everything_and_reuses_its_reference() {
         assert!(variance_rows || s.skipped.iter().any(|(m, _)| m == "variance"));
         assert!(s.features.edge_density.is_some_and(|e| e > 0.0 && e < 1.0), "{:?}", s.features);
         assert!(s.features.penumbra_fraction.is_some_and(|p| p > 0.0 && p < 1.0), "{:?}", s.features);
+        // One run a setting (`quick` asks for 1), more while they add up to under 0.1 s.
+        for row in &s.rows {
+            let (n, sum) = (row.runs.len(), row.runs.iter().sum::<f64>());
+            assert!(n == 5 || (n >= 1 && sum - row.runs[n - 1] < 0.1 && sum >= 0.1), "{:?}", row.runs);
+        }
         for t in &s.targets {
             // Targets come from uniform's own renders, so uniform always reaches them.
             assert!(t.choices[0].by_seconds.is_some() && t.winner_seconds.is_some(), "{t:?}");

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use super::meter::Kind;
 use super::Worker;
+use crate::accel::tracer::Coherence;
 use crate::accel::Traversal;
 use crate::film::Tile;
 use crate::queue::RefineQueues;
@@ -95,7 +96,7 @@ impl Worker<'_> {
             });
         }
         let lens = if blur.is_some() { Lens::PerPoint(&self.aa.starts) } else { Lens::Fixed(dof as u64) };
-        self.pipe.run(scene, lens.total(tile.pixels()), Kind::Corner, |ks, rays| {
+        self.pipe.run(scene, lens.total(tile.pixels()), (Kind::Corner, Coherence::Camera), |ks, rays| {
             camera::generate_corner_grid(scene, tile, lens, ks, rays)
         });
     }
@@ -182,8 +183,9 @@ impl Worker<'_> {
         let dof = scene.settings.dof_samples;
         self.pipe.acc.begin(np);
         let lens = if per_point { Lens::PerPoint(&self.aa.starts) } else { Lens::Fixed(dof as u64) };
-        self.pipe
-            .run(scene, lens.total(np), Kind::Camera, |ks, rays| camera::generate_centres(scene, tile, lens, ks, rays));
+        self.pipe.run(scene, lens.total(np), (Kind::Camera, Coherence::Camera), |ks, rays| {
+            camera::generate_centres(scene, tile, lens, ks, rays)
+        });
         self.aa.centre.clone_from(&self.pipe.acc.sums);
         self.tile.collect_heat(&self.pipe.acc.heat, 1);
     }
@@ -210,7 +212,7 @@ impl Worker<'_> {
             });
         }
         let lens = if lens.is_some() { Lens::PerPoint(&aa.starts) } else { Lens::Fixed(dof as u64) };
-        self.pipe.run(scene, lens.total(4 * np), Kind::Corner, |ks, rays| {
+        self.pipe.run(scene, lens.total(4 * np), (Kind::Corner, Coherence::Camera), |ks, rays| {
             camera::generate_pixel_corners(scene, tile, lens, ks, rays)
         });
         // Saturating, as the film's sums are (stages::film::accumulate).
@@ -233,7 +235,7 @@ impl Worker<'_> {
         }
         let lens = if per_point { Lens::PerPoint(&aa.starts) } else { Lens::Fixed(dof << level) };
         let queue = &aa.refine.active.index;
-        self.pipe.run(scene, lens.total(queue.len()), Kind::Refine, |ks, rays| {
+        self.pipe.run(scene, lens.total(queue.len()), (Kind::Refine, Coherence::Camera), |ks, rays| {
             camera::generate_refine(scene, RefinePass { tile, pixels: queue, level }, lens, ks, rays)
         });
         self.tile.collect_heat(&self.pipe.acc.heat, 1);

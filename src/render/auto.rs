@@ -6,7 +6,7 @@
 
 use std::sync::Mutex;
 
-use super::variance::{variance_pays, Rounds};
+use super::variance::Rounds;
 use super::{for_tiles, lock, Ctx, PerThread};
 use crate::film::Tile;
 use crate::light::probes_light;
@@ -47,10 +47,9 @@ pub(super) struct Plan {
     pub shadow: Option<ShadowChoice>,
 }
 
-/// Whether anti-aliasing's auto mode needs the pilot: where the map does not already
-/// say variance.
+/// Whether anti-aliasing's auto mode needs the pilot: always, when it is on.
 fn aa_pilot(scene: &Scene) -> bool {
-    matches!(scene.settings.aa_mode, AaMode::Auto { .. }) && variance_pays(scene).is_none()
+    matches!(scene.settings.aa_mode, AaMode::Auto { .. })
 }
 
 /// Whether the shadows' auto mode needs the pilot: some light the adaptive test would
@@ -118,10 +117,7 @@ pub(super) fn pilot_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Plan) {
             (Sampling::Rounds(Rounds { threshold, min_samples, max: s.aa_samples }), None)
         }
         AaMode::Auto { threshold, min_samples } => {
-            let choice = match variance_pays(scene) {
-                Some(why) => AutoChoice::variance(why, threshold, min_samples, s.aa_samples),
-                None => AutoChoice::from_pilot(&errors, min_samples, threshold, s.aa_samples),
-            };
+            let choice = AutoChoice::from_pilot(&errors, min_samples, threshold, s.aa_samples);
             let sampling = match choice.chose {
                 "uniform" => Sampling::Uniform(choice.max),
                 _ => Sampling::Rounds(Rounds::of(&choice)),

@@ -24,9 +24,9 @@ pub use auto::{shadows_pay, SHADOW_MARGIN};
 use meter::{Kind, Meter};
 use pipeline::Pipeline;
 use variance::VarianceState;
-pub use variance::{uniform_samples, variance_pays, PILOT_BLOCK};
+pub use variance::{uniform_samples, PILOT_BLOCK};
 
-use crate::accel::tracer::{Kernel, Tracer};
+use crate::accel::tracer::{Coherence, Kernel, Tracer};
 use crate::film::{copy_tile, tiles, Heat, Image, SlotHeat, Tile, TileFilm, TILE};
 use crate::scene::{AaMode, Light, Scene, ShadowMode};
 use crate::stages::camera;
@@ -122,7 +122,7 @@ impl Worker<'_> {
     fn uniform_tile(&mut self, scene: &Scene, tile: &Tile, aa: u32) {
         let spp = aa as u64 * scene.settings.dof_samples as u64;
         self.pipe.acc.begin(tile.pixels());
-        self.pipe.run(scene, tile.pixels() as u64 * spp, Kind::Camera, |ks, rays| {
+        self.pipe.run(scene, tile.pixels() as u64 * spp, (Kind::Camera, Coherence::Camera), |ks, rays| {
             camera::generate(scene, tile, aa, ks, rays)
         });
         self.tile.out.copy_from_slice(&self.pipe.acc.sums);

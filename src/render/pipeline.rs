@@ -75,7 +75,16 @@ impl<'a> Pipeline<'a> {
 
     /// Runs `total` camera samples of a pass through the pipeline in waves of at most
     /// `wave` camera rays; `generate` writes the rays of a range of sample indices.
-    pub fn run(&mut self, scene: &Scene, total: u64, kind: Kind, generate: impl Fn(Range<u64>, &mut RayQueue)) {
+    /// `order` says whether the camera rays come coherent (`Camera`: every pixel of a
+    /// tile in turn) or scattered over the tile (`Bounce`: the few pixels a round or a
+    /// pilot samples), for the tracer to choose its kernel as for a bounce queue.
+    pub fn run(
+        &mut self,
+        scene: &Scene,
+        total: u64,
+        (kind, order): (Kind, Coherence),
+        generate: impl Fn(Range<u64>, &mut RayQueue),
+    ) {
         let mut k0 = 0;
         while k0 < total {
             if self.stop_requested() {
@@ -89,7 +98,7 @@ impl<'a> Pipeline<'a> {
                 self.camera_weights();
             }
             self.meter.camera(kind, self.q.rays.len(), t);
-            self.drain(scene);
+            self.drain(scene, order);
             k0 = k1;
         }
     }
@@ -110,7 +119,7 @@ impl<'a> Pipeline<'a> {
     /// deepest pending level is traced next, a wave at a time, so level d holds at most
     /// the two waves' worth of rays spawned from one wave of level d - 1, and the queues
     /// stay bounded however many rays dielectrics split into.
-    fn drain(&mut self, scene: &Scene) {
+    fn drain(&mut self, scene: &Scene, order: Coherence) {
         let wave = self.wave as usize;
         self.levels.resize_with(scene.settings.max_depth as usize + 2, Default::default);
         self.cursors.resize(self.levels.len(), 0);
@@ -141,7 +150,7 @@ impl<'a> Pipeline<'a> {
                     self.meter.roulette(self.q.rays.len(), ended, t);
                 }
             }
-            self.wave(scene, if d == 0 { Coherence::Camera } else { Coherence::Bounce });
+            self.wave(scene, if d == 0 { order } else { Coherence::Bounce });
             // The wave's scattered rays are the next level, empty until now.
             if !self.q.next.is_empty() {
                 std::mem::swap(&mut self.levels[d + 1], &mut self.q.next);

@@ -2,22 +2,21 @@
 //! in every pixel, then rounds of up to `min_samples` more in the pixels the converge
 //! stage keeps, until none is left or every one has `render.aa.samples`.
 //!
-//! `render.aa.mode = "auto"` renders variance's rounds where the study's map says they
-//! pay without a pilot ([`variance_pays`]); elsewhere its pilot (`render/auto.rs`, one
-//! round in one pixel of every 8×8 block, `Worker::pilot_tile`) gives errors from which
-//! [`variance_samples`] and [`uniform_samples`] predict each method's samples, and the
-//! cheaper is rendered ([`AutoChoice::from_pilot`]): variance's rounds, or uniform
-//! mode's tiles at N.
+//! `render.aa.mode = "auto"` runs a pilot (`render/auto.rs`, one round in one pixel of
+//! every 8×8 block, `Worker::pilot_tile`) whose errors [`variance_samples`] and
+//! [`uniform_samples`] turn into each method's samples, and renders the cheaper
+//! ([`AutoChoice::from_pilot`]): variance's rounds, or uniform mode's tiles at N.
 
 use std::time::Instant;
 
 use super::adaptive::lens_starts;
 use super::meter::Kind;
 use super::Worker;
+use crate::accel::tracer::Coherence;
 use crate::accel::Traversal;
 use crate::film::Tile;
 use crate::queue::VarianceQueues;
-use crate::scene::{AaMode, Scene};
+use crate::scene::Scene;
 use crate::stages::camera::{self, Lens, VariancePass};
 use crate::stages::converge;
 use crate::stats::{AutoChoice, Stage};
@@ -57,68 +56,69 @@ pub struct Rounds {
 /// Side of the blocks the pilot takes one pixel of.
 pub const PILOT_BLOCK: u32 = 8;
 
-/// The auto mode's rule without a pilot, from the study's map (docs/adaptive.md):
-/// variance sampling wins where a pixel's noise comes from more than its area (paths
-/// that bounce, a lens), which stratifying the film position does not reduce, when
-/// `samples` leaves it at least four rounds to adapt in ([`room_to_adapt`]). Elsewhere
-/// (a pinhole through a Whitted render) the pilot decides ([`AutoChoice::from_pilot`]).
-/// Returns why variance is chosen without a pilot, or `None`.
-pub fn variance_pays(scene: &Scene) -> Option<&'static str> {
-    let s = &scene.settings;
-    let AaMode::Auto { min_samples, .. } = s.aa_mode else { return None };
-    if !room_to_adapt(s.aa_samples, min_samples) {
-        None
-    } else if s.path() {
-        Some("the path transport: noise from every bounce")
-    } else if scene.camera.aperture > 0.0 {
-        Some("an open aperture: noise from the lens")
-    } else {
-        None
-    }
-}
-
 /// Auto mode, uniform: the samples every pixel gets, from the pilot's errors (each
 /// pixel's [`converge::pixel_error`] after `n0` samples, in a fixed order). Error falls
-/// as 1/√n, so variance sampling to `threshold` would give pixel p n_p = n0·(e_p/threshold)²
-/// samples (whole rounds, in n0..=max) and leave it a squared error of e_p²·n0/n_p;
-/// uniform sampling has the same mean squared error with N = mean(e²) / mean(e²/n_p)
-/// samples everywhere (in n0..=max). A noiseless pilot gives n0.
+/// as 1/√n, so the threshold asks for n*_p = n0·(e_p/threshold)² samples in pixel p (in
+/// n0..=max), which leave it a squared error of e_p²·n0/n*_p; uniform sampling has the
+/// same mean squared error with N = mean(e²) / mean(e²/n*_p) samples everywhere (in
+/// n0..=max). A noiseless pilot gives n0.
 pub fn uniform_samples(errors: &[f32], n0: u32, threshold: f32, max: u32) -> f64 {
     let e2: Vec<f64> = errors.iter().map(|&e| if e.is_finite() { (e as f64).powi(2) } else { 0.0 }).collect();
     let mean_e2 = e2.iter().sum::<f64>();
-    let kept = e2.iter().zip(errors).map(|(&e2, &e)| e2 / samples_needed(e, n0, threshold, max)).sum::<f64>();
+    let kept = e2.iter().zip(errors).map(|(&e2, &e)| e2 / samples_asked(e, n0, threshold, max)).sum::<f64>();
     let n = if mean_e2 > 0.0 { mean_e2 / kept } else { n0 as f64 };
     n.clamp(n0 as f64, max as f64)
 }
 
 /// Auto mode: the mean samples a pixel variance sampling would spend, from the pilot's
-/// errors (n_p of [`uniform_samples`], averaged). n0 for an empty pilot.
+/// errors: n*_p of [`uniform_samples`] in whole rounds of [`auto_round`] (at most
+/// `max`), averaged. One round for an empty pilot.
 pub fn variance_samples(errors: &[f32], n0: u32, threshold: f32, max: u32) -> f64 {
+    let round = auto_round(n0, max) as f64;
+    let spent = |e| ((samples_asked(e, n0, threshold, max) / round).ceil() * round).min(max as f64);
     match errors.len() {
-        0 => n0 as f64,
-        n => errors.iter().map(|&e| samples_needed(e, n0, threshold, max)).sum::<f64>() / n as f64,
+        0 => round,
+        n => errors.iter().map(|&e| spent(e)).sum::<f64>() / n as f64,
     }
 }
 
-/// n_p: the samples variance sampling gives a pixel whose error after `n0` samples is
-/// `e`, in whole rounds of `n0`, at most `max` (a non-finite error counts as none).
-fn samples_needed(e: f32, n0: u32, threshold: f32, max: u32) -> f64 {
+/// n*_p: the samples the threshold asks for in a pixel whose error after `n0` samples is
+/// `e`, in n0..=max (a non-finite error counts as none).
+fn samples_asked(e: f32, n0: u32, threshold: f32, max: u32) -> f64 {
     let e = if e.is_finite() { e as f64 } else { 0.0 };
     let n = if threshold > 0.0 { n0 as f64 * (e / threshold as f64).powi(2) } else { f64::INFINITY };
-    let rounds = (n / n0 as f64).ceil().max(1.0);
-    (rounds * n0 as f64).min(max as f64)
+    n.clamp(n0 as f64, max as f64)
 }
+
+/// Samples a round of auto mode's variance sampling adds: [`AUTO_ROUND`] when `max`
+/// leaves four such rounds ([`room_to_adapt`]) and the pilot's `n0` is no more, else
+/// `n0`. Fewer, larger rounds: each round is a pass of the tile, and its rays, spent
+/// in the few pixels left (edges, penumbrae), cost more than the first round's.
+pub fn auto_round(n0: u32, max: u32) -> u32 {
+    if n0 < AUTO_ROUND && room_to_adapt(max, AUTO_ROUND) {
+        AUTO_ROUND
+    } else {
+        n0
+    }
+}
+
+/// Auto mode's variance rounds, where `samples` allows ([`auto_round`]). Measured on
+/// the bunny (96×72, 4 shadow rays, rounds to 64 samples at threshold 0.05; 1 thread):
+/// rounds of 4 took 0.43 s for FLIP 0.0048, rounds of 8 reached 0.0042 in the same
+/// time; the rays of the second and later rounds cost 2–4× the first's (edge pixels,
+/// scattered over the tile).
+pub const AUTO_ROUND: u32 = 8;
 
 /// Whether `samples` leaves variance sampling at least four rounds of `min_samples` to
 /// adapt in: with fewer it took 1.4–1.7× uniform's time to the study's 4-spp targets.
-fn room_to_adapt(samples: u32, min_samples: u32) -> bool {
+pub fn room_to_adapt(samples: u32, min_samples: u32) -> bool {
     samples as u64 >= 4 * min_samples as u64
 }
 
-/// Auto mode through a pinhole under Whitted transport: variance sampling is chosen when
-/// the pilot predicts it spends at most this share of the samples uniform sampling needs
-/// for the same mean squared error (and `samples` leaves four rounds). Chosen, not
-/// measured: it keeps near-ties uniform, whose single pass has no rounds to schedule.
+/// Auto mode: variance sampling is chosen when the pilot predicts it spends at most this
+/// share of the samples uniform sampling needs for the same mean squared error (and
+/// `samples` leaves four rounds). Chosen, not measured: it keeps near-ties uniform,
+/// whose single pass has no rounds to schedule.
 pub const VARIANCE_MARGIN: f64 = 0.8;
 
 impl Rounds {
@@ -129,27 +129,26 @@ impl Rounds {
 }
 
 impl AutoChoice {
-    /// Variance sampling to `threshold` in rounds of `n0`, up to `max`, for `why`.
-    pub fn variance(why: &'static str, threshold: f32, n0: u32, max: u32) -> AutoChoice {
-        let (pilot_pixels, uniform_spp, variance_spp) = (0, None, None);
-        AutoChoice { chose: "variance", why, threshold, min_samples: n0, max, pilot_pixels, uniform_spp, variance_spp }
-    }
-
-    /// From the pilot's `errors`: variance sampling in rounds of `n0` when it spends at
-    /// most [`VARIANCE_MARGIN`] of uniform's samples ([`variance_samples`] against
-    /// [`uniform_samples`]) and `max` leaves four rounds, else uniform sampling at the
-    /// samples the errors call for.
+    /// From the pilot's `errors` (after `n0` samples): variance sampling in rounds of
+    /// [`auto_round`] when it spends at most [`VARIANCE_MARGIN`] of uniform's samples
+    /// ([`variance_samples`] against [`uniform_samples`]) and `max` leaves four rounds,
+    /// else uniform sampling at the samples the errors call for.
     pub fn from_pilot(errors: &[f32], n0: u32, threshold: f32, max: u32) -> AutoChoice {
         let (spp, mean_np) =
             (uniform_samples(errors, n0, threshold, max), variance_samples(errors, n0, threshold, max));
-        let (pilot_pixels, uniform_spp, variance_spp) = (errors.len(), Some(spp), Some(mean_np));
-        if room_to_adapt(max, n0) && mean_np <= VARIANCE_MARGIN * spp.ceil() {
+        let (pilot_pixels, uniform_spp, variance_spp) = (errors.len(), spp, mean_np);
+        let round = auto_round(n0, max);
+        if room_to_adapt(max, round) && mean_np <= VARIANCE_MARGIN * spp.ceil() {
             let why = "uneven noise: the pilot's variance sampling needs at most 0.8 of uniform's samples";
             return AutoChoice {
+                chose: "variance",
+                why,
+                threshold,
+                min_samples: round,
+                max,
                 pilot_pixels,
                 uniform_spp,
                 variance_spp,
-                ..AutoChoice::variance(why, threshold, n0, max)
             };
         }
         let n = spp.ceil() as u32;
@@ -189,7 +188,8 @@ impl Worker<'_> {
         self.pipe.acc.begin(2 * np);
         let pass = VariancePass { tile, pixels: queue, state: &v.queues.state };
         let lens = Lens::PerPoint(&v.starts);
-        self.pipe.run(scene, lens.total(queue.len()), Kind::Camera, |ks, rays| {
+        // One pixel in 64: scattered rays.
+        self.pipe.run(scene, lens.total(queue.len()), (Kind::Camera, Coherence::Bounce), |ks, rays| {
             camera::generate_variance(scene, pass, lens, ks, rays)
         });
         let sums = &self.pipe.acc.sums;
@@ -221,7 +221,10 @@ impl Worker<'_> {
             self.pipe.acc.begin(2 * np);
             let pass = VariancePass { tile, pixels: queue, state: &v.queues.state };
             let lens = Lens::PerPoint(&v.starts);
-            self.pipe.run(scene, lens.total(queue.len()), Kind::Camera, |ks, rays| {
+            // The first round samples every pixel in turn; later ones the pixels left,
+            // scattered over the tile.
+            let order = if queue.len() == np { Coherence::Camera } else { Coherence::Bounce };
+            self.pipe.run(scene, lens.total(queue.len()), (Kind::Camera, order), |ks, rays| {
                 camera::generate_variance(scene, pass, lens, ks, rays)
             });
             if self.pipe.aborted {
@@ -246,10 +249,9 @@ mod tests {
 
     #[test]
     fn uniform_samples_match_variance_samplings_mean_squared_error() {
-        // Even error twice the threshold: variance gives every pixel 4 rounds, so does
-        // uniform.
+        // Even error twice the threshold: the threshold asks for 4·16 everywhere.
         assert_eq!(uniform_samples(&[0.02; 100], 16, 0.01, 256), 64.0);
-        // 1 pixel in 100 ten times the threshold: variance gives it 256 (max), the others
+        // 1 pixel in 100 ten times the threshold: it asks for 256 (max), the others for
         // 16, leaving squared errors 0.01·16/256 and 1e-6; uniform matches their mean
         // (223 samples).
         let mut errors = vec![0.001; 99];
@@ -260,6 +262,11 @@ mod tests {
         // Noiseless: the pilot's count; a threshold of 0: the most.
         assert_eq!(uniform_samples(&[0.0; 10], 16, 0.01, 256), 16.0);
         assert_eq!(uniform_samples(&[0.05; 10], 16, 0.0, 256), 256.0);
+        // Asked for 20 where variance's rounds of 16 would spend 32: uniform matches what
+        // the threshold asks for, not the rounds' overshoot.
+        let e = 0.01 * (20.0f32 / 16.0).sqrt();
+        assert!((uniform_samples(&[e; 10], 16, 0.01, 256) - 20.0).abs() < 1e-3);
+        assert_eq!(variance_samples(&[e; 10], 16, 0.01, 256), 32.0);
     }
 
     #[test]
@@ -267,15 +274,30 @@ mod tests {
         // Even error: variance spends what uniform does (64 a pixel), so uniform.
         let c = AutoChoice::from_pilot(&[0.02; 100], 16, 0.01, 256);
         assert_eq!((c.chose, Rounds::of(&c)), ("uniform", Rounds { threshold: 0.0, min_samples: 64, max: 64 }));
-        assert_eq!((c.uniform_spp, c.variance_spp), (Some(64.0), Some(64.0)));
+        assert_eq!((c.uniform_spp, c.variance_spp), (64.0, 64.0));
         // One pixel in 100 ten times the threshold: variance 18.4 a pixel on average,
         // uniform 223: variance, in rounds of 16 to the threshold.
         let mut errors = vec![0.001; 99];
         errors.push(0.1);
         let c = AutoChoice::from_pilot(&errors, 16, 0.01, 256);
         assert_eq!((c.chose, Rounds::of(&c)), ("variance", Rounds { threshold: 0.01, min_samples: 16, max: 256 }));
-        assert_eq!(c.variance_spp, Some((99.0 * 16.0 + 256.0) / 100.0));
+        assert_eq!(c.variance_spp, (99.0 * 16.0 + 256.0) / 100.0);
         // The same errors with room for three rounds only: uniform.
         assert_eq!(AutoChoice::from_pilot(&errors, 16, 0.01, 48).chose, "uniform");
+        // A pilot of 4 samples: rounds of 8 where `samples` leaves four of them, its
+        // predictions in whole rounds of 8 (the noisy pixel's 400 capped at 256).
+        let c = AutoChoice::from_pilot(&errors, 4, 0.01, 256);
+        assert_eq!((c.chose, Rounds::of(&c)), ("variance", Rounds { threshold: 0.01, min_samples: 8, max: 256 }));
+        assert_eq!(c.variance_spp, (99.0 * 8.0 + 256.0) / 100.0);
+        // With 16 samples at most, rounds of the pilot's 4.
+        let c = AutoChoice::from_pilot(&errors, 4, 0.01, 16);
+        assert_eq!((c.chose, Rounds::of(&c)), ("variance", Rounds { threshold: 0.01, min_samples: 4, max: 16 }));
+    }
+
+    #[test]
+    fn auto_rounds_are_eight_where_samples_leave_four_of_them() {
+        assert_eq!((auto_round(4, 31), auto_round(4, 32), auto_round(2, 256)), (4, 8, 8));
+        // A pilot of 8 or more: its own rounds.
+        assert_eq!((auto_round(8, 256), auto_round(16, 256), auto_round(12, 40)), (8, 16, 12));
     }
 }

@@ -57,14 +57,14 @@ pub enum AaMode {
         /// Samples of the first round and of every later one (the last may be cut short).
         min_samples: u32,
     },
-    /// Variance-driven where the study's map says it pays (path transport, an open
-    /// aperture), else uniform with the samples a pilot pass (`min_samples` in one pixel
-    /// of every 8×8 block) predicts for the error `threshold`; see
-    /// `render::variance_pays` and `render::uniform_samples`.
+    /// Variance-driven or uniform, whichever a pilot pass (`min_samples` in one pixel of
+    /// every 8×8 block) predicts needs fewer samples for the error `threshold`; see
+    /// `render::uniform_samples`.
     Auto {
         /// The error aimed at, in the variance mode's measure.
         threshold: f32,
-        /// The pilot's samples, and the variance mode's rounds.
+        /// The pilot's samples, and the variance rounds' (8 where `aa_samples` leaves
+        /// four rounds of 8: `render::variance::auto_round`).
         min_samples: u32,
     },
 }

@@ -110,8 +110,18 @@ fn reference(
     Ok((out.image, info))
 }
 
-/// Renders one setting of `method` `runs` times and measures the first image (every
-/// run's image is the same: renders are deterministic).
+/// A setting whose renders add up to less than this many seconds is rendered again (up
+/// to [`SHORT_RUNS`] times): seven runs of one 0.05 s render (cbox at 80², auto) spread
+/// over 0.84–1.44× their median on the 2-core machine, enough to decide a 10%
+/// comparison either way; repeating it costs at most this much.
+pub const SHORT: f64 = 0.1;
+
+/// The most runs of a short setting.
+pub const SHORT_RUNS: u32 = 5;
+
+/// Renders one setting of `method` `runs` times, and more while its renders add up to
+/// less than [`SHORT`] seconds (at most [`SHORT_RUNS`] in all), and measures the first
+/// image (every run's image is the same: renders are deterministic).
 fn render_row(
     method: &'static Method,
     point: &[(String, String)],
@@ -131,7 +141,8 @@ fn render_row(
     let scene = load(&plan.src, &sets)?;
     let mut secs = Vec::with_capacity(runs as usize);
     let mut first = None;
-    for _ in 0..runs {
+    let short = |secs: &[f64]| secs.len() < SHORT_RUNS as usize && secs.iter().sum::<f64>() < SHORT;
+    while secs.len() < runs as usize || short(&secs) {
         let out = crate::render(&scene, render_opts)?;
         secs.push(out.seconds);
         first.get_or_insert(out);

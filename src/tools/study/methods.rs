@@ -134,11 +134,12 @@ pub const METHODS: &[Method] = &[
             "render.shadows.probe=3x3",
             "render.shadows.tolerance=0",
         ],
-        // A threshold of 0.002 lets the pilot ask for up to `samples` where 0.01 stops
-        // short; 0.05 lets the variance it picks stop where variance mode's winners do.
+        // The settings of the methods it chooses between: variance mode's thresholds and
+        // 0.002, which lets the pilot ask for up to `samples`; uniform's counts and
+        // variance's 32 and 128.
         grid: &[
-            ("render.aa.threshold", &["0.05", "0.01", "0.002"]),
-            ("render.aa.samples", &["4", "16", "64"]),
+            ("render.aa.threshold", &["0.1", "0.03", "0.01", "0.002"]),
+            ("render.aa.samples", &["4", "16", "32", "64", "128"]),
             ("render.shadows.samples", &["1", "4", "16", "64"]),
         ],
         quick: &[("render.aa.samples", &["4", "16"]), ("render.shadows.samples", &["1", "16"])],

@@ -18,8 +18,9 @@
 //! sweep`'s, so a rerun renders only the grids. Its own noise is a floor under every
 //! FLIP; the manifest sizes it above the grids' best settings.
 //!
-//! Seconds are the median of `runs` renders (scene loading excluded); rays are exact,
-//! since a render is deterministic for any thread count.
+//! Seconds are the median of `runs` renders (scene loading excluded), and of up to 5
+//! for a setting whose renders take under 0.1 s together (`measure::SHORT`); rays are
+//! exact, since a render is deterministic for any thread count.
 
 use serde::Serialize;
 use std::path::{Path, PathBuf};

@@ -93,7 +93,7 @@ impl StudyResult {
     pub fn markdown(&self) -> String {
         let mut out = String::from("# Where adaptive sampling pays\n\n");
         out += &format!(
-            "Made by `wavetrace study {}{}` in {:.0} s ({} thread(s) per render, median of {} run(s) per setting). \
+            "Made by `wavetrace study {}{}` in {:.0} s ({} thread(s) per render, median of {} run(s) per setting, of up to 5 where they take under 0.1 s). \
              Each cell is a method's cheapest setting whose mean FLIP against the scene's reference is at most the \
              target: by seconds (ties: lower FLIP, then grid order), with its rays; **bold** is the winner in seconds \
              (ties go to the method listed first), † the winner in rays where another. `–`: no setting reaches it.\n\n",
