@@ -103,15 +103,15 @@ pub fn auto_round(n0: u32, max: u32) -> u32 {
 }
 
 /// Auto mode's variance rounds, where `samples` allows ([`auto_round`]). Measured on
-/// the bunny (96×72, 4 shadow rays, rounds to 64 samples at threshold 0.05; 1 thread):
-/// rounds of 4 took 0.43 s for FLIP 0.0048, rounds of 8 reached 0.0042 in the same
-/// time; the rays of the second and later rounds cost 2–4× the first's (edge pixels,
-/// scattered over the tile).
+/// the bunny (96×72, 4 shadow rays, rounds to 64 samples at threshold 0.05, 2 threads,
+/// 5 runs each): rounds of 4 reached FLIP 0.0048 and rounds of 8 0.0042 in the same
+/// time (0.19–0.24 s); the rays of the later rounds, in edge pixels scattered over the
+/// tile, cost 2–3.5× the first round's (shade 2×, intersect 3.4× the node visits).
 pub const AUTO_ROUND: u32 = 8;
 
 /// Whether `samples` leaves variance sampling at least four rounds of `min_samples` to
 /// adapt in: with fewer it took 1.4–1.7× uniform's time to the study's 4-spp targets.
-pub fn room_to_adapt(samples: u32, min_samples: u32) -> bool {
+fn room_to_adapt(samples: u32, min_samples: u32) -> bool {
     samples as u64 >= 4 * min_samples as u64
 }
 
