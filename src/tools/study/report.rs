@@ -93,7 +93,7 @@ impl StudyResult {
     pub fn markdown(&self) -> String {
         let mut out = String::from("# Where adaptive sampling pays\n\n");
         out += &format!(
-            "Made by `wavetrace study {}{}` in {:.0} s ({} thread(s) per render, median of {} run(s) per setting, of up to 5 where they take under 0.1 s). \
+            "Made by `wavetrace study {}{}` in {:.0} s ({} thread(s) per render, median of {} run(s) per setting, of up to {} where they take under {} s). \
              Each cell is a method's cheapest setting whose mean FLIP against the scene's reference is at most the \
              target: by seconds (ties: lower FLIP, then grid order), with its rays; **bold** is the winner in seconds \
              (ties go to the method listed first), † the winner in rays where another. `–`: no setting reaches it.\n\n",
@@ -101,7 +101,9 @@ impl StudyResult {
             if self.quick { " --quick" } else { "" },
             self.seconds,
             self.threads,
-            self.runs
+            self.runs,
+            super::measure::SHORT_RUNS,
+            super::measure::SHORT
         );
         out += &map_tables(&self.map);
         out += &ratio_table(&self.scenes);
