@@ -16,8 +16,10 @@ use obvhs::bvh2::Bvh2;
 
 use super::bvh2::{subtree, STACK_DEPTH};
 use super::shapes::{gamma, Shape};
-use super::{nearer, slab, Accel, Ray, SlabRay, Traversal};
+use super::{lanes_of, nearer, slab, Accel, Ray, SlabRay, Traversal, WIDEN};
 use crate::motion::Motion;
+use crate::simd::LANES;
+use wide::f32x16;
 
 /// One moving object.
 pub struct Instance {
@@ -159,15 +161,72 @@ impl Moving {
         });
     }
 
-    /// Appends `(k, id)` to `pairs` for every object k whose swept box `ray` may enter
-    /// before its `tmax`: the candidates of ray `id` of a queue, which the tracer then
-    /// traces object by object ([`Tracer`](super::tracer::Tracer)).
-    #[inline]
-    pub fn gather<const COUNT: bool>(&self, ray: SlabRay, id: u32, pairs: &mut Vec<(u32, u32)>, c: &mut Traversal) {
-        self.candidates::<COUNT>(ray, c, |k, _, _, _| {
-            pairs.push((k as u32, id));
-            true
-        });
+    /// Every object's candidates in a queue of `n` rays: `lists[k]` (one list per object,
+    /// each cleared first) gets, in index order, every ray `i` whose `ray(i)` (origin,
+    /// direction and limit; `None` skips it) may enter object k's swept box before its
+    /// limit, the objects [`Moving::closest`] would take the ray into. The tracer then
+    /// traces each object's candidates together ([`Tracer`](super::tracer::Tracer)).
+    /// With a few objects ([`SCAN`]) 16 rays are tested at a time on lanes, with
+    /// [`Instance::may_hit`]'s arithmetic.
+    pub fn gather_queue<const COUNT: bool>(
+        &self,
+        n: usize,
+        ray: impl Fn(usize) -> Option<(Vec3, Vec3, f32)>,
+        lists: &mut Vec<Vec<u32>>,
+        c: &mut Traversal,
+    ) {
+        lists.resize_with(self.instances.len(), Vec::new);
+        lists.iter_mut().for_each(Vec::clear);
+        if self.top.is_some() {
+            for i in 0..n {
+                if let Some((o, d, tmax)) = ray(i) {
+                    let mut r = Ray::infinite(o, d).slab();
+                    r.tmax = tmax;
+                    self.candidates::<COUNT>(r, c, |k, _, _, _| {
+                        lists[k].push(i as u32);
+                        true
+                    });
+                }
+            }
+            return;
+        }
+        for base in (0..n).step_by(LANES) {
+            // Origin, direction and limit per lane; lanes skipped or past the queue fail.
+            let mut a = [[0.0f32; LANES]; 7];
+            let mut used = 0u32;
+            for l in 0..(n - base).min(LANES) {
+                if let Some((o, d, tmax)) = ray(base + l) {
+                    for (col, x) in a.iter_mut().zip([o.x, o.y, o.z, d.x, d.y, d.z, tmax]) {
+                        col[l] = x;
+                    }
+                    used |= 1 << l;
+                }
+            }
+            if used == 0 {
+                continue;
+            }
+            let o = [0, 1, 2].map(|j| f32x16::from(a[j]));
+            // `inv_dir` on lanes.
+            let inv = [3, 4, 5].map(|j| {
+                (f32x16::splat(1.0) / f32x16::from(a[j]))
+                    .fast_max(f32x16::splat(-f32::MAX))
+                    .fast_min(f32x16::splat(f32::MAX))
+            });
+            let tmax = f32x16::from(a[6]);
+            for (k, inst) in self.instances.iter().enumerate() {
+                let (lo, hi) = inst.bounds;
+                let (mut near, mut far) = (f32x16::splat(f32::NEG_INFINITY), f32x16::splat(f32::INFINITY));
+                for j in 0..3 {
+                    let t1 = (f32x16::splat(lo[j]) - o[j]) * inv[j];
+                    let t2 = (f32x16::splat(hi[j]) - o[j]) * inv[j];
+                    near = near.fast_max(t1.fast_min(t2));
+                    far = far.fast_min(t1.fast_max(t2));
+                }
+                let far = far * f32x16::splat(WIDEN);
+                let hit = far.simd_ge(near) & far.simd_ge(f32x16::splat(0.0)) & near.is_finite() & near.simd_le(tmax);
+                lanes_of(hit.to_bitmask() & used).for_each(|l| lists[k].push((base + l) as u32));
+            }
+        }
     }
 
     /// Primitives of every moving object.
@@ -344,5 +403,53 @@ mod tests {
             blocked += blocks as u32;
         }
         assert!(hits > 400 && blocked > 100, "too few hits to compare: {hits}, {blocked}");
+    }
+
+    /// A queue's candidates, tested 16 rays at a time on lanes (a few objects) or through
+    /// the tree (many), are exactly the objects each ray's own search visits, in index
+    /// order, skipped rays left out; rays along the axes and through the boxes' faces
+    /// included.
+    #[test]
+    fn a_queues_candidates_are_each_rays_own() {
+        for few in [3usize, 40] {
+            let m = Moving::new(objects().into_iter().take(few).collect(), [0.0, 1.0]);
+            assert_eq!(m.top.is_some(), few > SCAN);
+            let mut rays = Vec::new();
+            for i in 0..3001u32 {
+                let f = |k: u32| ((i.wrapping_mul(2_654_435_761) ^ k.wrapping_mul(40_503)) % 10_000) as f32 / 10_000.0;
+                let o = Vec3::new(f(1) * 12.0 - 6.0, f(2) * 12.0 - 6.0, 7.0);
+                let d = match i % 7 {
+                    0 => Vec3::NEG_Z,
+                    1 => Vec3::new(1.0, 0.0, 0.0),
+                    // Half the rest at an object's box.
+                    k if k % 2 == 0 => {
+                        let (lo, hi) = m.instances[i as usize % few].bounds;
+                        (lo + (hi - lo) * Vec3::new(f(3), f(4), 0.5) - o).normalize()
+                    }
+                    _ => (Vec3::new(f(3) * 8.0 - 4.0, f(4) * 8.0 - 4.0, 0.0) - o).normalize(),
+                };
+                // A face's plane as the origin: a slab distance of exactly 0.
+                let o = if i % 11 == 0 { Vec3::new(m.instances[0].bounds.0.x, o.y, o.z) } else { o };
+                let tmax = if i % 5 == 0 { f32::INFINITY } else { f(6) * 12.0 };
+                rays.push((i % 13 != 0).then_some((o, d, tmax)));
+            }
+            let mut c = Traversal::default();
+            let mut lists = vec![vec![7u32]; 2];
+            m.gather_queue::<false>(rays.len(), |i| rays[i], &mut lists, &mut c);
+            let mut want = vec![Vec::new(); few];
+            for (i, r) in rays.iter().enumerate() {
+                if let Some((o, d, tmax)) = *r {
+                    let mut ray = Ray::infinite(o, d).slab();
+                    ray.tmax = tmax;
+                    m.candidates::<false>(ray, &mut c, |k, _, _, _| {
+                        want[k].push(i as u32);
+                        true
+                    });
+                }
+            }
+            let found: usize = want.iter().map(Vec::len).sum();
+            assert!(found > 500, "{few} objects: too few candidates to compare: {found}");
+            assert_eq!(lists, want, "{few} objects");
+        }
     }
 }

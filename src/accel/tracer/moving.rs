@@ -6,15 +6,15 @@
 use glam::Vec3;
 
 use super::super::moving::{object_ray, Instance, Moving, ObjectRay};
-use super::super::{nearer, Accel, Ray, SlabRay};
+use super::super::{nearer, Accel, Ray};
 use super::{Coherence, Tracer};
 use crate::queue::{self, HitQueue, RayQueue, ShadowQueue, MISS};
 
 /// What a tracer keeps between queues to trace moving objects' candidates together.
 #[derive(Default)]
 pub(super) struct Scratch {
-    /// (object, ray) pairs: each ray's candidates, sorted by object.
-    pairs: Vec<(u32, u32)>,
+    /// Per object, its candidates: the queue's rays that may enter its swept box.
+    lists: Vec<Vec<u32>>,
     /// One object's candidate rays in its space.
     rays: RayQueue,
     /// Their closest hits.
@@ -63,7 +63,7 @@ impl<'a> ToObject<'a> {
 impl Scratch {
     /// Bytes held by its buffers.
     pub(super) fn bytes(&self) -> usize {
-        self.pairs.capacity() * std::mem::size_of::<(u32, u32)>()
+        self.lists.iter().map(|l| l.capacity() * 4).sum::<usize>()
             + self.rays.bytes()
             + self.hits.bytes()
             + self.scale.capacity() * 4
@@ -86,21 +86,16 @@ impl Tracer<'_> {
     pub(super) fn closest_moving(&mut self, rays: &RayQueue, coherence: Coherence, hits: &mut HitQueue) {
         let Some(m) = &self.accel.moving else { return };
         let mut s = self.moving.take().unwrap_or_default();
-        s.pairs.clear();
-        for i in 0..rays.len() {
-            // A hit exactly as far as the static one may still win the tie: boxes are
-            // tested a step past it.
-            let mut ray = Ray::infinite(rays.origin(i), rays.dir(i)).slab();
-            ray.tmax = hits.t[i].next_up();
-            self.gather(m, ray, i, &mut s.pairs);
-        }
-        s.pairs.sort_unstable();
-        for run in s.pairs.chunk_by(|a, b| a.0 == b.0) {
-            let inst = &m.instances[run[0].0 as usize];
+        // A hit exactly as far as the static one may still win the tie: boxes are tested
+        // a step past it.
+        let ray = |i: usize| Some((rays.origin(i), rays.dir(i), hits.t[i].next_up()));
+        self.gather(m, rays.len(), ray, &mut s.lists);
+        let lists = std::mem::take(&mut s.lists);
+        for (inst, run) in m.instances.iter().zip(&lists).filter(|(_, run)| !run.is_empty()) {
             s.rays.clear();
             s.scale.clear();
             let mut to = ToObject::new(inst);
-            for &(_, i) in run {
+            for &i in run {
                 let i = i as usize;
                 let local = to.ray(m.clamp(queue::sparse(&rays.time, i)), rays.origin(i), rays.dir(i));
                 s.rays.push(local.o, local.d, 0, Vec3::ZERO, 0, 0, 0, 0.0, None);
@@ -109,7 +104,7 @@ impl Tracer<'_> {
             let mut sub = self.for_object(&inst.accel, &mut s.order, &mut s.blocked);
             sub.closest(&s.rays, coherence, &mut s.hits);
             self.take_object(sub, &mut s.order, &mut s.blocked);
-            for (j, &(_, i)) in run.iter().enumerate() {
+            for (j, &i) in run.iter().enumerate() {
                 let (i, prim) = (i as usize, s.hits.prim[j]);
                 if prim == MISS {
                     continue;
@@ -120,6 +115,7 @@ impl Tracer<'_> {
                 }
             }
         }
+        s.lists = lists;
         self.moving = Some(s);
     }
 
@@ -129,22 +125,17 @@ impl Tracer<'_> {
     pub(super) fn occluded_moving(&mut self, shadow: &ShadowQueue) {
         let Some(m) = &self.accel.moving else { return };
         let mut s = self.moving.take().unwrap_or_default();
-        s.pairs.clear();
-        for i in 0..shadow.len() {
-            if self.blocked[i] {
-                continue;
-            }
-            let ray = Ray::new(shadow.origin(i), shadow.dir(i), 0.0, shadow.tmax[i]).slab();
-            self.gather(m, ray, i, &mut s.pairs);
-        }
-        s.pairs.sort_unstable();
-        for run in s.pairs.chunk_by(|a, b| a.0 == b.0) {
-            let inst = &m.instances[run[0].0 as usize];
+        let blocked = std::mem::take(&mut self.blocked);
+        let ray = |i: usize| (!blocked[i]).then(|| (shadow.origin(i), shadow.dir(i), shadow.tmax[i]));
+        self.gather(m, shadow.len(), ray, &mut s.lists);
+        self.blocked = blocked;
+        let lists = std::mem::take(&mut s.lists);
+        for (inst, run) in m.instances.iter().zip(&lists).filter(|(_, run)| !run.is_empty()) {
             s.shadow.clear();
             s.ids.clear();
             let mut to = ToObject::new(inst);
             // Rays an object before this one blocked need not meet this one.
-            for &(_, i) in run.iter().filter(|&&(_, i)| !self.blocked[i as usize]) {
+            for &i in run.iter().filter(|&&i| !self.blocked[i as usize]) {
                 let i = i as usize;
                 let local = to.ray(m.clamp(queue::sparse(&shadow.time, i)), shadow.origin(i), shadow.dir(i));
                 s.shadow.push(local.o, local.d, shadow.tmax[i] * local.scale, 0, Vec3::ZERO, None);
@@ -157,16 +148,23 @@ impl Tracer<'_> {
             }
             self.take_object(sub, &mut s.order, &mut s.blocked);
         }
+        s.lists = lists;
         self.moving = Some(s);
     }
 
-    /// Appends ray `i`'s moving candidates to `pairs`.
+    /// Every object's candidates among `n` rays ([`Moving::gather_queue`]).
     #[inline]
-    fn gather(&mut self, m: &Moving, ray: SlabRay, i: usize, pairs: &mut Vec<(u32, u32)>) {
+    fn gather(
+        &mut self,
+        m: &Moving,
+        n: usize,
+        ray: impl Fn(usize) -> Option<(Vec3, Vec3, f32)>,
+        lists: &mut Vec<Vec<u32>>,
+    ) {
         if self.count {
-            m.gather::<true>(ray, i as u32, pairs, &mut self.work);
+            m.gather_queue::<true>(n, ray, lists, &mut self.work);
         } else {
-            m.gather::<false>(ray, i as u32, pairs, &mut self.work);
+            m.gather_queue::<false>(n, ray, lists, &mut self.work);
         }
     }
 

@@ -13,7 +13,8 @@ use wide::{f32x16, u32x16};
 use super::Tile;
 use crate::queue::{HalfBufferQueue, RayQueue};
 use crate::sampling::{
-    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, hash, sobol_owen, sobol_owen_lanes, CmjKey, CMJ_LANES_MAX,
+    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, hash, hash_lanes, sobol_owen, sobol_owen_lanes, CmjKey,
+    CMJ_LANES_MAX,
 };
 use crate::scene::Scene;
 use crate::simd::{iota, words, Real, Word, LANES, V3};
@@ -96,12 +97,23 @@ pub fn shutter_times(scene: &Scene, rays: &mut RayQueue) {
     }
     let [open, close] = scene.settings.shutter;
     rays.fill_sparse(open);
-    for i in 0..rays.len() {
-        let u = sobol_owen(rays.sample[i], hash(&[rays.key[i], dim::TIME])).x;
-        let time = open + (close - open) * u;
-        rays.time[i] = time;
-        if let Some(m) = &scene.camera.motion {
-            let (o, d) = m.ray(time, rays.origin(i), rays.dir(i));
+    let n = rays.len();
+    // 16 rays at a time on lanes: the scalar formula's operations, so its bits.
+    for base in (0..n).step_by(LANES) {
+        let m = (n - base).min(LANES);
+        let lanes = |col: &[u32]| {
+            let mut a = [0u32; LANES];
+            a[..m].copy_from_slice(&col[base..base + m]);
+            u32x16::from(a)
+        };
+        let seed = hash_lanes([lanes(&rays.key), u32x16::splat(dim::TIME)]);
+        let (u, _) = sobol_owen_lanes(lanes(&rays.sample), seed);
+        let time = f32x16::splat(open) + f32x16::splat(close - open) * u;
+        rays.time[base..base + m].copy_from_slice(&time.to_array()[..m]);
+    }
+    if let Some(m) = &scene.camera.motion {
+        for i in 0..n {
+            let (o, d) = m.ray(rays.time[i], rays.origin(i), rays.dir(i));
             (rays.ox[i], rays.oy[i], rays.oz[i]) = (o.x, o.y, o.z);
             (rays.dx[i], rays.dy[i], rays.dz[i]) = (d.x, d.y, d.z);
         }
