@@ -134,11 +134,11 @@ pub const METHODS: &[Method] = &[
             "render.shadows.probe=3x3",
             "render.shadows.tolerance=0",
         ],
-        // The settings of the methods it chooses between: variance mode's thresholds and
-        // 0.002, which lets the pilot ask for up to `samples`; uniform's counts and
-        // variance's 32 and 128.
+        // The settings of the methods it chooses between: variance mode's thresholds
+        // and 0, which asks for `samples` everywhere (uniform anti-aliasing beside auto
+        // shadows); uniform's counts and variance's 32 and 128.
         grid: &[
-            ("render.aa.threshold", &["0.1", "0.03", "0.01", "0.002"]),
+            ("render.aa.threshold", &["0.1", "0.03", "0.01", "0"]),
             ("render.aa.samples", &["4", "16", "32", "64", "128"]),
             ("render.shadows.samples", &["1", "4", "16", "64"]),
         ],
