@@ -106,6 +106,12 @@ pub(crate) fn inv_dir(x: f32) -> f32 {
     (1.0 / x).clamp(-f32::MAX, f32::MAX)
 }
 
+/// [`inv_dir`] on lanes: the same division and clamp, so the same bits.
+#[inline(always)]
+pub(crate) fn inv_dir_lanes<S: crate::simd::Vector>(x: S) -> S {
+    (S::splat(1.0) / x).fast_max(S::splat(-f32::MAX)).fast_min(S::splat(f32::MAX))
+}
+
 /// A ray segment: the distances `(tmin, tmax)` along `dir` from `origin`, both bounds
 /// exclusive. What every traversal entry point takes.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -16,7 +16,7 @@ use obvhs::bvh2::Bvh2;
 
 use super::bvh2::{subtree, STACK_DEPTH};
 use super::shapes::{gamma, Shape};
-use super::{lanes_of, nearer, slab, Accel, Ray, SlabRay, Traversal, WIDEN};
+use super::{inv_dir_lanes, lanes_of, nearer, slab, Accel, Ray, SlabRay, Traversal, WIDEN};
 use crate::motion::Motion;
 use crate::simd::LANES;
 use wide::f32x16;
@@ -97,6 +97,22 @@ impl Instance {
         let near = slab(&Aabb::new(lo.into(), hi.into()), ray);
         near.is_finite() && near <= tmax
     }
+
+    /// [`Instance::may_hit`] for 16 rays (origins `o`, reciprocal directions `inv`,
+    /// limits `tmax`), with its arithmetic: the lanes (a bit mask) that may meet it.
+    #[inline(always)]
+    fn may_hit_lanes(&self, o: &[f32x16; 3], inv: &[f32x16; 3], tmax: f32x16) -> u32 {
+        let (lo, hi) = self.bounds;
+        let (mut near, mut far) = (f32x16::splat(f32::NEG_INFINITY), f32x16::splat(f32::INFINITY));
+        for j in 0..3 {
+            let t1 = (f32x16::splat(lo[j]) - o[j]) * inv[j];
+            let t2 = (f32x16::splat(hi[j]) - o[j]) * inv[j];
+            near = near.fast_max(t1.fast_min(t2));
+            far = far.fast_min(t1.fast_max(t2));
+        }
+        let far = far * f32x16::splat(WIDEN);
+        (far.simd_ge(near) & far.simd_ge(f32x16::splat(0.0)) & near.is_finite() & near.simd_le(tmax)).to_bitmask()
+    }
 }
 
 impl Moving {
@@ -166,8 +182,8 @@ impl Moving {
     /// direction and limit; `None` skips it) may enter object k's swept box before its
     /// limit, the objects [`Moving::closest`] would take the ray into. The tracer then
     /// traces each object's candidates together ([`Tracer`](super::tracer::Tracer)).
-    /// With a few objects ([`SCAN`]) 16 rays are tested at a time on lanes, with
-    /// [`Instance::may_hit`]'s arithmetic.
+    /// With a few objects ([`SCAN`]) 16 rays are tested at a time on lanes
+    /// ([`Instance::may_hit_lanes`]).
     pub fn gather_queue<const COUNT: bool>(
         &self,
         n: usize,
@@ -206,25 +222,11 @@ impl Moving {
                 continue;
             }
             let o = [0, 1, 2].map(|j| f32x16::from(a[j]));
-            // `inv_dir` on lanes.
-            let inv = [3, 4, 5].map(|j| {
-                (f32x16::splat(1.0) / f32x16::from(a[j]))
-                    .fast_max(f32x16::splat(-f32::MAX))
-                    .fast_min(f32x16::splat(f32::MAX))
-            });
+            let inv = [3, 4, 5].map(|j| inv_dir_lanes(f32x16::from(a[j])));
             let tmax = f32x16::from(a[6]);
             for (k, inst) in self.instances.iter().enumerate() {
-                let (lo, hi) = inst.bounds;
-                let (mut near, mut far) = (f32x16::splat(f32::NEG_INFINITY), f32x16::splat(f32::INFINITY));
-                for j in 0..3 {
-                    let t1 = (f32x16::splat(lo[j]) - o[j]) * inv[j];
-                    let t2 = (f32x16::splat(hi[j]) - o[j]) * inv[j];
-                    near = near.fast_max(t1.fast_min(t2));
-                    far = far.fast_min(t1.fast_max(t2));
-                }
-                let far = far * f32x16::splat(WIDEN);
-                let hit = far.simd_ge(near) & far.simd_ge(f32x16::splat(0.0)) & near.is_finite() & near.simd_le(tmax);
-                lanes_of(hit.to_bitmask() & used).for_each(|l| lists[k].push((base + l) as u32));
+                let hit = inst.may_hit_lanes(&o, &inv, tmax);
+                lanes_of(hit & used).for_each(|l| lists[k].push((base + l) as u32));
             }
         }
     }

@@ -5,7 +5,7 @@ use glam::Vec3;
 use super::Columns;
 use crate::accel::shapes::{intersect_triangle, shear_axes, triangle_t_error, Shape};
 use crate::accel::wbvh::Beam;
-use crate::accel::{CULL, WIDEN};
+use crate::accel::{inv_dir_lanes, CULL, WIDEN};
 use crate::simd::{Vector, LANES};
 
 /// How a triangle's vertex components are permuted into each lane's sheared frame.
@@ -102,8 +102,7 @@ impl<'a, S: Vector> Lanes<'a, S> {
             Axes::Mixed(is_x, is_y)
         };
         // `inv_dir` on lanes (1/x clamped to ±MAX); unused lanes get 1.
-        let inv =
-            dir.map(|x| S::select(used, (one / x).fast_max(S::splat(-f32::MAX)).fast_min(S::splat(f32::MAX)), one));
+        let inv = dir.map(|x| S::select(used, inv_dir_lanes(x), one));
         Lanes {
             o,
             d,
