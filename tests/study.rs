@@ -146,6 +146,15 @@ fn quick_study_of_a_small_scene_writes_everything_and_reuses_its_reference() {
         for t in &s.targets {
             // Targets come from uniform's own renders, so uniform always reaches them.
             assert!(t.choices[0].by_seconds.is_some() && t.winner_seconds.is_some(), "{t:?}");
+            // Every method's pick within 1.5× of the fastest has five runs, and its
+            // seconds are their median.
+            let picks: Vec<_> = t.choices.iter().filter_map(|c| c.by_seconds.as_ref()).collect();
+            let fastest = picks.iter().map(|p| p.seconds).fold(f64::INFINITY, f64::min);
+            for p in picks.iter().filter(|p| p.seconds <= 1.5 * fastest) {
+                let mut runs = s.rows[p.row].runs.clone();
+                runs.sort_by(f64::total_cmp);
+                assert!(runs.len() >= 5 && p.seconds == runs[runs.len() / 2], "{} {:?}", p.setting, runs);
+            }
             for c in &t.choices {
                 let Some(p) = &c.by_rays else { continue };
                 assert!(p.flip <= t.flip);

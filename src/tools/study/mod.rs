@@ -19,7 +19,9 @@
 //! FLIP; the manifest sizes it above the grids' best settings.
 //!
 //! Seconds are the median of `runs` renders (scene loading excluded), and of up to 5
-//! for a setting whose renders take under 0.1 s together (`measure::SHORT`); rays are
+//! for a setting whose renders take under 0.1 s together (`measure::SHORT`); each
+//! method's cheapest setting within 1.5× of a target's fastest is then timed again, in
+//! turns with the other contenders, to a median of 5 (`measure::confirm`). Rays are
 //! exact, since a render is deterministic for any thread count.
 
 use serde::Serialize;

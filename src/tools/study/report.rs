@@ -93,7 +93,7 @@ impl StudyResult {
     pub fn markdown(&self) -> String {
         let mut out = String::from("# Where adaptive sampling pays\n\n");
         out += &format!(
-            "Made by `wavetrace study {}{}` in {:.0} s ({} thread(s) per render, median of {} run(s) per setting, of up to {} where they take under {} s). \
+            "Made by `wavetrace study {}{}` in {:.0} s ({} thread(s) per render, median of {} run(s) per setting, of up to {} where they take under {} s, and of {} interleaved for each method's cheapest setting within {}× of a target's fastest). \
              Each cell is a method's cheapest setting whose mean FLIP against the scene's reference is at most the \
              target: by seconds (ties: lower FLIP, then grid order), with its rays; **bold** is the winner in seconds \
              (ties go to the method listed first), † the winner in rays where another. `–`: no setting reaches it.\n\n",
@@ -103,7 +103,9 @@ impl StudyResult {
             self.threads,
             self.runs,
             super::measure::SHORT_RUNS,
-            super::measure::SHORT
+            super::measure::SHORT,
+            super::measure::CONFIRM_RUNS,
+            super::measure::CONTEST
         );
         out += &map_tables(&self.map);
         out += &ratio_table(&self.scenes);

@@ -93,6 +93,17 @@ pub fn winner(entries: &[Entry], cost: Cost) -> Option<usize> {
     cheapest(&measures, f64::INFINITY, cost).map(|i| entries[i].method)
 }
 
+/// The measures whose seconds are within `margin` times the least of them: the
+/// contenders for a target, whose single-run seconds alone cannot order them on a noisy
+/// machine. NaN seconds never contend; none for no finite seconds.
+pub fn contenders(measures: &[Measure], margin: f64) -> Vec<usize> {
+    let least = measures.iter().map(|m| m.seconds).filter(|s| !s.is_nan()).fold(f64::INFINITY, f64::min);
+    if !least.is_finite() {
+        return Vec::new();
+    }
+    (0..measures.len()).filter(|&i| measures[i].seconds <= margin * least).collect()
+}
+
 /// How far above uniform's error a default target lies: a sampler as good as uniform
 /// sampling, with other random numbers, lands a few percent either side of its FLIP, and
 /// a target at uniform's exact FLIP would send it to its next, far dearer setting half
@@ -178,6 +189,18 @@ mod tests {
         let tie = [e(0, 0.02, 1.0, 100), e(1, 0.02, 1.0, 100)];
         assert_eq!(winner(&tie, Cost::Seconds), Some(0));
         assert_eq!(winner(&[], Cost::Seconds), None);
+    }
+
+    #[test]
+    fn contenders_are_within_the_margin_of_the_least() {
+        let rows = [m(0.1, 1.0, 1), m(0.1, 1.29, 1), m(0.1, 1.31, 1), m(0.1, f64::NAN, 1), m(0.1, 0.9, 1)];
+        // The least is 0.9: 1.3 × 0.9 = 1.17 keeps 1.0 and 0.9 only.
+        assert_eq!(contenders(&rows, 1.3), [0, 4]);
+        assert_eq!(contenders(&rows[..3], 1.3), [0, 1]);
+        // The margin is inclusive; a lone measure contends with itself.
+        assert_eq!(contenders(&[m(0.1, 2.0, 1), m(0.1, 3.0, 1)], 1.5), [0, 1]);
+        assert_eq!(contenders(&rows[3..4], 1.3), Vec::<usize>::new());
+        assert_eq!(contenders(&[], 1.3), Vec::<usize>::new());
     }
 
     #[test]
