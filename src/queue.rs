@@ -334,6 +334,14 @@ soa! {
     push(index: u32 => index)
 }
 
+impl IndexQueue {
+    /// Empties the queue and refills it with `indices` (ascending, as every index queue).
+    pub fn refill(&mut self, indices: impl IntoIterator<Item = u32>) {
+        self.index.clear();
+        self.index.extend(indices);
+    }
+}
+
 soa! {
     /// Adaptive AA: per-pixel state of one tile, one entry per tile pixel.
     pub struct RefineQueue {

@@ -175,11 +175,11 @@ impl Worker<'_> {
         let at = |p: u32| (tile.x0 + p % tw, tile.y0 + p / tw);
         let half = PILOT_BLOCK / 2;
         let v = &mut self.var;
-        converge::start(np, &mut v.queues);
-        v.queues.active.index.retain(|&p| {
-            let (x, y) = at(p);
+        let pilot = |p: &u32| {
+            let (x, y) = at(*p);
             x % PILOT_BLOCK == half && y % PILOT_BLOCK == half
-        });
+        };
+        converge::start_some(np, (0..np as u32).filter(pilot), &mut v.queues);
         let queue = &v.queues.active.index;
         if queue.is_empty() {
             return Vec::new();

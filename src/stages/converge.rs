@@ -29,12 +29,14 @@ pub fn pixel_error(even: Vec3, odd: Vec3, count: u32) -> f32 {
 
 /// Starts a tile of `n` pixels: every pixel empty and queued.
 pub fn start(n: usize, q: &mut VarianceQueues) {
-    q.state.clear();
-    q.active.clear();
-    for p in 0..n {
-        q.state.push(Vec3::ZERO, Vec3::ZERO, 0, 0);
-        q.active.push(p as u32);
-    }
+    start_some(n, 0..n as u32, q);
+}
+
+/// Starts a tile of `n` pixels, every pixel empty, with only `queued` (ascending tile
+/// pixel indices) queued: the auto pilot's one pixel per 8×8 block.
+pub fn start_some(n: usize, queued: impl IntoIterator<Item = u32>, q: &mut VarianceQueues) {
+    q.state.reset(n, Vec3::ZERO, Vec3::ZERO, 0, 0);
+    q.active.refill(queued);
 }
 
 /// The decision after a round: `sums` holds the round's sums, slot 2p for pixel p's
