@@ -242,14 +242,14 @@ fn confirm(
 
 /// Each method's cheapest setting in seconds that reaches `flip`, as row indices.
 fn fastest_picks(rows: &[Row], plan: &ScenePlan, flip: f64) -> Vec<usize> {
-    plan.methods
-        .iter()
-        .filter_map(|m| {
-            let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].method == m.method.name).collect();
-            let measures: Vec<_> = idx.iter().map(|&i| rows[i].measure()).collect();
-            cheapest(&measures, flip, Cost::Seconds).map(|k| idx[k])
-        })
-        .collect()
+    plan.methods.iter().filter_map(|m| cheapest_row(rows, m.method.name, flip, Cost::Seconds)).collect()
+}
+
+/// The row of `method`'s cheapest setting under `cost` that reaches `flip`, if any.
+fn cheapest_row(rows: &[Row], method: &str, flip: f64, cost: Cost) -> Option<usize> {
+    let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].method == method).collect();
+    let measures: Vec<_> = idx.iter().map(|&i| rows[i].measure()).collect();
+    cheapest(&measures, flip, cost).map(|k| idx[k])
 }
 
 /// The median (the mean of the middle two for an even count); NaN for none.
@@ -296,19 +296,18 @@ fn targets(plan: &ScenePlan, rows: &[Row]) -> Vec<(String, f64)> {
 
 /// Every method's cheapest settings for one target, and the winners.
 fn answer(label: &str, flip: f64, plan: &ScenePlan, rows: &[Row]) -> TargetResult {
-    let pick = |idx: &[usize], cost: Cost| {
-        let measures: Vec<_> = idx.iter().map(|&i| rows[i].measure()).collect();
-        cheapest(&measures, flip, cost).map(|k| {
-            let r = &rows[idx[k]];
-            Pick { row: idx[k], setting: r.setting(), seconds: r.seconds, rays: r.total_rays, flip: r.metrics.flip }
+    let pick = |method: &str, cost: Cost| {
+        cheapest_row(rows, method, flip, cost).map(|i| {
+            let r = &rows[i];
+            Pick { row: i, setting: r.setting(), seconds: r.seconds, rays: r.total_rays, flip: r.metrics.flip }
         })
     };
     let choices: Vec<Choice> = plan
         .methods
         .iter()
         .map(|m| {
-            let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].method == m.method.name).collect();
-            Choice { method: m.method.name, by_seconds: pick(&idx, Cost::Seconds), by_rays: pick(&idx, Cost::Rays) }
+            let name = m.method.name;
+            Choice { method: name, by_seconds: pick(name, Cost::Seconds), by_rays: pick(name, Cost::Rays) }
         })
         .collect();
     let win = |cost: Cost| {
