@@ -238,6 +238,33 @@ fn auto_aa_renders_uniform_at_the_pilots_count_where_it_finds_no_noise_pinhole_o
 }
 
 #[test]
+fn auto_aa_at_samples_up_to_min_samples_is_uniform_without_a_pilot() {
+    // No pilot could choose otherwise: uniform at `samples`, no pilot ray. One sample
+    // under a min_samples of 2 (allowed, as variance mode caps its first round) once
+    // panicked in the pilot's arithmetic.
+    for (samples, min) in [(4, 4), (2, 2), (1, 2)] {
+        let sets = [
+            "render.aa.mode=auto".to_string(),
+            format!("render.aa.samples={samples}"),
+            format!("render.aa.min_samples={min}"),
+            "render.shadows.mode=uniform".to_string(),
+        ];
+        let sets: Vec<&str> = sets.iter().map(|s| s.as_str()).collect();
+        let out = render_text(&blocks(), &sets, 2);
+        let c = out.auto.expect("auto mode reports its choice");
+        assert_eq!((c.chose, c.max, c.pilot_pixels), ("uniform", samples, 0), "{c:?}");
+        assert_eq!(out.stats.camera_rays, 48 * 36 * samples as u64, "no pilot rays");
+        let uniform = format!("render.aa.samples={samples}");
+        let uniform = render_text(&blocks(), &["render.aa.mode=uniform", &uniform, sets[3]], 2);
+        assert_eq!(uniform.image, out.image, "{samples} samples");
+    }
+    // One sample more than min_samples leaves a choice: the pilot runs.
+    let sets = ["render.aa.mode=auto", "render.aa.samples=5", "render.aa.min_samples=4", "render.shadows.mode=uniform"];
+    let c = render_text(&blocks(), &sets, 2).auto.expect("auto mode reports its choice");
+    assert!(c.pilot_pixels > 0, "{c:?}");
+}
+
+#[test]
 fn auto_aa_through_a_pinhole_renders_variance_where_the_pilot_finds_uneven_noise() {
     // Edges and 4-sample penumbrae over a flat floor: a few pixels hold the noise.
     let sets =

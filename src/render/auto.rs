@@ -47,9 +47,12 @@ pub(super) struct Plan {
     pub shadow: Option<ShadowChoice>,
 }
 
-/// Whether anti-aliasing's auto mode needs the pilot: always, when it is on.
+/// Whether anti-aliasing's auto mode needs the pilot: when it is on and `samples` leaves
+/// it a choice. At `samples` ≤ `min_samples` every pilot gives uniform sampling at
+/// `samples` ([`AutoChoice::without_pilot`]), so none is rendered.
 fn aa_pilot(scene: &Scene) -> bool {
-    matches!(scene.settings.aa_mode, AaMode::Auto { .. })
+    let s = &scene.settings;
+    matches!(s.aa_mode, AaMode::Auto { min_samples, .. } if s.aa_samples > min_samples)
 }
 
 /// Whether the shadows' auto mode needs the pilot: some light the adaptive test would
@@ -117,7 +120,10 @@ pub(super) fn pilot_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Plan) {
             (Sampling::Rounds(Rounds { threshold, min_samples, max: s.aa_samples }), None)
         }
         AaMode::Auto { threshold, min_samples } => {
-            let choice = AutoChoice::from_pilot(&errors, min_samples, threshold, s.aa_samples);
+            let choice = match aa_pilot(scene) {
+                true => AutoChoice::from_pilot(&errors, min_samples, threshold, s.aa_samples),
+                false => AutoChoice::without_pilot(s.aa_samples),
+            };
             let sampling = match choice.chose {
                 "uniform" => Sampling::Uniform(choice.max),
                 _ => Sampling::Rounds(Rounds::of(&choice)),

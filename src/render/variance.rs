@@ -67,7 +67,7 @@ pub fn uniform_samples(errors: &[f32], n0: u32, threshold: f32, max: u32) -> f64
     let mean_e2 = e2.iter().sum::<f64>();
     let kept = e2.iter().zip(errors).map(|(&e2, &e)| e2 / samples_asked(e, n0, threshold, max)).sum::<f64>();
     let n = if mean_e2 > 0.0 { mean_e2 / kept } else { n0 as f64 };
-    n.clamp(n0 as f64, max as f64)
+    n.clamp(n0.min(max) as f64, max as f64)
 }
 
 /// Auto mode: the mean samples a pixel variance sampling would spend, from the pilot's
@@ -87,7 +87,7 @@ pub fn variance_samples(errors: &[f32], n0: u32, threshold: f32, max: u32) -> f6
 fn samples_asked(e: f32, n0: u32, threshold: f32, max: u32) -> f64 {
     let e = if e.is_finite() { e as f64 } else { 0.0 };
     let n = if threshold > 0.0 { n0 as f64 * (e / threshold as f64).powi(2) } else { f64::INFINITY };
-    n.clamp(n0 as f64, max as f64)
+    n.clamp(n0.min(max) as f64, max as f64)
 }
 
 /// Samples a round of auto mode's variance sampling adds: [`AUTO_ROUND`] when `max`
@@ -129,6 +129,21 @@ impl Rounds {
 }
 
 impl AutoChoice {
+    /// Uniform sampling at `max` samples, chosen without a pilot: `max` is at most the
+    /// pilot's `min_samples`, where [`AutoChoice::from_pilot`] can choose nothing else.
+    pub fn without_pilot(max: u32) -> AutoChoice {
+        AutoChoice {
+            chose: "uniform",
+            why: "samples at most min_samples: one uniform pass, no pilot needed",
+            threshold: 0.0,
+            min_samples: max,
+            max,
+            pilot_pixels: 0,
+            uniform_spp: max as f64,
+            variance_spp: max as f64,
+        }
+    }
+
     /// From the pilot's `errors` (after `n0` samples): variance sampling in rounds of
     /// [`auto_round`] when it spends at most [`VARIANCE_MARGIN`] of uniform's samples
     /// ([`variance_samples`] against [`uniform_samples`]) and `max` leaves four rounds,
@@ -262,6 +277,9 @@ mod tests {
         // Noiseless: the pilot's count; a threshold of 0: the most.
         assert_eq!(uniform_samples(&[0.0; 10], 16, 0.01, 256), 16.0);
         assert_eq!(uniform_samples(&[0.05; 10], 16, 0.0, 256), 256.0);
+        // A pilot of more samples than the cap (min_samples 2, samples 1) asks for the cap.
+        assert_eq!(uniform_samples(&[0.05; 10], 2, 0.01, 1), 1.0);
+        assert_eq!(variance_samples(&[0.05; 10], 2, 0.01, 1), 1.0);
         // Asked for 20 where variance's rounds of 16 would spend 32: uniform matches what
         // the threshold asks for, not the rounds' overshoot.
         let e = 0.01 * (20.0f32 / 16.0).sqrt();
