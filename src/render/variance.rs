@@ -313,6 +313,22 @@ mod tests {
     }
 
     #[test]
+    fn without_a_pilot_is_what_any_pilot_gives_at_samples_up_to_min_samples() {
+        // Whatever the pilot's errors and threshold, `samples` ≤ `min_samples` leaves
+        // uniform at `samples`: the choice auto makes without rendering a pilot.
+        let pilots: [&[f32]; 5] = [&[], &[0.0; 8], &[0.02; 8], &[0.001, 0.5, f32::NAN, 3.0], &[f32::INFINITY]];
+        for (n0, max) in [(2, 1), (2, 2), (4, 3), (4, 4), (16, 16), (64, 9)] {
+            let none = AutoChoice::without_pilot(max);
+            for errors in pilots {
+                for threshold in [0.0, 0.01, 0.1, 10.0] {
+                    let c = AutoChoice::from_pilot(errors, n0, threshold, max);
+                    assert_eq!((c.chose, Rounds::of(&c)), (none.chose, Rounds::of(&none)), "{n0} {max} {errors:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn auto_rounds_are_eight_where_samples_leave_four_of_them() {
         assert_eq!((auto_round(4, 31), auto_round(4, 32), auto_round(2, 256)), (4, 8, 8));
         // A pilot of 8 or more: its own rounds.
