@@ -49,10 +49,42 @@ pub struct Moving {
     /// Primitives of every object, counted once: [`Accel::len`](super::Accel::len) and
     /// every moving-or-not test per shaded point subtract it.
     prims: usize,
+    /// Its key in the threads' pose memos ([`Moving::pose`]).
+    serial: u64,
 }
 
 /// Objects up to which a ray tests every swept box instead of walking a tree over them.
 const SCAN: usize = 4;
+
+/// An object's transform at one time and its inverse: [`Motion::at`] and
+/// `DAffine3::inverse` of it, bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Object space to world.
+    pub to_world: DAffine3,
+    /// World to object space.
+    pub to_object: DAffine3,
+}
+
+/// Slots of a thread's pose memo ([`Moving::pose`]): four lane groups.
+const POSES: usize = 64;
+
+/// A memo slot: the [`Moving`]'s serial (0 for none), the object, the time's bits, the
+/// pose then.
+type PoseSlot = (u64, u32, u32, Pose);
+
+thread_local! {
+    /// The poses this thread computed last. A moving hit asks for its object's pose at
+    /// its path's time four or five times (the intersect stage, the shape, its error
+    /// bound, the shading normal, its shadow rays), each a slerp's two f64 sines and a
+    /// 3×3 inverse; kept here they are computed once.
+    static POSE_MEMO: std::cell::RefCell<[PoseSlot; POSES]> = const {
+        std::cell::RefCell::new([(0, 0, 0, Pose { to_world: DAffine3::IDENTITY, to_object: DAffine3::IDENTITY }); POSES])
+    };
+}
+
+/// Serials of [`Moving`] sets, one each, so a memo never answers for another scene's.
+static SERIAL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 /// A world ray taken into an object's space at a time: the origin, the unit direction,
 /// and the factor that turns world distances into object ones.
@@ -67,7 +99,7 @@ pub struct ObjectRay {
 }
 
 /// `ray` taken into the space of an object by `inv`, the inverse of its world transform
-/// ([`Instance::to_object_at`]).
+/// ([`Pose::to_object`]).
 #[inline]
 pub fn object_ray(inv: &DAffine3, ray: &Ray) -> ObjectRay {
     let o = inv.transform_point3(ray.origin.as_dvec3());
@@ -82,12 +114,6 @@ impl Instance {
     pub fn new(motion: Motion, accel: Accel, first: u32, shutter: [f32; 2]) -> Instance {
         let (lo, hi) = accel.bounds();
         Instance { bounds: motion.bound(lo, hi, shutter), motion, accel, first }
-    }
-
-    /// The world-to-object transform at `time` (in the shutter: [`Moving::clamp`]).
-    #[inline]
-    pub fn to_object_at(&self, time: f32) -> DAffine3 {
-        self.motion.at(time).inverse()
     }
 
     /// May `ray` meet the object (its swept box) before `tmax`?
@@ -131,7 +157,8 @@ impl Moving {
         });
         let top = top.filter(|t| !t.nodes[0].is_leaf() && t.depth(0) < STACK_DEPTH);
         let prims = instances.iter().map(|i| i.accel.len()).sum();
-        Moving { instances, shutter, top, prims }
+        let serial = SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        Moving { instances, shutter, top, prims, serial }
     }
 
     /// `time` moved into the shutter, where the swept boxes hold the objects: rays
@@ -241,12 +268,31 @@ impl Moving {
         self.len() == 0
     }
 
-    /// The object of primitive `id` (a scene id of a moving primitive) and its local id.
+    /// The object of primitive `id` (a scene id of a moving primitive): its index, itself
+    /// and the primitive's local id.
     #[inline]
-    pub fn instance(&self, id: u32) -> (&Instance, u32) {
+    pub fn instance(&self, id: u32) -> (usize, &Instance, u32) {
         let k = self.instances.partition_point(|i| i.first <= id) - 1;
         let inst = &self.instances[k];
-        (inst, id - inst.first)
+        (k, inst, id - inst.first)
+    }
+
+    /// Object `k`'s pose at `time` (in the shutter: [`Moving::clamp`]), from this thread's
+    /// memo when it computed it last (the same bits either way: a pure function of the
+    /// object and the time).
+    #[inline]
+    pub fn pose(&self, k: usize, time: f32) -> Pose {
+        let bits = time.to_bits();
+        let slot = (bits ^ (bits >> 13) ^ (k as u32).wrapping_mul(0x9e37_79b9)) as usize % POSES;
+        POSE_MEMO.with(|memo| {
+            let mut memo = memo.borrow_mut();
+            let s = &mut memo[slot];
+            if (s.0, s.1, s.2) != (self.serial, k as u32, bits) {
+                let to_world = self.instances[k].motion.at(time);
+                *s = (self.serial, k as u32, bits, Pose { to_world, to_object: to_world.inverse() });
+            }
+            s.3
+        })
     }
 
     /// Lowers `best` (`(t, id)`, `(∞, u32::MAX)` for none) to the closest hit of `ray` at
@@ -259,8 +305,8 @@ impl Moving {
         // past it.
         let mut search = ray.slab();
         search.tmax = best.0.min(ray.tmax).next_up();
-        self.candidates::<COUNT>(search, c, |_, inst, r, c| {
-            let local = object_ray(&inst.to_object_at(time), &ray);
+        self.candidates::<COUNT>(search, c, |k, inst, r, c| {
+            let local = object_ray(&self.pose(k, time).to_object, &ray);
             // The object's distances, a little past the world limit so rounding loses no
             // tie; the world distances decide.
             let tmax = (best.0.min(ray.tmax) * local.scale) * (1.0 + 4.0 * f32::EPSILON);
@@ -283,8 +329,8 @@ impl Moving {
     pub fn occluded<const COUNT: bool>(&self, ray: Ray, time: f32, c: &mut Traversal) -> bool {
         let time = self.clamp(time);
         let mut blocked = false;
-        self.candidates::<COUNT>(ray.slab(), c, |_, inst, _, c| {
-            let local = object_ray(&inst.to_object_at(time), &ray);
+        self.candidates::<COUNT>(ray.slab(), c, |k, inst, _, c| {
+            let local = object_ray(&self.pose(k, time).to_object, &ray);
             let obj = Ray::new(local.o, local.d, ray.tmin * local.scale, ray.tmax * local.scale);
             blocked = inst.accel.occluded::<COUNT>(obj, c);
             !blocked
@@ -299,8 +345,8 @@ impl Moving {
     #[inline]
     pub fn shape_at(&self, id: u32, time: f32) -> Shape {
         let time = self.clamp(time);
-        let (inst, local) = self.instance(id);
-        let m = inst.motion.at(time);
+        let (k, inst, local) = self.instance(id);
+        let m = self.pose(k, time).to_world;
         let p = |v: Vec3| m.transform_point3(v.as_dvec3()).as_vec3();
         let v = |v: Vec3| m.transform_vector3(v.as_dvec3()).as_vec3();
         match inst.accel.prim(local).shape {
@@ -320,9 +366,9 @@ impl Moving {
     #[inline]
     pub fn extra_error(&self, id: u32, time: f32, x: Vec3) -> Vec3 {
         let time = self.clamp(time);
-        let (inst, _) = self.instance(id);
-        let m = inst.motion.at(time);
-        let p = m.inverse().transform_point3(x.as_dvec3()).abs();
+        let pose = self.pose(self.instance(id).0, time);
+        let m = pose.to_world;
+        let p = pose.to_object.transform_point3(x.as_dvec3()).abs();
         let l = m.matrix3;
         let lp = DVec3::new(l.row(0).abs().dot(p), l.row(1).abs().dot(p), l.row(2).abs().dot(p));
         ((lp + x.as_dvec3().abs() + m.translation.abs()) * gamma(4) as f64).as_vec3()
@@ -333,9 +379,9 @@ impl Moving {
     #[inline]
     pub fn normal_at(&self, id: u32, time: f32, n: Vec3) -> Vec3 {
         let time = self.clamp(time);
-        let (inst, _) = self.instance(id);
-        let m = inst.motion.at(time);
-        (m.matrix3.inverse().transpose() * n.as_dvec3()).as_vec3()
+        // The inverse's linear part is the linear part's inverse (glam's affine inverse).
+        let inv = self.pose(self.instance(id).0, time).to_object.matrix3;
+        (inv.transpose() * n.as_dvec3()).as_vec3()
     }
 
     /// World point `x` of primitive `id` at `time` in the object's own space (where
@@ -343,14 +389,13 @@ impl Moving {
     #[inline]
     pub fn to_object(&self, id: u32, time: f32, x: Vec3) -> Vec3 {
         let time = self.clamp(time);
-        let (inst, _) = self.instance(id);
-        inst.motion.at(time).inverse().transform_point3(x.as_dvec3()).as_vec3()
+        self.pose(self.instance(id).0, time).to_object.transform_point3(x.as_dvec3()).as_vec3()
     }
 
     /// Primitive `id`'s shape in its object's space.
     #[inline]
     pub fn object_shape(&self, id: u32) -> Shape {
-        let (inst, local) = self.instance(id);
+        let (_, inst, local) = self.instance(id);
         inst.accel.prim(local).shape
     }
 }
@@ -380,6 +425,33 @@ mod tests {
                 Instance::new(motion, accel, k, [0.0, 1.0])
             })
             .collect()
+    }
+
+    /// A pose from the thread's memo is the motion's transform and its inverse bit for
+    /// bit, whichever scene or object asked for that slot before: two scenes whose
+    /// objects move differently asked in turn at the same times, more times than the
+    /// memo has slots, and the same times again.
+    #[test]
+    fn poses_from_the_memo_are_the_motions_own() {
+        let a = Moving::new(objects(), [0.0, 1.0]);
+        let b = Moving::new(objects().into_iter().rev().collect(), [0.0, 1.0]);
+        let times: Vec<f32> =
+            (0..3 * POSES as u32).map(|i| (i % 100) as f32 / 99.0 + (i / 100) as f32 * 1e-3).collect();
+        for round in 0..2 {
+            for &time in &times {
+                for (m, name) in [(&a, "a"), (&b, "b")] {
+                    for k in [0, 1, 39] {
+                        let want = m.instances[k].motion.at(time);
+                        let got = m.pose(k, time);
+                        assert!(
+                            got.to_world == want && got.to_object == want.inverse(),
+                            "round {round}, scene {name}, object {k}, time {time}"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(a.instances[0].motion.at(0.5) != b.instances[0].motion.at(0.5), "the scenes' objects differ");
     }
 
     #[test]

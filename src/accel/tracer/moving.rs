@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::super::moving::{object_ray, Instance, Moving, ObjectRay};
+use super::super::moving::{object_ray, Moving};
 use super::super::{nearer, Accel, Ray};
 use super::{Coherence, Tracer};
 use crate::queue::{self, HitQueue, RayQueue, ShadowQueue, MISS};
@@ -29,35 +29,6 @@ pub(super) struct Scratch {
     order: Vec<(u64, u32)>,
     /// See `order`.
     blocked: Vec<bool>,
-}
-
-/// Inverse transforms of one moving object at the times its rays asked for last, by
-/// time: a path's shadow rays share its time, and a shade stage writes them a lane
-/// group of points apart.
-struct ToObject<'a> {
-    inst: &'a Instance,
-    /// Per slot, the time's bits (`u32::MAX`, a NaN, for none) and the transform then.
-    slots: [(u32, glam::DAffine3); TO_OBJECT],
-}
-
-/// Slots of [`ToObject`]: two lane groups.
-const TO_OBJECT: usize = 32;
-
-impl<'a> ToObject<'a> {
-    fn new(inst: &'a Instance) -> Self {
-        ToObject { inst, slots: [(u32::MAX, glam::DAffine3::IDENTITY); TO_OBJECT] }
-    }
-
-    /// The ray `(o, d)` at `time` (already in the shutter) in the object's space.
-    #[inline]
-    fn ray(&mut self, time: f32, o: Vec3, d: Vec3) -> ObjectRay {
-        let bits = time.to_bits();
-        let slot = &mut self.slots[((bits ^ (bits >> 13)) as usize) % TO_OBJECT];
-        if slot.0 != bits {
-            *slot = (bits, self.inst.to_object_at(time));
-        }
-        object_ray(&slot.1, &Ray::infinite(o, d))
-    }
 }
 
 impl Scratch {
@@ -91,13 +62,13 @@ impl Tracer<'_> {
         let ray = |i: usize| Some((rays.origin(i), rays.dir(i), hits.t[i].next_up()));
         self.gather(m, rays.len(), ray, &mut s.lists);
         let lists = std::mem::take(&mut s.lists);
-        for (inst, run) in m.instances.iter().zip(&lists).filter(|(_, run)| !run.is_empty()) {
+        for (k, (inst, run)) in m.instances.iter().zip(&lists).enumerate().filter(|(_, (_, run))| !run.is_empty()) {
             s.rays.clear();
             s.scale.clear();
-            let mut to = ToObject::new(inst);
             for &i in run {
                 let i = i as usize;
-                let local = to.ray(m.clamp(queue::sparse(&rays.time, i)), rays.origin(i), rays.dir(i));
+                let pose = m.pose(k, m.clamp(queue::sparse(&rays.time, i)));
+                let local = object_ray(&pose.to_object, &Ray::infinite(rays.origin(i), rays.dir(i)));
                 s.rays.push(local.o, local.d, 0, Vec3::ZERO, 0, 0, 0, 0.0, None);
                 s.scale.push(local.scale);
             }
@@ -130,14 +101,14 @@ impl Tracer<'_> {
         self.gather(m, shadow.len(), ray, &mut s.lists);
         self.blocked = blocked;
         let lists = std::mem::take(&mut s.lists);
-        for (inst, run) in m.instances.iter().zip(&lists).filter(|(_, run)| !run.is_empty()) {
+        for (k, (inst, run)) in m.instances.iter().zip(&lists).enumerate().filter(|(_, (_, run))| !run.is_empty()) {
             s.shadow.clear();
             s.ids.clear();
-            let mut to = ToObject::new(inst);
             // Rays an object before this one blocked need not meet this one.
             for &i in run.iter().filter(|&&i| !self.blocked[i as usize]) {
                 let i = i as usize;
-                let local = to.ray(m.clamp(queue::sparse(&shadow.time, i)), shadow.origin(i), shadow.dir(i));
+                let pose = m.pose(k, m.clamp(queue::sparse(&shadow.time, i)));
+                let local = object_ray(&pose.to_object, &Ray::infinite(shadow.origin(i), shadow.dir(i)));
                 s.shadow.push(local.o, local.d, shadow.tmax[i] * local.scale, 0, Vec3::ZERO, None);
                 s.ids.push(i as u32);
             }
