@@ -14,23 +14,28 @@ For each Mitsuba sample count (stratified sampler, llvm variant, render seconds 
 run that warms the JIT cache), the fastest wavetrace setting whose FLIP against the
 reference is at most Mitsuba's: uniform samples per pixel, or variance-driven AA in
 rounds of 8 up to a cap at threshold 0.1 or 0.03, each with one uniform shadow ray, four,
-or four or sixteen adaptive ones; the whole process timed (load, BVH, render, write).
+or four or sixteen adaptive ones; the whole process timed (load, BVH, render, write; the
+last run's image removed first, untimed).
 FLIP is wavetrace's `compare` for both renderers' images.
 
 Timing: a first round renders every setting once (its FLIP is the setting's; seeds are
 fixed, so the image is too); the finalists, each target's settings that reach it within
-1.5× of that round's fastest, and every Mitsuba point are then timed once a round for
+2× of that round's fastest, and every Mitsuba point are then timed once a round for
 --reps rounds (so the machine's drift falls on both alike), and medians compared.
 
 Prints one line per Mitsuba point: spp, Mitsuba seconds and FLIP; wavetrace's FLIP at the
 same spp with one shadow ray and its ratio to Mitsuba's; the fastest wavetrace setting,
 its seconds and FLIP, and the time ratio wavetrace / Mitsuba (below 1: wavetrace faster).
 
+`--json PATH` also writes every setting's seconds (each round's), FLIP and whether it was
+a finalist, and every Mitsuba point's.
+
 Usage: benches/equal_flip.py WAVETRACE SCENE [--reference REF.exr] [--reps 3] [--spp 16,64,256]
-       [--scale S] [--translate X,Y,Z]
+       [--scale S] [--translate=X,Y,Z] [--json PATH]
 """
 
 import argparse
+import json
 import os
 import statistics
 import subprocess
@@ -52,8 +57,9 @@ SETTINGS += [
 # A setting past this many times the slowest Mitsuba point's seconds in the first round
 # stops its sample counts' climb (more samples only cost more).
 CLIMB = 3.0
-# Finalists: within this factor of a target's fastest in the first round.
-FINAL = 1.5
+# Finalists: within this factor of a target's fastest in the first round (one run each:
+# a run that the machine slowed by half must not lose its setting the final).
+FINAL = 2.0
 
 
 def flip(wavetrace, image, reference):
@@ -79,7 +85,7 @@ class Scene:
         self.wavetrace = os.path.join(tmp, name + ".toml")
         subprocess.run([sys.executable, os.path.join(PEERS, "wavetrace", "json2toml.py"),
                         os.path.join(MITSUBA, "scenes", name + ".json"), self.wavetrace, "--scale", str(scale),
-                        "--translate", translate], check=True, capture_output=True)
+                        "--translate=" + translate], check=True, capture_output=True)
         self.reference = reference or os.path.join(MITSUBA, "refs", name + ".exr")
 
     def render_mitsuba(self, spp, out, seed):
@@ -96,6 +102,10 @@ def wavetrace_run(wavetrace, scene, spp, shadows, threshold, out):
     else:
         sets += ["--set", "render.aa.mode=variance", "--set", "render.aa.min_samples=8"]
         sets += ["--set", "render.aa.threshold=" + threshold]
+    # The last run's image is removed untimed: replacing a file costs its unlink (1-2 ms
+    # on this machine's ext4), which a new render's output does not pay.
+    if os.path.exists(out):
+        os.remove(out)
     start = time.perf_counter()
     subprocess.run([wavetrace, scene, "-q", "-o", out] + sets, check=True)
     return time.perf_counter() - start
@@ -110,6 +120,7 @@ def main():
     ap.add_argument("--spp", default="16,64,256")
     ap.add_argument("--scale", type=float, default=1.0)
     ap.add_argument("--translate", default="0,0,0")
+    ap.add_argument("--json")
     a = ap.parse_args()
     tmp = tempfile.mkdtemp()
     scene = Scene(a.scene, a.reference, a.scale, a.translate, tmp)
@@ -154,6 +165,13 @@ def main():
         aa = "uniform" if threshold is None else "variance@" + threshold
         ours.append((statistics.median(w_secs[k]), spp, shadows, w_flip[k], aa, k in finalists))
     ours.sort()
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump({
+                "mitsuba": [{"spp": spp, "seconds": m_secs[spp], "flip": points[spp]} for spp in spps],
+                "wavetrace": [{"spp": SETTINGS[k][0], "shadows": SETTINGS[k][1], "threshold": SETTINGS[k][2],
+                               "seconds": w_secs[k], "flip": w_flip[k], "finalist": k in finalists} for k in w_secs],
+            }, f, indent=1)
     print("mitsuba_spp mitsuba_s mitsuba_flip | equal_spp_flip flip_ratio | wavetrace_aa wavetrace_spp shadows wavetrace_s wavetrace_flip | time_ratio")
     for spp in spps:
         secs, f = statistics.median(m_secs[spp]), points[spp]
