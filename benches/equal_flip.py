@@ -58,7 +58,7 @@ SETTINGS += [
 # stops its sample counts' climb (more samples only cost more).
 CLIMB = 3.0
 # Finalists: within this factor of a target's fastest in the first round (one run each:
-# a run that the machine slowed by half must not lose its setting the final).
+# a run the machine slowed by half must not cost its setting a place in the final).
 FINAL = 2.0
 
 
@@ -74,6 +74,8 @@ class Scene:
         if scene.endswith(".xml"):
             if reference is None:
                 sys.exit("an XML scene needs --reference")
+            if scale != 1.0 or translate != "0,0,0":
+                sys.exit("--scale and --translate apply to harness scenes only")
             self.mitsuba = lambda spp, out, seed: [os.path.join(MITSUBA, "render_xml.py"), scene, out, "--spp",
                                                    str(spp), "--chunk", str(spp), "--seed", str(seed), "-D",
                                                    "sampler=stratified"]
