@@ -295,6 +295,12 @@ impl Moving {
         })
     }
 
+    /// The pose of primitive `id`'s object at `time` (clamped into the shutter).
+    #[inline]
+    fn pose_of(&self, id: u32, time: f32) -> Pose {
+        self.pose(self.instance(id).0, self.clamp(time))
+    }
+
     /// Lowers `best` (`(t, id)`, `(∞, u32::MAX)` for none) to the closest hit of `ray` at
     /// `time` on a moving object, by the tie rule: one ray alone, the reference the
     /// tracer's queues (which trace each object's candidates together) are tested against.
@@ -344,9 +350,8 @@ impl Moving {
     /// determinant (its motion is a uniform scale times a rotation at both ends).
     #[inline]
     pub fn shape_at(&self, id: u32, time: f32) -> Shape {
-        let time = self.clamp(time);
         let (k, inst, local) = self.instance(id);
-        let m = self.pose(k, time).to_world;
+        let m = self.pose(k, self.clamp(time)).to_world;
         let p = |v: Vec3| m.transform_point3(v.as_dvec3()).as_vec3();
         let v = |v: Vec3| m.transform_vector3(v.as_dvec3()).as_vec3();
         match inst.accel.prim(local).shape {
@@ -365,8 +370,7 @@ impl Moving {
     /// vertices by a step of theirs.
     #[inline]
     pub fn extra_error(&self, id: u32, time: f32, x: Vec3) -> Vec3 {
-        let time = self.clamp(time);
-        let pose = self.pose(self.instance(id).0, time);
+        let pose = self.pose_of(id, time);
         let m = pose.to_world;
         let p = pose.to_object.transform_point3(x.as_dvec3()).abs();
         let l = m.matrix3;
@@ -378,9 +382,8 @@ impl Moving {
     /// (the inverse transpose), not normalised.
     #[inline]
     pub fn normal_at(&self, id: u32, time: f32, n: Vec3) -> Vec3 {
-        let time = self.clamp(time);
         // The inverse's linear part is the linear part's inverse (glam's affine inverse).
-        let inv = self.pose(self.instance(id).0, time).to_object.matrix3;
+        let inv = self.pose_of(id, time).to_object.matrix3;
         (inv.transpose() * n.as_dvec3()).as_vec3()
     }
 
@@ -388,8 +391,7 @@ impl Moving {
     /// texture coordinates are defined).
     #[inline]
     pub fn to_object(&self, id: u32, time: f32, x: Vec3) -> Vec3 {
-        let time = self.clamp(time);
-        self.pose(self.instance(id).0, time).to_object.transform_point3(x.as_dvec3()).as_vec3()
+        self.pose_of(id, time).to_object.transform_point3(x.as_dvec3()).as_vec3()
     }
 
     /// Primitive `id`'s shape in its object's space.
