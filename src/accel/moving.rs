@@ -15,6 +15,7 @@ use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 
 use super::bvh2::{subtree, STACK_DEPTH};
+use super::packet::Columns;
 use super::shapes::{gamma, Shape};
 use super::{inv_dir_lanes, lanes_of, nearer, slab, Accel, Ray, SlabRay, Traversal, WIDEN};
 use crate::motion::Motion;
@@ -204,26 +205,29 @@ impl Moving {
         });
     }
 
-    /// Every object's candidates in a queue of `n` rays: `lists[k]` (one list per object,
-    /// each cleared first) gets, in index order, every ray `i` whose `ray(i)` (origin,
-    /// direction and limit; `None` skips it) may enter object k's swept box before its
-    /// limit, the objects [`Moving::closest`] would take the ray into. The tracer then
+    /// Every object's candidates in a queue's rays (origins and directions as its
+    /// `rays` columns): `lists[k]` (one list per object, each cleared first) gets, in
+    /// index order, every ray `i` that may enter object k's swept box before `limit(i)`
+    /// (`None` skips it), the objects [`Moving::closest`] would take the ray into. The tracer then
     /// traces each object's candidates together ([`Tracer`](super::tracer::Tracer)).
     /// With a few objects ([`SCAN`]) 16 rays are tested at a time on lanes
     /// ([`Instance::may_hit_lanes`]).
     pub fn gather_queue<const COUNT: bool>(
         &self,
-        n: usize,
-        ray: impl Fn(usize) -> Option<(Vec3, Vec3, f32)>,
+        rays: Columns<'_>,
+        limit: impl Fn(usize) -> Option<f32>,
         lists: &mut Vec<Vec<u32>>,
         c: &mut Traversal,
     ) {
+        let Columns([ox, oy, oz, dx, dy, dz]) = rays;
+        let n = ox.len();
         lists.resize_with(self.instances.len(), Vec::new);
         lists.iter_mut().for_each(Vec::clear);
         if self.top.is_some() {
             for i in 0..n {
-                if let Some((o, d, tmax)) = ray(i) {
-                    let mut r = Ray::infinite(o, d).slab();
+                if let Some(tmax) = limit(i) {
+                    let o = Vec3::new(ox[i], oy[i], oz[i]);
+                    let mut r = Ray::infinite(o, Vec3::new(dx[i], dy[i], dz[i])).slab();
                     r.tmax = tmax;
                     self.candidates::<COUNT>(r, c, |k, _, _, _| {
                         lists[k].push(i as u32);
@@ -234,23 +238,29 @@ impl Moving {
             return;
         }
         for base in (0..n).step_by(LANES) {
-            // Origin, direction and limit per lane; lanes skipped or past the queue fail.
-            let mut a = [[0.0f32; LANES]; 7];
-            let mut used = 0u32;
-            for l in 0..(n - base).min(LANES) {
-                if let Some((o, d, tmax)) = ray(base + l) {
-                    for (col, x) in a.iter_mut().zip([o.x, o.y, o.z, d.x, d.y, d.z, tmax]) {
-                        col[l] = x;
-                    }
+            // Limit per lane; lanes skipped or past the queue fail.
+            let (mut tmax, mut used) = ([0.0f32; LANES], 0u32);
+            for (l, t) in tmax.iter_mut().enumerate().take(n - base) {
+                if let Some(limit) = limit(base + l) {
+                    *t = limit;
                     used |= 1 << l;
                 }
             }
             if used == 0 {
                 continue;
             }
-            let o = [0, 1, 2].map(|j| f32x16::from(a[j]));
-            let inv = [3, 4, 5].map(|j| inv_dir_lanes(f32x16::from(a[j])));
-            let tmax = f32x16::from(a[6]);
+            // Straight from the queue's columns: a whole group is one load per column.
+            let column = |v: &[f32]| match <[f32; LANES]>::try_from(&v[base..(base + LANES).min(n)]) {
+                Ok(a) => f32x16::from(a),
+                Err(_) => {
+                    let mut a = [0.0f32; LANES];
+                    a[..n - base].copy_from_slice(&v[base..]);
+                    f32x16::from(a)
+                }
+            };
+            let o = [column(ox), column(oy), column(oz)];
+            let inv = [column(dx), column(dy), column(dz)].map(inv_dir_lanes);
+            let tmax = f32x16::from(tmax);
             for (k, inst) in self.instances.iter().enumerate() {
                 let hit = inst.may_hit_lanes(&o, &inv, tmax);
                 lanes_of(hit & used).for_each(|l| lists[k].push((base + l) as u32));
@@ -282,6 +292,15 @@ impl Moving {
     /// object and the time).
     #[inline]
     pub fn pose(&self, k: usize, time: f32) -> Pose {
+        self.with_pose(k, time, |p| *p)
+    }
+
+    /// `f` of object `k`'s pose at `time`, read in place from this thread's memo
+    /// ([`Moving::pose`]). What a caller needs of the pose is computed where the memo keeps
+    /// it: a 192-byte pose copied out and read back at once waited on its own stores (a
+    /// fifth of the shadow rays' moving-object time under `perf`).
+    #[inline]
+    pub fn with_pose<R>(&self, k: usize, time: f32, f: impl FnOnce(&Pose) -> R) -> R {
         let bits = time.to_bits();
         let slot = (bits ^ (bits >> 13) ^ (k as u32).wrapping_mul(0x9e37_79b9)) as usize % POSES;
         POSE_MEMO.with(|memo| {
@@ -291,14 +310,14 @@ impl Moving {
                 let to_world = self.instances[k].motion.at(time);
                 *s = (self.serial, k as u32, bits, Pose { to_world, to_object: to_world.inverse() });
             }
-            s.3
+            f(&s.3)
         })
     }
 
-    /// The pose of primitive `id`'s object at `time` (clamped into the shutter).
+    /// `f` of the pose of primitive `id`'s object at `time` (clamped into the shutter).
     #[inline]
-    fn pose_of(&self, id: u32, time: f32) -> Pose {
-        self.pose(self.instance(id).0, self.clamp(time))
+    fn with_pose_of<R>(&self, id: u32, time: f32, f: impl FnOnce(&Pose) -> R) -> R {
+        self.with_pose(self.instance(id).0, self.clamp(time), f)
     }
 
     /// Lowers `best` (`(t, id)`, `(∞, u32::MAX)` for none) to the closest hit of `ray` at
@@ -312,7 +331,7 @@ impl Moving {
         let mut search = ray.slab();
         search.tmax = best.0.min(ray.tmax).next_up();
         self.candidates::<COUNT>(search, c, |k, inst, r, c| {
-            let local = object_ray(&self.pose(k, time).to_object, &ray);
+            let local = self.with_pose(k, time, |p| object_ray(&p.to_object, &ray));
             // The object's distances, a little past the world limit so rounding loses no
             // tie; the world distances decide.
             let tmax = (best.0.min(ray.tmax) * local.scale) * (1.0 + 4.0 * f32::EPSILON);
@@ -336,7 +355,7 @@ impl Moving {
         let time = self.clamp(time);
         let mut blocked = false;
         self.candidates::<COUNT>(ray.slab(), c, |k, inst, _, c| {
-            let local = object_ray(&self.pose(k, time).to_object, &ray);
+            let local = self.with_pose(k, time, |p| object_ray(&p.to_object, &ray));
             let obj = Ray::new(local.o, local.d, ray.tmin * local.scale, ray.tmax * local.scale);
             blocked = inst.accel.occluded::<COUNT>(obj, c);
             !blocked
@@ -351,17 +370,20 @@ impl Moving {
     #[inline]
     pub fn shape_at(&self, id: u32, time: f32) -> Shape {
         let (k, inst, local) = self.instance(id);
-        let m = self.pose(k, self.clamp(time)).to_world;
-        let p = |v: Vec3| m.transform_point3(v.as_dvec3()).as_vec3();
-        let v = |v: Vec3| m.transform_vector3(v.as_dvec3()).as_vec3();
-        match inst.accel.prim(local).shape {
-            Shape::Triangle { v0, v1, v2 } => Shape::Triangle { v0: p(v0), v1: p(v1), v2: p(v2) },
-            Shape::Quad { corner, u, v: e } => Shape::Quad { corner: p(corner), u: v(u), v: v(e) },
-            Shape::Sphere { center, radius } => Shape::Sphere {
-                center: p(center),
-                radius: (radius as f64 * m.matrix3.determinant().abs().cbrt()) as f32,
-            },
-        }
+        let shape = inst.accel.prim(local).shape;
+        self.with_pose(k, self.clamp(time), |pose| {
+            let m = &pose.to_world;
+            let p = |v: Vec3| m.transform_point3(v.as_dvec3()).as_vec3();
+            let v = |v: Vec3| m.transform_vector3(v.as_dvec3()).as_vec3();
+            match shape {
+                Shape::Triangle { v0, v1, v2 } => Shape::Triangle { v0: p(v0), v1: p(v1), v2: p(v2) },
+                Shape::Quad { corner, u, v: e } => Shape::Quad { corner: p(corner), u: v(u), v: v(e) },
+                Shape::Sphere { center, radius } => Shape::Sphere {
+                    center: p(center),
+                    radius: (radius as f64 * m.matrix3.determinant().abs().cbrt()) as f32,
+                },
+            }
+        })
     }
 
     /// What a point `x` of primitive `id` at `time` adds to its rounding error bound:
@@ -370,12 +392,13 @@ impl Moving {
     /// vertices by a step of theirs.
     #[inline]
     pub fn extra_error(&self, id: u32, time: f32, x: Vec3) -> Vec3 {
-        let pose = self.pose_of(id, time);
-        let m = pose.to_world;
-        let p = pose.to_object.transform_point3(x.as_dvec3()).abs();
-        let l = m.matrix3;
-        let lp = DVec3::new(l.row(0).abs().dot(p), l.row(1).abs().dot(p), l.row(2).abs().dot(p));
-        ((lp + x.as_dvec3().abs() + m.translation.abs()) * gamma(4) as f64).as_vec3()
+        self.with_pose_of(id, time, |pose| {
+            let m = &pose.to_world;
+            let p = pose.to_object.transform_point3(x.as_dvec3()).abs();
+            let l = m.matrix3;
+            let lp = DVec3::new(l.row(0).abs().dot(p), l.row(1).abs().dot(p), l.row(2).abs().dot(p));
+            ((lp + x.as_dvec3().abs() + m.translation.abs()) * gamma(4) as f64).as_vec3()
+        })
     }
 
     /// `n`, a normal of primitive `id` in object space, in the world at `time`
@@ -383,15 +406,14 @@ impl Moving {
     #[inline]
     pub fn normal_at(&self, id: u32, time: f32, n: Vec3) -> Vec3 {
         // The inverse's linear part is the linear part's inverse (glam's affine inverse).
-        let inv = self.pose_of(id, time).to_object.matrix3;
-        (inv.transpose() * n.as_dvec3()).as_vec3()
+        self.with_pose_of(id, time, |pose| (pose.to_object.matrix3.transpose() * n.as_dvec3()).as_vec3())
     }
 
     /// World point `x` of primitive `id` at `time` in the object's own space (where
     /// texture coordinates are defined).
     #[inline]
     pub fn to_object(&self, id: u32, time: f32, x: Vec3) -> Vec3 {
-        self.pose_of(id, time).to_object.transform_point3(x.as_dvec3()).as_vec3()
+        self.with_pose_of(id, time, |pose| pose.to_object.transform_point3(x.as_dvec3()).as_vec3())
     }
 
     /// Primitive `id`'s shape in its object's space.
@@ -511,7 +533,19 @@ mod tests {
             }
             let mut c = Traversal::default();
             let mut lists = vec![vec![7u32]; 2];
-            m.gather_queue::<false>(rays.len(), |i| rays[i], &mut lists, &mut c);
+            // A skipped ray's origin and direction are in the columns all the same.
+            let at = |i: usize, f: fn((Vec3, Vec3, f32)) -> f32| rays[i].map_or(1.0, f);
+            let column = |f: fn((Vec3, Vec3, f32)) -> f32| (0..rays.len()).map(|i| at(i, f)).collect::<Vec<f32>>();
+            let cols = [
+                column(|r| r.0.x),
+                column(|r| r.0.y),
+                column(|r| r.0.z),
+                column(|r| r.1.x),
+                column(|r| r.1.y),
+                column(|r| r.1.z),
+            ];
+            let cols = Columns([&cols[0][..], &cols[1], &cols[2], &cols[3], &cols[4], &cols[5]]);
+            m.gather_queue::<false>(cols, |i| rays[i].map(|r| r.2), &mut lists, &mut c);
             let mut want = vec![Vec::new(); few];
             for (i, r) in rays.iter().enumerate() {
                 if let Some((o, d, tmax)) = *r {

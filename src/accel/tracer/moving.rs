@@ -6,6 +6,7 @@
 use glam::Vec3;
 
 use super::super::moving::{object_ray, Moving};
+use super::super::packet::Columns;
 use super::super::{nearer, Accel, Ray};
 use super::{Coherence, Tracer};
 use crate::queue::{self, HitQueue, RayQueue, ShadowQueue, MISS};
@@ -59,16 +60,16 @@ impl Tracer<'_> {
         let mut s = self.moving.take().unwrap_or_default();
         // A hit exactly as far as the static one may still win the tie: boxes are tested
         // a step past it.
-        let ray = |i: usize| Some((rays.origin(i), rays.dir(i), hits.t[i].next_up()));
-        self.gather(m, rays.len(), ray, &mut s.lists);
+        let cols = Columns([&rays.ox, &rays.oy, &rays.oz, &rays.dx, &rays.dy, &rays.dz].map(|v| &v[..]));
+        self.gather(m, cols, |i| Some(hits.t[i].next_up()), &mut s.lists);
         let lists = std::mem::take(&mut s.lists);
         for (k, (inst, run)) in m.instances.iter().zip(&lists).enumerate().filter(|(_, (_, run))| !run.is_empty()) {
             s.rays.clear();
             s.scale.clear();
             for &i in run {
                 let i = i as usize;
-                let pose = m.pose(k, m.clamp(queue::sparse(&rays.time, i)));
-                let local = object_ray(&pose.to_object, &Ray::infinite(rays.origin(i), rays.dir(i)));
+                let ray = Ray::infinite(rays.origin(i), rays.dir(i));
+                let local = m.with_pose(k, m.clamp(queue::sparse(&rays.time, i)), |p| object_ray(&p.to_object, &ray));
                 s.rays.push(local.o, local.d, 0, Vec3::ZERO, 0, 0, 0, 0.0, None);
                 s.scale.push(local.scale);
             }
@@ -97,8 +98,8 @@ impl Tracer<'_> {
         let Some(m) = &self.accel.moving else { return };
         let mut s = self.moving.take().unwrap_or_default();
         let blocked = std::mem::take(&mut self.blocked);
-        let ray = |i: usize| (!blocked[i]).then(|| (shadow.origin(i), shadow.dir(i), shadow.tmax[i]));
-        self.gather(m, shadow.len(), ray, &mut s.lists);
+        let cols = Columns([&shadow.ox, &shadow.oy, &shadow.oz, &shadow.dx, &shadow.dy, &shadow.dz].map(|v| &v[..]));
+        self.gather(m, cols, |i| (!blocked[i]).then(|| shadow.tmax[i]), &mut s.lists);
         self.blocked = blocked;
         let lists = std::mem::take(&mut s.lists);
         for (k, (inst, run)) in m.instances.iter().zip(&lists).enumerate().filter(|(_, (_, run))| !run.is_empty()) {
@@ -107,8 +108,8 @@ impl Tracer<'_> {
             // Rays an object before this one blocked need not meet this one.
             for &i in run.iter().filter(|&&i| !self.blocked[i as usize]) {
                 let i = i as usize;
-                let pose = m.pose(k, m.clamp(queue::sparse(&shadow.time, i)));
-                let local = object_ray(&pose.to_object, &Ray::infinite(shadow.origin(i), shadow.dir(i)));
+                let ray = Ray::infinite(shadow.origin(i), shadow.dir(i));
+                let local = m.with_pose(k, m.clamp(queue::sparse(&shadow.time, i)), |p| object_ray(&p.to_object, &ray));
                 s.shadow.push(local.o, local.d, shadow.tmax[i] * local.scale, 0, Vec3::ZERO, None);
                 s.ids.push(i as u32);
             }
@@ -123,19 +124,19 @@ impl Tracer<'_> {
         self.moving = Some(s);
     }
 
-    /// Every object's candidates among `n` rays ([`Moving::gather_queue`]).
+    /// Every object's candidates among a queue's rays ([`Moving::gather_queue`]).
     #[inline]
     fn gather(
         &mut self,
         m: &Moving,
-        n: usize,
-        ray: impl Fn(usize) -> Option<(Vec3, Vec3, f32)>,
+        rays: Columns<'_>,
+        limit: impl Fn(usize) -> Option<f32>,
         lists: &mut Vec<Vec<u32>>,
     ) {
         if self.count {
-            m.gather_queue::<true>(n, ray, lists, &mut self.work);
+            m.gather_queue::<true>(rays, limit, lists, &mut self.work);
         } else {
-            m.gather_queue::<false>(n, ray, lists, &mut self.work);
+            m.gather_queue::<false>(rays, limit, lists, &mut self.work);
         }
     }
 
