@@ -12,9 +12,9 @@ Two kinds of scene, each rendered by both with the transport they share:
 
 For each Mitsuba sample count (stratified sampler, llvm variant, render seconds after a
 run that warms the JIT cache), the fastest wavetrace setting whose FLIP against the
-reference is at most Mitsuba's: uniform samples per pixel, or variance-driven AA in
-rounds of 8 up to a cap at threshold 0.1 or 0.03, each with one uniform shadow ray, four,
-or four or sixteen adaptive ones; the whole process timed (load, BVH, render, write; the
+reference is at most Mitsuba's: uniform samples per pixel (plain, or blue-noise dithered:
+`render.blue_noise`), or variance-driven AA in rounds of 8 up to a cap at threshold 0.1
+or 0.03, each with one uniform shadow ray, four, or four or sixteen adaptive ones; the whole process timed (load, BVH, render, write; the
 last run's image removed first, untimed).
 FLIP is wavetrace's `compare` for both renderers' images.
 
@@ -45,9 +45,15 @@ import time
 
 PEERS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "peers")
 MITSUBA = os.path.join(PEERS, "mitsuba")
-# (samples per pixel, shadow rays ("4a": adaptive), variance threshold or None for uniform).
+# (samples per pixel, shadow rays ("4a": adaptive), AA: "uniform", "blue" (uniform,
+# blue-noise dithered) or a variance threshold).
 SHADOWS = ("1", "4", "4a", "16a")
-SETTINGS = [(spp, shadows, None) for spp in (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048) for shadows in SHADOWS]
+SETTINGS = [
+    (spp, shadows, aa)
+    for spp in (1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048)
+    for shadows in SHADOWS
+    for aa in ("uniform", "blue")
+]
 SETTINGS += [
     (spp, shadows, threshold)
     for spp in (16, 32, 64, 128, 256, 512, 1024, 2048)
@@ -96,14 +102,14 @@ class Scene:
         return float(text.split(":")[-1].split("s")[0])
 
 
-def wavetrace_run(wavetrace, scene, spp, shadows, threshold, out):
+def wavetrace_run(wavetrace, scene, spp, shadows, aa, out):
     sets = ["--spp", str(spp), "--set", "render.shadows.samples=" + shadows.rstrip("a")]
     sets += ["--set", "render.shadows.mode=" + ("adaptive" if shadows.endswith("a") else "uniform")]
-    if threshold is None:
-        sets += ["--set", "render.aa.mode=uniform"]
+    if aa in ("uniform", "blue"):
+        sets += ["--set", "render.aa.mode=uniform", "--set", "render.blue_noise=" + str(aa == "blue").lower()]
     else:
         sets += ["--set", "render.aa.mode=variance", "--set", "render.aa.min_samples=8"]
-        sets += ["--set", "render.aa.threshold=" + threshold]
+        sets += ["--set", "render.aa.threshold=" + aa]
     # The last run's image is removed untimed: replacing a file costs its unlink (1-2 ms
     # on this machine's ext4), which a new render's output does not pay.
     if os.path.exists(out):
@@ -139,13 +145,13 @@ def main():
     # samples stopped once it is far past Mitsuba's slowest point.
     w_out = [os.path.join(tmp, f"w{k}.exr") for k in range(len(SETTINGS))]
     w_secs, w_flip, stopped = {}, {}, set()
-    for k, (spp, shadows, threshold) in enumerate(SETTINGS):
-        if (shadows, threshold) in stopped:
+    for k, (spp, shadows, aa) in enumerate(SETTINGS):
+        if (shadows, aa) in stopped:
             continue
-        w_secs[k] = [wavetrace_run(a.wavetrace, scene.wavetrace, spp, shadows, threshold, w_out[k])]
+        w_secs[k] = [wavetrace_run(a.wavetrace, scene.wavetrace, spp, shadows, aa, w_out[k])]
         w_flip[k] = flip(a.wavetrace, w_out[k], scene.reference)
         if w_secs[k][0] > CLIMB * slowest:
-            stopped.add((shadows, threshold))
+            stopped.add((shadows, aa))
     finalists = set()
     for f in points.values():
         reach = [k for k in w_secs if w_flip[k] <= f]
@@ -159,19 +165,19 @@ def main():
         for spp in spps:
             m_secs[spp].append(scene.render_mitsuba(spp, m_out[spp], r + 1))
         for k in sorted(finalists):
-            spp, shadows, threshold = SETTINGS[k]
-            w_secs[k].append(wavetrace_run(a.wavetrace, scene.wavetrace, spp, shadows, threshold, w_out[k]))
+            spp, shadows, aa = SETTINGS[k]
+            w_secs[k].append(wavetrace_run(a.wavetrace, scene.wavetrace, spp, shadows, aa, w_out[k]))
     ours = []
     for k in w_secs:
-        spp, shadows, threshold = SETTINGS[k]
-        aa = "uniform" if threshold is None else "variance@" + threshold
+        spp, shadows, aa = SETTINGS[k]
+        aa = aa if aa in ("uniform", "blue") else "variance@" + aa
         ours.append((statistics.median(w_secs[k]), spp, shadows, w_flip[k], aa, k in finalists))
     ours.sort()
     if a.json:
         with open(a.json, "w") as f:
             json.dump({
                 "mitsuba": [{"spp": spp, "seconds": m_secs[spp], "flip": points[spp]} for spp in spps],
-                "wavetrace": [{"spp": SETTINGS[k][0], "shadows": SETTINGS[k][1], "threshold": SETTINGS[k][2],
+                "wavetrace": [{"spp": SETTINGS[k][0], "shadows": SETTINGS[k][1], "aa": SETTINGS[k][2],
                                "seconds": w_secs[k], "flip": w_flip[k], "finalist": k in finalists} for k in w_secs],
             }, f, indent=1)
     print("mitsuba_spp mitsuba_s mitsuba_flip | equal_spp_flip flip_ratio | wavetrace_aa wavetrace_spp shadows wavetrace_s wavetrace_flip | time_ratio")

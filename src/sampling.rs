@@ -47,6 +47,8 @@ pub mod dim {
     pub const ENVIRONMENT: u32 = 17;
     /// Variance-driven AA: a round's film positions.
     pub const VARIANCE: u32 = 18;
+    /// Blue-noise dithering: the order of a 2×2 pixel block's pixels in its sequences.
+    pub const DITHER: u32 = 19;
     /// `wavetrace bench`: bounce directions of the secondary ray set (far from the
     /// renderer's dimensions, which grow from 1).
     pub const BENCH: u32 = 100;
@@ -284,6 +286,24 @@ fn sobol2<W: Word>(i: W) -> (W, W) {
 pub fn sobol_owen(index: u32, seed: u32) -> Vec2 {
     let (x, y) = sobol_owen_lanes(index, seed);
     Vec2::new(x, y)
+}
+
+/// Blue-noise dithering (Ahmed and Wonka 2020, "Screen-space blue-noise diffusion of
+/// Monte Carlo sampling error via hierarchical ordering of pixels", its first level):
+/// the four pixels of the 2×2 block holding pixel (`x`, `y`) of an image `width` wide
+/// share one set of sequences, keyed by the block, and the pixel takes the `rank`-th
+/// run of `n` consecutive indices of each. Returns (the block's number, which replaces
+/// the pixel's in its keys, and the pixel's first index `rank · n`); `rank` is the
+/// pixel's place in the block (x bit, y bit) Owen-scrambled by the block. Four aligned
+/// runs of a (0, 2)-sequence's points make one stratified set, so the block's pixels
+/// estimate from complementary points: their errors are negatively correlated, which
+/// moves noise to the highest frequencies without changing any pixel's own
+/// distribution (each run alone is as stratified as a pixel's own sequence).
+pub fn dither(seed: u32, width: u32, x: u32, y: u32, n: u32) -> (u32, u32) {
+    let block = (y / 2) * width.div_ceil(2) + x / 2;
+    let place = (x & 1) | (y & 1) << 1;
+    let rank = owen_scramble(place << 30, hash(&[seed, block, dim::DITHER])) >> 30;
+    (block, rank * n)
 }
 
 /// [`sobol_owen`] for lanes of indices and seeds: the x and y lanes.
@@ -625,6 +645,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The four pixels of each 2×2 block share the block's number and take the four
+    /// runs of its sequences, in an order that differs between blocks; an odd width's
+    /// last column is a block of two.
+    #[test]
+    fn dithered_pixels_take_the_four_runs_of_their_block() {
+        let (width, n) = (7u32, 12u32);
+        let mut orders = std::collections::HashSet::new();
+        for by in 0..4u32 {
+            for bx in 0..4u32 {
+                let pixels: Vec<(u32, u32)> =
+                    [(0, 0), (1, 0), (0, 1), (1, 1)].iter().map(|&(dx, dy)| (2 * bx + dx, 2 * by + dy)).collect();
+                let got: Vec<(u32, u32)> =
+                    pixels.iter().filter(|p| p.0 < width).map(|&(x, y)| dither(5, width, x, y, n)).collect();
+                assert!(got.iter().all(|g| g.0 == by * 4 + bx), "block numbers {got:?}");
+                let mut firsts: Vec<u32> = got.iter().map(|g| g.1).collect();
+                orders.insert(firsts.clone());
+                firsts.sort_unstable();
+                firsts.dedup();
+                assert_eq!(firsts.len(), got.len(), "distinct runs {got:?}");
+                assert!(firsts.iter().all(|f| f % n == 0 && *f < 4 * n), "runs of n {got:?}");
+            }
+        }
+        assert!(orders.len() > 4, "blocks order their pixels differently: {orders:?}");
     }
 
     #[test]

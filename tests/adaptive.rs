@@ -412,3 +412,49 @@ fn auto_shadows_are_adaptive_only_where_the_pilots_probes_save_rays() {
     assert_eq!((c.chose, c.pilot_points), ("uniform", 0), "{c:?}");
     assert_eq!((auto.image, auto.stats.total_rays()), (uniform.image, uniform.stats.total_rays()));
 }
+
+/// Root-mean-square error of the 2×2 block means of `a` against `b`'s (whole blocks).
+fn block_rmse(a: &Image, b: &Image) -> f32 {
+    let (w, h) = (a.width as usize, a.height as usize);
+    let mut sum = 0.0;
+    for by in 0..h / 2 {
+        for bx in 0..w / 2 {
+            let at = |img: &Image| {
+                let p = |x: usize, y: usize| img.pixels[y * w + x];
+                (p(2 * bx, 2 * by) + p(2 * bx + 1, 2 * by) + p(2 * bx, 2 * by + 1) + p(2 * bx + 1, 2 * by + 1)) / 4.0
+            };
+            sum += (at(a) - at(b)).length_squared();
+        }
+    }
+    (sum / (3 * (w / 2) * (h / 2)) as f32).sqrt()
+}
+
+#[test]
+fn blue_noise_keeps_each_pixels_error_and_cancels_it_within_blocks() {
+    // The floor in a sphere's penumbra, seen from above (no edge in view), at 4 samples
+    // a pixel and 4 shadow rays each: with `render.blue_noise` the four pixels of a 2×2
+    // block draw complementary points of one sequence, so a pixel's error is what it was
+    // (its own points are as stratified) but the block's mean error is smaller (the
+    // errors are negatively correlated).
+    let floor = FloorScene {
+        position: [1.0, 2.5, 0.0],
+        look_at: [1.0, 0.0, 0.001],
+        fov_y: Some(18.0),
+        spheres: vec![Sphere::white([0.0, 0.6, 0.0], 0.5)],
+        ..FloorScene::default()
+    };
+    let scene = render_block(&["width=64", "height=64", "shadows.samples=4"]) + &floor.toml();
+    let reference = render_text(&scene, &["render.aa.samples=1024"], 2).image;
+    let (mut pixel, mut block) = ([0.0f32; 2], [0.0f32; 2]);
+    for seed in 1..=4 {
+        for (k, blue) in ["false", "true"].into_iter().enumerate() {
+            let sets =
+                [&format!("render.seed={seed}")[..], "render.aa.samples=4", &format!("render.blue_noise={blue}")];
+            let image = render_text(&scene, &sets, 2).image;
+            pixel[k] += rmse(&image, &reference);
+            block[k] += block_rmse(&image, &reference);
+        }
+    }
+    assert!(pixel[1] < 1.1 * pixel[0] && pixel[0] < 1.1 * pixel[1], "per-pixel RMSE {pixel:?} (plain, blue)");
+    assert!(block[1] < 0.8 * block[0], "2×2 block means' RMSE {block:?} (plain, blue)");
+}

@@ -222,6 +222,12 @@ fn width_height_zero_or_absurd() {
     bad_scene("height = 6", "height = 0", &["scene.toml:3:", "render.height"]);
     bad_scene("width = 8\nheight = 6", "width = 60000\nheight = 60000", &["render.width", "GiB"]);
     bad_scene("width = 8", "width = -8", &["scene.toml:2:"]);
+    // A dithered 2×2 block's pixels index one sequence: four times a pixel's samples.
+    let (from, to) = (
+        "height = 6\n[render.aa]\nsamples = 2\n",
+        "height = 6\nblue_noise = true\n[render.aa]\nsamples = 2000000000\n",
+    );
+    bad_scene(from, to, &["render.blue_noise", "2^32"]);
 }
 
 #[test]

@@ -41,6 +41,9 @@ pub struct RenderDesc {
     pub seed: u32,
     /// Trace in SIMD packets (default true; see docs/performance.md).
     pub packets: bool,
+    /// Blue-noise dithering of the camera paths' samples across each 2×2 pixel block
+    /// (default false; docs/scene-format.md).
+    pub blue_noise: bool,
     /// The BVH build's quality: "auto", "low", "medium" or "high" (default "auto": by the
     /// rays the render will trace per primitive; see docs/performance.md).
     pub bvh: BvhDesc,
@@ -67,6 +70,7 @@ impl Default for RenderDesc {
             max_depth: 6,
             seed: 1,
             packets: true,
+            blue_noise: false,
             bvh: BvhDesc::Auto,
             aa: AaDesc::default(),
             shadows: ShadowsDesc::default(),

@@ -131,6 +131,9 @@ pub struct Settings {
     pub dof_samples: u32,
     /// Trace rays in SIMD packets (same hits; a performance choice).
     pub packets: bool,
+    /// Blue-noise dithering: the four pixels of each 2×2 block share their paths'
+    /// sample sequences ([`crate::sampling::dither`]).
+    pub blue_noise: bool,
     /// The BVH build's quality (same hits; a performance choice).
     pub bvh: BvhQuality,
     /// DOF-aware adaptive AA: the blur radius (pixels) from which a pixel is not refined.

@@ -276,6 +276,11 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
     if per_pixel * dof_samples as u64 > u32::MAX as u64 {
         return Err(ctx.fail("render.dof.samples", "samples per pixel × render.dof.samples exceeds 2^32"));
     }
+    // A dithered 2×2 block's four pixels index one sequence.
+    if r.blue_noise && 4 * per_pixel * dof_samples as u64 > u32::MAX as u64 {
+        let why = "4 × samples per pixel × render.dof.samples exceeds 2^32 (a 2×2 block's pixels share sequences)";
+        return Err(ctx.fail("render.blue_noise", why));
+    }
     let adaptive_aa = matches!(aa_mode, AaMode::Adaptive { .. });
     let dof_radius = (adaptive_aa && r.aa.dof_aware && cam.aperture > 0.0).then_some(r.aa.dof_radius);
     let penumbra_stop = (matches!(shadow_mode, ShadowMode::Adaptive(_) | ShadowMode::Auto(_))
@@ -293,6 +298,7 @@ fn settings(r: &RenderDesc, cam: &CameraDesc, ctx: &Ctx) -> Result<Settings> {
         shadow_samples: r.shadows.samples,
         dof_samples,
         packets: r.packets,
+        blue_noise: r.blue_noise,
         bvh: match r.bvh {
             // Settled by the ray budget once the primitives are known (`scene`).
             BvhDesc::Auto | BvhDesc::High => BvhQuality::High,

@@ -13,10 +13,10 @@ use wide::{f32x16, u32x16};
 use super::Tile;
 use crate::queue::{HalfBufferQueue, RayQueue};
 use crate::sampling::{
-    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, hash, hash_lanes, sobol_owen, sobol_owen_lanes, CmjKey,
-    CMJ_LANES_MAX,
+    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, dither, hash, hash_lanes, sobol_owen, sobol_owen_lanes,
+    CmjKey, CMJ_LANES_MAX,
 };
-use crate::scene::Scene;
+use crate::scene::{Scene, Settings};
 use crate::simd::{iota, words, Real, Word, LANES, V3};
 
 /// How many lens rays each point of a pass gets, and how a flattened ray index splits
@@ -273,7 +273,7 @@ pub fn generate(scene: &Scene, tile: &Tile, aa: u32, ks: Range<u64>, rays: &mut 
             // `lens_sample` gives, bit for bit); several: each AA sample's CMJ pattern,
             // lane by lane. The disk mapping and the thin-lens rays on lanes.
             let (x, y) = if dof == 1 {
-                sobol_owen_lanes(js, u32x16::from(lane.lens_seed))
+                sobol_owen_lanes(u32x16::from(lane.index), u32x16::from(lane.lens_seed))
             } else {
                 let (aw, mut lens) = (words(sample), [[0.0; LANES]; 2]);
                 for k in 0..LANES {
@@ -282,9 +282,9 @@ pub fn generate(scene: &Scene, tile: &Tile, aa: u32, ks: Range<u64>, rays: &mut 
                 }
                 (f32x16::from(lens[0]), f32x16::from(lens[1]))
             };
-            push_lanes(scene, d, Some((x, y)), (lane.slot, lane.path, lane.j), w, count, rays);
+            push_lanes(scene, d, Some((x, y)), (lane.slot, lane.path, lane.index), w, count, rays);
         } else {
-            push_lanes(scene, d, None, (lane.slot, lane.path, lane.j), w, count, rays);
+            push_lanes(scene, d, None, (lane.slot, lane.path, lane.index), w, count, rays);
         }
     }
 }
@@ -303,6 +303,15 @@ struct Pixel {
     path: u32,
     /// The seed of its lens samples.
     lens_seed: u32,
+    /// Its first index in the sequences of `path` and `lens_seed` (0 unless dithered).
+    first: u32,
+}
+
+/// Pixel (`x`, `y`)'s path key, lens seed and first index in their sequences, for `n`
+/// samples: its own, or with `render.blue_noise` its 2×2 block's ([`dither`]).
+fn pixel_keys(s: &Settings, x: u32, y: u32, n: u32) -> (u32, u32, u32) {
+    let (owner, first) = if s.blue_noise { dither(s.seed, s.width, x, y, n) } else { (y * s.width + x, 0) };
+    (hash(&[s.seed, owner, dim::PATH]), hash(&[s.seed, owner, dim::LENS]), first)
 }
 
 impl Pixel {
@@ -313,15 +322,8 @@ impl Pixel {
         let tw = tile.x1 - tile.x0;
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
-        Pixel {
-            slot,
-            x,
-            y,
-            pixel,
-            cmj: CmjKey::new(hash(&[s.seed, pixel, dim::PIXEL]), aa),
-            path: hash(&[s.seed, pixel, dim::PATH]),
-            lens_seed: hash(&[s.seed, pixel, dim::LENS]),
-        }
+        let (path, lens_seed, first) = pixel_keys(s, x, y, aa * s.dof_samples);
+        Pixel { slot, x, y, pixel, cmj: CmjKey::new(hash(&[s.seed, pixel, dim::PIXEL]), aa), path, lens_seed, first }
     }
 }
 
@@ -336,6 +338,8 @@ struct Lanes {
     path: [u32; LANES],
     lens_seed: [u32; LANES],
     j: [u32; LANES],
+    /// Each lane's sample index in its path's sequences: `j` past its pixel's first.
+    index: [u32; LANES],
 }
 
 impl Lanes {
@@ -346,7 +350,7 @@ impl Lanes {
         for w in 0..8 {
             self.cmj[w][k] = p.cmj.0[w];
         }
-        (self.path[k], self.lens_seed[k], self.j[k]) = (p.path, p.lens_seed, j);
+        (self.path[k], self.lens_seed[k], self.j[k], self.index[k]) = (p.path, p.lens_seed, j, p.first + j);
     }
 }
 
@@ -365,14 +369,13 @@ fn pixel_samples(scene: &Scene, tile: &Tile, n: u32, q: u32, js: Range<u32>, ray
     let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
     let pixel = y * s.width + x;
     let pattern = hash(&[s.seed, pixel, dim::PIXEL]);
-    let key = hash(&[s.seed, pixel, dim::PATH]);
-    let lens_seed = hash(&[s.seed, pixel, dim::LENS]);
+    let (key, lens_seed, first) = pixel_keys(s, x, y, spp);
     if spp > CMJ_LANES_MAX {
         for j in js {
             let (aa, l) = (j / dof, j % dof);
             let film = Vec2::new(x as f32, y as f32) + cmj(aa, n, pattern);
-            let lens = || lens_sample(scene, pixel, aa, l, j, lens_seed);
-            push(scene, film, lens, slot, weight, (key, j), rays);
+            let lens = || lens_sample(scene, pixel, aa, l, first + j, lens_seed);
+            push(scene, film, lens, slot, weight, (key, first + j), rays);
         }
         return;
     }
@@ -385,13 +388,14 @@ fn pixel_samples(scene: &Scene, tile: &Tile, n: u32, q: u32, js: Range<u32>, ray
         let (cx, cy, _) = cmj_lanes(aa, n, pattern);
         let (fx, fy) = (fx0 + cx, fy0 + cy);
         let d = cam.pinhole_dirs(fx, fy, s.width, s.height);
-        let jw = words(j);
+        let index = j + u32x16::splat(first);
+        let jw = words(index);
         if cam.aperture > 0.0 {
             // One lens ray per AA sample: the pixel's Sobol points on lanes (what
             // `lens_sample` gives, bit for bit); several: each AA sample's CMJ pattern,
             // lane by lane. The disk mapping and the thin-lens rays on lanes.
             let (x, y) = if dof == 1 {
-                sobol_owen_lanes(j, u32x16::splat(lens_seed))
+                sobol_owen_lanes(index, u32x16::splat(lens_seed))
             } else {
                 let (aw, mut lens) = (words(aa), [[0.0; LANES]; 2]);
                 for k in 0..LANES {
