@@ -52,12 +52,16 @@ fn crops() -> Vec<Tile> {
     ]
 }
 
-/// Every mode: uniform, adaptive AA with shared and with per-pixel corners, adaptive
-/// shadows, DOF-aware AA with early stopping (both corner kinds), one ray at a time,
-/// variance-driven AA, and the auto modes (their pilot covers the whole image in every
-/// crop).
+/// Every mode: uniform (plain and blue-noise dithered), adaptive AA with shared and with
+/// per-pixel corners, adaptive shadows, DOF-aware AA with early stopping (both corner
+/// kinds), one ray at a time, variance-driven AA, and the auto modes (their pilot covers
+/// the whole image in every crop).
 const MODES: &[(&str, &[&str])] = &[
     ("uniform", &["render.aa.mode=uniform", "render.aa.samples=2", "render.shadows.mode=uniform"]),
+    // Dithered: a pixel's keys come from its 2×2 block, crops cut blocks in two; 2 and 3
+    // samples (× 6 lens samples) take the lanes shared by pixels and a pixel's own lanes.
+    ("blue-noise", &["render.aa.mode=uniform", "render.aa.samples=2", "render.blue_noise=true"]),
+    ("blue-noise-own-lanes", &["render.aa.mode=uniform", "render.aa.samples=3", "render.blue_noise=true"]),
     ("adaptive-aa", &["render.shadows.mode=uniform"]),
     ("adaptive-aa-own-corners", &["render.aa.share_corners=false"]),
     ("adaptive-shadows", &["render.aa.mode=uniform", "render.shadows.mode=adaptive"]),
