@@ -50,7 +50,7 @@ pub struct Moving {
     /// Primitives of every object, counted once: [`Accel::len`](super::Accel::len) and
     /// every moving-or-not test per shaded point subtract it.
     prims: usize,
-    /// Its key in the threads' pose memos ([`Moving::pose`]).
+    /// Its key in the threads' pose memos ([`Moving::with_pose`]).
     serial: u64,
 }
 
@@ -67,7 +67,7 @@ pub struct Pose {
     pub to_object: DAffine3,
 }
 
-/// Slots of a thread's pose memo ([`Moving::pose`]): four lane groups.
+/// Slots of a thread's pose memo ([`Moving::with_pose`]): four lane groups.
 const POSES: usize = 64;
 
 /// A memo slot: the [`Moving`]'s serial (0 for none), the object, the time's bits, the
@@ -287,18 +287,12 @@ impl Moving {
         (k, inst, id - inst.first)
     }
 
-    /// Object `k`'s pose at `time` (in the shutter: [`Moving::clamp`]), from this thread's
-    /// memo when it computed it last (the same bits either way: a pure function of the
-    /// object and the time).
-    #[inline]
-    pub fn pose(&self, k: usize, time: f32) -> Pose {
-        self.with_pose(k, time, |p| *p)
-    }
-
-    /// `f` of object `k`'s pose at `time`, read in place from this thread's memo
-    /// ([`Moving::pose`]). What a caller needs of the pose is computed where the memo keeps
-    /// it: a 192-byte pose copied out and read back at once waited on its own stores (a
-    /// fifth of the shadow rays' moving-object time under `perf`).
+    /// `f` of object `k`'s pose at `time` (in the shutter: [`Moving::clamp`]), read in
+    /// place from this thread's memo when it computed it last (the same bits either way:
+    /// a pure function of the object and the time). What a caller needs of the pose is
+    /// computed where the memo keeps it: a 192-byte pose copied out and read back at once
+    /// waited on its own stores (a fifth of the shadow rays' moving-object time under
+    /// `perf`).
     #[inline]
     pub fn with_pose<R>(&self, k: usize, time: f32, f: impl FnOnce(&Pose) -> R) -> R {
         let bits = time.to_bits();
@@ -466,7 +460,7 @@ mod tests {
                 for (m, name) in [(&a, "a"), (&b, "b")] {
                     for k in [0, 1, 39] {
                         let want = m.instances[k].motion.at(time);
-                        let got = m.pose(k, time);
+                        let got = m.with_pose(k, time, |p| *p);
                         assert!(
                             got.to_world == want && got.to_object == want.inverse(),
                             "round {round}, scene {name}, object {k}, time {time}"
