@@ -403,16 +403,23 @@ pub struct SceneReport {
 /// `render::uniform_samples`).
 #[derive(Serialize, Debug, Clone, PartialEq)]
 pub struct AutoChoice {
-    /// "uniform" or "variance".
+    /// "uniform", "variance" or "corners" (the paper's corner method).
     pub chose: &'static str,
     /// Why.
     pub why: &'static str,
-    /// The rounds rendered: a pixel stops below this error (0 for uniform) ...
+    /// The rounds rendered: a pixel stops below this error (0 for uniform; the corner
+    /// method's eps) ...
     pub threshold: f32,
-    /// ... rounds add this many samples (uniform: one round of `max`) ...
+    /// ... rounds add this many samples (uniform: one round of `max`; corners: the
+    /// first refinement level's) ...
     pub min_samples: u32,
     /// ... up to this many a pixel.
     pub max: u32,
+    /// Uniform: the pass is blue-noise dithered (`render.blue_noise`, at few samples).
+    pub dithered: bool,
+    /// The share of the pilot's pixels a lens blurs over more than one pixel (0 where
+    /// it was not measured: no lens, or more samples than the corner method is tried at).
+    pub blurred: f64,
     /// Pixels in the pilot (one per 8×8 block of the image).
     pub pilot_pixels: usize,
     /// The samples a pixel uniform sampling needs for the mean squared error the pilot

@@ -240,9 +240,9 @@ fn auto_aa_renders_uniform_at_the_pilots_count_where_it_finds_no_noise_pinhole_o
 #[test]
 fn auto_aa_at_samples_up_to_min_samples_is_uniform_without_a_pilot() {
     // No pilot could choose otherwise: uniform at `samples`, no pilot ray. One sample
-    // under a min_samples of 2 (allowed, as variance mode caps its first round) once
-    // panicked in the pilot's arithmetic.
-    for (samples, min) in [(4, 4), (2, 2), (1, 2)] {
+    // under a min_samples of 2 once panicked in the pilot's arithmetic; auto's samples
+    // may be below its pilot's (variance's may not).
+    for (samples, min) in [(4, 4), (2, 2), (1, 2), (3, 4)] {
         let sets = [
             "render.aa.mode=auto".to_string(),
             format!("render.aa.samples={samples}"),
@@ -262,6 +262,50 @@ fn auto_aa_at_samples_up_to_min_samples_is_uniform_without_a_pilot() {
     let sets = ["render.aa.mode=auto", "render.aa.samples=5", "render.aa.min_samples=4", "render.shadows.mode=uniform"];
     let c = render_text(&blocks(), &sets, 2).auto.expect("auto mode reports its choice");
     assert!(c.pilot_pixels > 0, "{c:?}");
+}
+
+#[test]
+fn auto_aa_renders_the_corner_method_where_a_lens_blurs_most_pixels_at_few_samples() {
+    let lens = ["camera.aperture=0.5", "camera.focus_distance=100"];
+    let shadows = ["render.shadows.mode=uniform", "render.shadows.samples=4"];
+    let auto = [&shadows[..], &["render.aa.mode=auto", "render.aa.samples=4", "render.aa.threshold=0.02"]].concat();
+    let out = render_text(&blocks(), &[&auto[..], &lens].concat(), 2);
+    let c = out.auto.expect("auto mode reports its choice");
+    assert_eq!((c.chose, c.threshold, c.min_samples, c.max), ("corners", 0.02, 4, 4), "{c:?}");
+    assert!(c.blurred >= 0.5, "{c:?}");
+    // The corner method's image and rays, bit for bit: eps = threshold, the paper's
+    // first stopping level 2, the last level log2(samples), shared corners.
+    let corners = [&shadows[..], &["render.aa.mode=adaptive", "render.aa.eps=0.02", "render.aa.min_level=2"]].concat();
+    let corners = render_text(&blocks(), &[&corners[..], &["render.aa.max_level=2"], &lens].concat(), 2);
+    assert_eq!((&corners.image, corners.stats.camera_rays), (&out.image, out.stats.camera_rays));
+    assert!(corners.stats.aa_refined_pixels > 0 && corners.stats.aa_refined_pixels < 48 * 36);
+    let one = render_text(&blocks(), &[&auto[..], &lens].concat(), 1);
+    assert_eq!((&one.image, one.auto), (&out.image, Some(c)));
+    // Through a pinhole, at threshold 0 (samples everywhere), or with more samples than
+    // the corner method wins at: uniform.
+    let pinhole = render_text(&blocks(), &auto, 2).auto.expect("a choice");
+    assert_eq!((pinhole.chose, pinhole.blurred), ("uniform", 0.0), "{pinhole:?}");
+    let zero = render_text(&blocks(), &[&auto[..], &lens, &["render.aa.threshold=0"]].concat(), 2);
+    assert_eq!(zero.auto.map(|c| c.chose), Some("uniform"));
+    let many = ["render.aa.samples=32", "render.aa.min_samples=16", "render.aa.threshold=0.0001"];
+    let many = render_text(&blocks(), &[&auto[..], &lens, &many].concat(), 2).auto.expect("a choice");
+    assert!(many.max > 4 && many.chose != "corners", "{many:?}");
+}
+
+#[test]
+fn auto_aa_dithers_its_uniform_pass_only_at_few_samples() {
+    let sets = ["render.aa.mode=auto", "render.aa.min_samples=4", "render.aa.threshold=0", "render.blue_noise=true"];
+    let shadows = ["render.shadows.mode=uniform", "render.shadows.samples=4"];
+    for (samples, dithered) in [(4, true), (8, false)] {
+        let n = format!("render.aa.samples={samples}");
+        let out = render_text(&blocks(), &[&sets[..], &shadows, &[&n]].concat(), 2);
+        let c = out.auto.expect("auto mode reports its choice");
+        assert_eq!((c.chose, c.max, c.dithered), ("uniform", samples, dithered), "{c:?}");
+        assert_eq!(c.pilot_pixels, 0, "threshold 0 asks for samples everywhere: no pilot");
+        let blue = format!("render.blue_noise={dithered}");
+        let uniform = render_text(&blocks(), &[&shadows[..], &["render.aa.mode=uniform", &n, &blue]].concat(), 2);
+        assert_eq!(uniform.image, out.image, "{samples} samples");
+    }
 }
 
 #[test]

@@ -305,6 +305,12 @@ fn variance_fields_are_checked() {
     bad_scene("[render.aa]\n", &format!("{aa}threshold = -0.1\n"), &["scene.toml:6:", "render.aa.threshold", ">= 0"]);
     bad_scene("[render.aa]\n", &format!("{aa}min_samples = 1\n"), &["scene.toml:6:", "render.aa.min_samples", "2..="]);
     bad_scene("[render.aa]\n", &format!("{aa}min_samples = 64\n"), &["render.aa.min_samples", "samples (2)"]);
+    let auto = "[render.aa]\nmode = \"auto\"\n";
+    bad_scene(
+        "[render.aa]\n",
+        &format!("{auto}min_samples = 1\n"),
+        &["scene.toml:6:", "render.aa.min_samples", "in 2.."],
+    );
     bad_scene(
         "[render.shadows]\n",
         "[render.shadows]\nmode = \"variance\"\n",

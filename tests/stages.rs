@@ -17,6 +17,7 @@ use wavetrace::queue::{
     FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowPoints, ShadowQueue, SurfaceQueue, MISS,
 };
 use wavetrace::scene::{Light, Probe, ShadowMode};
+use wavetrace::stages::camera::UniformPass;
 use wavetrace::stages::shade::ShadeCounts;
 use wavetrace::stages::{shade as shade_stage, shadow_corner};
 use wavetrace::Scene;
@@ -171,7 +172,7 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
         let mut rays = RayQueue::default();
         let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 16, y1: 12 };
         let small = support::scene_in(dir, &text, &["render.width=16", "render.height=12", "render.aa.samples=4"]);
-        wavetrace::stages::camera::generate(&small, &tile, small.settings.aa_samples, 0..16 * 12 * 4, &mut rays);
+        wavetrace::stages::camera::generate(&small, &tile, UniformPass::of(&small.settings), 0..16 * 12 * 4, &mut rays);
         let (lo, hi) = scene
             .accel
             .prims()
@@ -371,7 +372,13 @@ fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
         let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 24, y1: 18 };
         let mut rays = RayQueue::default();
         let spp = scene.settings.aa_samples as u64 * scene.settings.dof_samples as u64;
-        wavetrace::stages::camera::generate(&scene, &tile, scene.settings.aa_samples, 0..24 * 18 * spp, &mut rays);
+        wavetrace::stages::camera::generate(
+            &scene,
+            &tile,
+            UniformPass::of(&scene.settings),
+            0..24 * 18 * spp,
+            &mut rays,
+        );
         let hits = trace(&scene, &rays);
         let out = shade(&scene, &rays, &hits);
         let mut want = ShadowQueue::default();

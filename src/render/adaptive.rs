@@ -11,10 +11,24 @@ use crate::accel::tracer::Coherence;
 use crate::accel::Traversal;
 use crate::film::Tile;
 use crate::queue::RefineQueues;
-use crate::scene::{AaMode, Scene};
+use crate::scene::Scene;
 use crate::stages::camera::{self, Lens, RefinePass};
 use crate::stages::{focus, refine};
 use crate::stats::Stage;
+
+/// The paper's corner method as a pass renders it: `render.aa.mode = "adaptive"`'s
+/// settings, or auto mode's choice.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Corners {
+    /// Display-value tolerance of the decisions.
+    pub eps: f32,
+    /// First level whose agreement may stop refinement.
+    pub min_level: u32,
+    /// Last level (2^level rays).
+    pub max_level: u32,
+    /// The (W+1)×(H+1) corner grid traced once.
+    pub share: bool,
+}
 
 /// DOF-aware AA: the blur radii (pixels) of the (W+1)×(H+1) pixel corners, from one
 /// depth probe each: `sharp` decides the eps, `lens` the lens counts.
@@ -101,17 +115,18 @@ impl Worker<'_> {
         });
     }
 
-    /// Adaptive AA on one tile; `grid` is the shared corner grid, if corners are shared,
-    /// and `blur` the corners' blur radii (over the whole corner grid; for the eps, and
-    /// for the lens counts) with DOF-aware AA.
+    /// Adaptive AA on one tile with `corners`' settings; `grid` is the shared corner
+    /// grid, if corners are shared, and `blur` the corners' blur radii (over the whole
+    /// corner grid; for the eps, and for the lens counts) with DOF-aware AA.
     pub(super) fn adaptive_tile(
         &mut self,
         scene: &Scene,
         tile: &Tile,
+        corners: Corners,
         grid: Option<&[Vec3]>,
         blur: Option<CornerBlur>,
     ) {
-        let AaMode::Adaptive { eps, min_level, max_level, .. } = scene.settings.aa_mode else { return };
+        let Corners { eps, min_level, max_level, .. } = corners;
         let np = tile.pixels();
         let dof = scene.settings.dof_radius.zip(blur).map(|(radius, blur)| DofAware { radius, blur });
         if !self.decide_eps(scene, tile, dof, eps) {

@@ -6,11 +6,16 @@
 
 use std::sync::Mutex;
 
-use super::variance::Rounds;
+use super::adaptive::Corners;
+use super::variance::{Rounds, PILOT_BLOCK};
 use super::{for_tiles, lock, Ctx, PerThread};
+use crate::accel::Traversal;
 use crate::film::Tile;
 use crate::light::probes_light;
+use crate::scene::load::MAX_LEVEL;
 use crate::scene::{AaMode, Scene, ShadowMode};
+use crate::stages::camera::UniformPass;
+use crate::stages::focus::{coc_pixels, pinhole_depth};
 use crate::stats::{AutoChoice, ShadowChoice, Stats};
 
 /// Camera samples per pilot pixel when only the shadow mode is auto (anti-aliasing's
@@ -27,13 +32,35 @@ pub const SHADOW_MARGIN: f64 = 0.9;
 /// How the pixel tiles sample the film.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum Sampling {
-    /// As the scene's `render.aa` says (uniform or adaptive).
-    Scene,
-    /// Uniform, at this many samples a pixel (auto's choice).
-    Uniform(u32),
+    /// Uniform: every pixel's samples in one pass.
+    Uniform(UniformPass),
     /// Variance-driven rounds.
     Rounds(Rounds),
+    /// The paper's corner method.
+    Corners(Corners),
 }
+
+/// Auto mode renders the paper's corner method in place of uniform sampling at up to
+/// this many samples a pixel, where a lens blurs most of the image ([`CORNER_BLUR`]).
+/// In the study (docs/adaptive.md) the corner method beat uniform's time to its 4-spp
+/// error on all three scenes with a lens (0.53–0.88×), with eps 0.01 and level 2 on
+/// each, and reached no 16-spp target on any of them.
+pub const CORNER_MAX_SPP: u32 = 4;
+
+/// The share of the pilot's pixels blurred over more than one pixel (their centres'
+/// circles of confusion, `stages::focus::coc_pixels`) from which auto mode renders the
+/// corner method. Shared corners serve four pixels each, and where the blur makes
+/// neighbours alike the corner test refines few of them. The study's three lens scenes
+/// have 0.48–0.80 by the pilot's pixels (0.53–0.80 over the whole image), every other
+/// scene 0: the value lies in that gap, below the least blurred lens scene by more than
+/// the pilot's sampling moves it. No study scene has a lens that blurs less.
+pub const CORNER_BLUR: f64 = 0.4;
+
+/// With `render.blue_noise`, auto mode dithers its uniform pass at up to this many
+/// samples a pixel. In the study dithering lowered FLIP at 1–4 samples on 9 of 13 scenes
+/// (by up to 33%, never raising it by more than 2%) but raised it by 7% on the path-traced
+/// Cornell box at 16 and by 5–8% on frosted glass at 64.
+pub const DITHER_MAX_SPP: u32 = 4;
 
 /// What the render's passes do after the pilot.
 pub(super) struct Plan {
@@ -47,12 +74,13 @@ pub(super) struct Plan {
     pub shadow: Option<ShadowChoice>,
 }
 
-/// Whether anti-aliasing's auto mode needs the pilot: when it is on and `samples` leaves
-/// it a choice. At `samples` ≤ `min_samples` every pilot gives uniform sampling at
-/// `samples` ([`AutoChoice::without_pilot`]), so none is rendered.
+/// Whether anti-aliasing's auto mode needs the pilot: when it is on and `samples` and
+/// `threshold` leave it a choice. At `samples` ≤ `min_samples` every pilot gives uniform
+/// sampling at `samples` ([`AutoChoice::without_pilot`]), and threshold 0 asks for
+/// `samples` in every pixel, as in variance mode; so no pilot is rendered.
 fn aa_pilot(scene: &Scene) -> bool {
     let s = &scene.settings;
-    matches!(s.aa_mode, AaMode::Auto { min_samples, .. } if s.aa_samples > min_samples)
+    matches!(s.aa_mode, AaMode::Auto { min_samples, threshold } if s.aa_samples > min_samples && threshold > 0.0)
 }
 
 /// Whether the shadows' auto mode needs the pilot: some light the adaptive test would
@@ -95,6 +123,88 @@ pub fn shadows_pay(pilot: &Stats) -> ShadowChoice {
     ShadowChoice { chose, why, pilot_points: points, penumbra_fraction, adaptive_rays, uniform_rays }
 }
 
+/// The corner method's first level that may stop refinement in auto mode: the paper's
+/// rule, as the study's `adaptive-aa` method renders it.
+const CORNER_MIN_LEVEL: u32 = 2;
+
+/// Auto mode's last decisions on a uniform choice of N samples a pixel: the paper's
+/// corner method where N ≤ [`CORNER_MAX_SPP`], `threshold` > 0 and a lens blurs at least
+/// [`CORNER_BLUR`] of the pilot's pixels (eps = `threshold`, last level log2 of
+/// `render.aa.samples`, from 4 samples); else, with `render.blue_noise`, dithering where
+/// N ≤ [`DITHER_MAX_SPP`].
+fn settle(mut c: AutoChoice, scene: &Scene, threshold: f32) -> AutoChoice {
+    let s = &scene.settings;
+    if c.chose != "uniform" {
+        return c;
+    }
+    let few = c.max <= CORNER_MAX_SPP && threshold > 0.0 && s.aa_samples >= 1 << CORNER_MIN_LEVEL;
+    if few && scene.camera.aperture > 0.0 {
+        c.blurred = blurred_share(scene);
+        if c.blurred >= CORNER_BLUR {
+            let max_level = s.aa_samples.ilog2().min(MAX_LEVEL);
+            c.chose = "corners";
+            c.why = "a lens blurs most pixels and few samples are asked for: shared corners serve four alike pixels";
+            (c.threshold, c.min_samples, c.max) = (threshold, 1 << CORNER_MIN_LEVEL, 1 << max_level);
+            return c;
+        }
+    }
+    c.dithered = s.blue_noise && c.max <= DITHER_MAX_SPP;
+    c
+}
+
+/// The share of the pilot's pixels (one per 8×8 block) whose centre, seen through a
+/// pinhole, is blurred over more than one pixel by the lens.
+fn blurred_share(scene: &Scene) -> f64 {
+    let (w, h, half) = (scene.settings.width, scene.settings.height, PILOT_BLOCK / 2);
+    let mut trav = Traversal::default();
+    let (mut pixels, mut blurred) = (0u64, 0u64);
+    for y in (half..h).step_by(PILOT_BLOCK as usize) {
+        for x in (half..w).step_by(PILOT_BLOCK as usize) {
+            let (depth, _) = pinhole_depth(scene, x, y, &mut trav);
+            pixels += 1;
+            blurred += (coc_pixels::<f32>(scene, depth) > 1.0) as u64;
+        }
+    }
+    if pixels == 0 {
+        0.0
+    } else {
+        blurred as f64 / pixels as f64
+    }
+}
+
+/// The pixel pass's sampler: the scene's mode's, or auto's choice from the pilot's
+/// `errors` (in image order), with the choice.
+fn aa_plan(scene: &Scene, errors: &[f32]) -> (Sampling, Option<AutoChoice>) {
+    let s = &scene.settings;
+    match s.aa_mode {
+        AaMode::Uniform => (Sampling::Uniform(UniformPass::of(s)), None),
+        AaMode::Adaptive { eps, min_level, max_level, share_corners: share } => {
+            (Sampling::Corners(Corners { eps, min_level, max_level, share }), None)
+        }
+        AaMode::Variance { threshold, min_samples } => {
+            (Sampling::Rounds(Rounds { threshold, min_samples, max: s.aa_samples }), None)
+        }
+        AaMode::Auto { threshold, min_samples } => {
+            let choice = match aa_pilot(scene) {
+                true => AutoChoice::from_pilot(errors, min_samples, threshold, s.aa_samples),
+                false => AutoChoice::without_pilot(s.aa_samples),
+            };
+            let choice = settle(choice, scene, threshold);
+            let sampling = match choice.chose {
+                "uniform" => Sampling::Uniform(UniformPass { samples: choice.max, dither: choice.dithered }),
+                "corners" => Sampling::Corners(Corners {
+                    eps: choice.threshold,
+                    min_level: CORNER_MIN_LEVEL,
+                    max_level: choice.max.ilog2(),
+                    share: true,
+                }),
+                _ => Sampling::Rounds(Rounds::of(&choice)),
+            };
+            (sampling, Some(choice))
+        }
+    }
+}
+
 /// Runs the pilot over `tiles` (the whole image's, or none) and returns its counters and
 /// the plan. `ctx` renders the pilot's shadows ([`pilot_shadows`]).
 pub(super) fn pilot_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Plan) {
@@ -115,23 +225,7 @@ pub(super) fn pilot_pass(ctx: &Ctx, tiles: &[Tile]) -> (PerThread, Plan) {
     errors.sort_unstable_by_key(|&(pixel, _)| pixel);
     let errors: Vec<f32> = errors.into_iter().map(|(_, e)| e).collect();
 
-    let (sampling, aa) = match s.aa_mode {
-        AaMode::Variance { threshold, min_samples } => {
-            (Sampling::Rounds(Rounds { threshold, min_samples, max: s.aa_samples }), None)
-        }
-        AaMode::Auto { threshold, min_samples } => {
-            let choice = match aa_pilot(scene) {
-                true => AutoChoice::from_pilot(&errors, min_samples, threshold, s.aa_samples),
-                false => AutoChoice::without_pilot(s.aa_samples),
-            };
-            let sampling = match choice.chose {
-                "uniform" => Sampling::Uniform(choice.max),
-                _ => Sampling::Rounds(Rounds::of(&choice)),
-            };
-            (sampling, Some(choice))
-        }
-        AaMode::Uniform | AaMode::Adaptive { .. } => (Sampling::Scene, None),
-    };
+    let (sampling, aa) = aa_plan(scene, &errors);
     let (shadows, shadow) = match s.shadow_mode {
         ShadowMode::Auto(probe) => {
             let mut pilot = Stats::default();

@@ -119,11 +119,11 @@ struct Worker<'a> {
 
 impl Worker<'_> {
     /// Uniform AA: every pixel gets `aa` × dof_samples camera rays.
-    fn uniform_tile(&mut self, scene: &Scene, tile: &Tile, aa: u32) {
-        let spp = aa as u64 * scene.settings.dof_samples as u64;
+    fn uniform_tile(&mut self, scene: &Scene, tile: &Tile, pass: camera::UniformPass) {
+        let spp = pass.samples as u64 * scene.settings.dof_samples as u64;
         self.pipe.acc.begin(tile.pixels());
         self.pipe.run(scene, tile.pixels() as u64 * spp, (Kind::Camera, Coherence::Camera), |ks, rays| {
-            camera::generate(scene, tile, aa, ks, rays)
+            camera::generate(scene, tile, pass, ks, rays)
         });
         self.tile.out.copy_from_slice(&self.pipe.acc.sums);
         self.tile.collect_heat(&self.pipe.acc.heat, 1);
@@ -270,11 +270,10 @@ fn pixel_pass(
         tiles,
         |wk, tile| {
             wk.tile.begin(tile.pixels());
-            match (sampling, s.aa_mode) {
-                (Sampling::Uniform(aa), _) => wk.uniform_tile(ctx.scene, tile, aa),
-                (Sampling::Rounds(rounds), _) => wk.variance_tile(ctx.scene, tile, rounds),
-                (Sampling::Scene, AaMode::Adaptive { .. }) => wk.adaptive_tile(ctx.scene, tile, grid, blur),
-                (Sampling::Scene, _) => wk.uniform_tile(ctx.scene, tile, s.aa_samples),
+            match sampling {
+                Sampling::Uniform(pass) => wk.uniform_tile(ctx.scene, tile, pass),
+                Sampling::Rounds(rounds) => wk.variance_tile(ctx.scene, tile, rounds),
+                Sampling::Corners(corners) => wk.adaptive_tile(ctx.scene, tile, corners, grid, blur),
             }
         },
         |wk, tile| {
@@ -333,8 +332,9 @@ fn merge_passes<const N: usize>(passes: [PerThread; N]) -> (Stats, Vec<Stats>, V
 /// These are the full render's tiles that the window's pixels need: the pixel tiles
 /// that touch it, and the corner-grid tiles that hold those tiles' pixel corners, each
 /// traced whole. The tiling and each tile's work are the full render's, so the window's
-/// pixels, and the corners they share, have the full render's bits.
-fn pass_tiles(s: &crate::scene::Settings, window: &Tile) -> (Vec<Tile>, Vec<Tile>, Vec<Tile>) {
+/// pixels, and the corners they share, have the full render's bits. `shared_grid`: the
+/// pixel pass renders the corner method with shared corners.
+fn pass_tiles(s: &crate::scene::Settings, window: &Tile, shared_grid: bool) -> (Vec<Tile>, Vec<Tile>, Vec<Tile>) {
     let (w, h) = (s.width, s.height);
     let pixel: Vec<Tile> = tiles(w, h).into_iter().filter(|t| t.overlaps(window)).collect();
     let block = Tile {
@@ -345,7 +345,6 @@ fn pass_tiles(s: &crate::scene::Settings, window: &Tile) -> (Vec<Tile>, Vec<Tile
     }
     .corners();
     let corner_tiles = || tiles(w + 1, h + 1).into_iter().filter(|t| t.overlaps(&block)).collect::<Vec<_>>();
-    let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
     let grid = if shared_grid { corner_tiles() } else { Vec::new() };
     let focus = if s.dof_radius.is_some() { corner_tiles() } else { Vec::new() };
     (focus, grid, pixel)
@@ -358,6 +357,17 @@ fn window(s: &crate::scene::Settings, opts: &RenderOptions) -> Result<Tile> {
     crate::film::Crop::Pixels(c).resolve(s.width, s.height).map_err(Error::input)
 }
 
+/// The render's own pool of `threads`, or `None` to run on rayon's global pool. A second
+/// pool of the global one's size would only cost its threads' start (a fixed cost of
+/// every small render); from inside a pool, or at another size, the render has its own.
+fn own_pool(threads: usize) -> Result<Option<rayon::ThreadPool>> {
+    if rayon::current_thread_index().is_none() && rayon::current_num_threads() == threads {
+        return Ok(None);
+    }
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+    pool.map(Some).map_err(|e| Error::Internal(format!("cannot start {threads} threads: {e}")))
+}
+
 /// Renders `scene`: the depth probes (DOF-aware AA), the shared corner grid (adaptive
 /// AA), then the pixel tiles, each pass's tiles spread over the worker threads.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
@@ -366,27 +376,15 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     if threads == 0 {
         return Err(Error::input("--threads must be at least 1"));
     }
-    // A second pool of the same size would only cost its threads' start (a fixed cost
-    // of every small render); from inside a pool, or at another size, the render has its own.
-    let global = rayon::current_thread_index().is_none() && rayon::current_num_threads() == threads;
-    let pool = match global {
-        true => None,
-        false => Some(
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .map_err(|e| Error::Internal(format!("cannot start {threads} threads: {e}")))?,
-        ),
-    };
+    let pool = own_pool(threads)?;
     let (w, h) = (s.width, s.height);
     let window = window(s, opts)?;
-    let shared_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
-    let (focus_tiles, grid_tiles, pixel_tiles) = pass_tiles(s, &window);
     // The auto modes' pilot, over the whole image whatever the crop, when one is needed.
     let pilot_tiles = if auto::needs_pilot(scene) { tiles(w, h) } else { Vec::new() };
-    let all_tiles = pixel_tiles.len() + grid_tiles.len() + focus_tiles.len() + pilot_tiles.len();
+    let count = |(f, g, p): &(Vec<Tile>, Vec<Tile>, Vec<Tile>)| pilot_tiles.len() + f.len() + g.len() + p.len();
+    let scene_grid = matches!(s.aa_mode, AaMode::Adaptive { share_corners: true, .. });
     if let Some(pb) = &opts.progress {
-        pb.set_length(all_tiles as u64);
+        pb.set_length(count(&pass_tiles(s, &window, scene_grid)) as u64);
     }
     let start = Instant::now();
     let shadows = auto::pilot_shadows(scene);
@@ -394,6 +392,14 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
 
     let (pilot_stats, plan) = auto::pilot_pass(&ctx, &pilot_tiles);
     (ctx.shadows, ctx.wave) = (plan.shadows, wave_size(scene, plan.shadows));
+    // Auto mode may choose the corner method, whose grid the scene's mode did not ask for.
+    let shared_grid = matches!(plan.sampling, Sampling::Corners(c) if c.share);
+    let passes = pass_tiles(s, &window, shared_grid);
+    let all_tiles = count(&passes);
+    if let (Some(pb), true) = (&opts.progress, shared_grid != scene_grid) {
+        pb.set_length(all_tiles as u64);
+    }
+    let (focus_tiles, grid_tiles, pixel_tiles) = passes;
     let (focus_stats, sharp, lens) = focus_pass(&ctx, &focus_tiles);
     let blur = s.dof_radius.is_some().then_some(CornerBlur { sharp: &sharp, lens: &lens });
     let (grid_stats, grid, grid_heat) = grid_pass(&ctx, &grid_tiles, blur.map(|b| b.lens));

@@ -134,13 +134,15 @@ impl AutoChoice {
     pub fn without_pilot(max: u32) -> AutoChoice {
         AutoChoice {
             chose: "uniform",
-            why: "samples at most min_samples: one uniform pass, no pilot needed",
+            why: "samples at most min_samples, or threshold 0: one uniform pass at samples, no pilot needed",
             threshold: 0.0,
             min_samples: max,
             max,
             pilot_pixels: 0,
             uniform_spp: max as f64,
             variance_spp: max as f64,
+            dithered: false,
+            blurred: 0.0,
         }
     }
 
@@ -164,6 +166,8 @@ impl AutoChoice {
                 pilot_pixels,
                 uniform_spp,
                 variance_spp,
+                dithered: false,
+                blurred: 0.0,
             };
         }
         let n = spp.ceil() as u32;
@@ -177,6 +181,8 @@ impl AutoChoice {
             pilot_pixels,
             uniform_spp,
             variance_spp,
+            dithered: false,
+            blurred: 0.0,
         }
     }
 }

@@ -12,7 +12,7 @@ use std::f32::consts::PI;
 use std::ops::Range;
 use wide::f32x16;
 
-use crate::accel::NO_LIGHT;
+use crate::accel::{Ray, Traversal, NO_LIGHT};
 use crate::queue::{HitQueue, RayQueue, MISS};
 use crate::scene::{Material, Scene};
 use crate::simd::{LaneIds, Real, LANES, V3};
@@ -87,6 +87,18 @@ pub fn coc_pixels<R: Real>(scene: &Scene, z: R) -> R {
     let cam = &scene.camera;
     let scale = cam.aperture * scene.settings.height as f32 / (2.0 * cam.tan_half_fov);
     R::splat(scale) * (R::splat(1.0 / cam.focus_distance) - R::splat(1.0) / z).abs()
+}
+
+/// What the centre of pixel (`x`, `y`) sees through a pinhole: the depth of its first
+/// hit along the view axis (infinite for a miss) and the primitive hit. The study's
+/// features and auto mode's lens test read a scene's blur from it.
+pub fn pinhole_depth(scene: &Scene, x: u32, y: u32, trav: &mut Traversal) -> (f32, Option<u32>) {
+    let (cam, s) = (&scene.camera, &scene.settings);
+    let dir = cam.pinhole_dir(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), s.width, s.height);
+    match scene.accel.closest::<false>(Ray::infinite(cam.position, dir), trav) {
+        Some((t, id)) => (t * dir.dot(cam.forward), Some(id)),
+        None => (f32::INFINITY, None),
+    }
 }
 
 /// Lens samples for a point blurred over `r` pixels: one per pixel of the circle of

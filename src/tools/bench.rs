@@ -254,7 +254,7 @@ pub fn ray_sets(scene: &Scene, max_rays: usize) -> [(&'static str, RaySet); 3] {
     let (mut rays, mut hits, mut shadow) = (RayQueue::default(), HitQueue::default(), Vec::new());
     let mut tracer = Tracer::new(&scene.accel, Kernel::Wide, false);
     for tile in tiles(s.width, s.height) {
-        camera::generate(scene, &tile, s.aa_samples, 0..tile.pixels() as u64 * spp, &mut rays);
+        camera::generate(scene, &tile, camera::UniformPass::of(s), 0..tile.pixels() as u64 * spp, &mut rays);
         intersect::intersect(&mut tracer, &rays, Coherence::Camera, &mut hits);
         shadow.clear();
         for i in 0..rays.len() {

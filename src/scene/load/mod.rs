@@ -186,16 +186,17 @@ fn aa_mode(aa: &AaDesc, ctx: &Ctx) -> Result<AaMode> {
             if !(aa.threshold >= 0.0 && aa.threshold.is_finite()) {
                 return Err(ctx.fail("render.aa.threshold", format!("{} must be finite and >= 0", aa.threshold)));
             }
-            // Two samples at least: one in each half-buffer.
-            if !(2..=aa.samples.max(2)).contains(&aa.min_samples) {
+            // Two samples at least: one in each half-buffer. Auto may cap its samples
+            // below its pilot's: it then renders uniform at `samples`, with no pilot.
+            let max = if aa.mode == SamplingDesc::Auto { u32::MAX } else { aa.samples.max(2) };
+            if !(2..=max).contains(&aa.min_samples) {
                 let path = if ctx.sets.iter().any(|s| s.starts_with("render.aa.samples=")) {
                     "render.aa.samples"
                 } else {
                     "render.aa.min_samples"
                 };
-                return Err(
-                    ctx.fail(path, format!("min_samples ({}) must be in 2..=samples ({})", aa.min_samples, aa.samples))
-                );
+                let range = if max == u32::MAX { "2..".to_string() } else { format!("2..=samples ({})", aa.samples) };
+                return Err(ctx.fail(path, format!("min_samples ({}) must be in {range}", aa.min_samples)));
             }
             let (threshold, min_samples) = (aa.threshold, aa.min_samples);
             if aa.mode == SamplingDesc::Auto {

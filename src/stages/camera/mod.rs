@@ -209,6 +209,23 @@ fn lens_rays(
     }
 }
 
+/// A uniform pass's camera samples: how many in every pixel, and whether the pixels of
+/// each 2×2 block share their paths' sequences ([`dither`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UniformPass {
+    /// Camera samples a pixel (each with the scene's lens samples).
+    pub samples: u32,
+    /// Blue-noise dithering.
+    pub dither: bool,
+}
+
+impl UniformPass {
+    /// Uniform mode's pass: `render.aa.samples`, dithered with `render.blue_noise`.
+    pub fn of(s: &Settings) -> UniformPass {
+        UniformPass { samples: s.aa_samples, dither: s.blue_noise }
+    }
+}
+
 /// Uniform mode: camera rays for the flattened (pixel, sample) indices `ks` of `tile`:
 /// k is pixel k / spp of the tile in [`block_slot`] order and per-pixel sample j = k % spp, which is
 /// AA sample j / dof_samples and lens sample j % dof_samples. Film positions are a CMJ
@@ -216,11 +233,12 @@ fn lens_rays(
 /// lens rays, or, with one lens ray per AA sample, sample j of an Owen-scrambled Sobol
 /// sequence of the pixel (stratified over the pixel's AA samples). Slot: the pixel's index
 /// in the tile. Each ray carries weight 1 / spp, so a pixel's sum is its mean.
-pub fn generate(scene: &Scene, tile: &Tile, aa: u32, ks: Range<u64>, rays: &mut RayQueue) {
+pub fn generate(scene: &Scene, tile: &Tile, pass: UniformPass, ks: Range<u64>, rays: &mut RayQueue) {
     rays.clear();
     if ks.is_empty() {
         return;
     }
+    let aa = pass.samples;
     let s = &scene.settings;
     let spp = aa as u64 * s.dof_samples as u64;
     // A pixel with at least as many samples as lanes fills them alone; fewer share them.
@@ -229,7 +247,7 @@ pub fn generate(scene: &Scene, tile: &Tile, aa: u32, ks: Range<u64>, rays: &mut 
         while k < ks.end {
             let q = k / spp;
             let end = (ks.end - q * spp).min(spp);
-            pixel_samples(scene, tile, aa, q as u32, (k - q * spp) as u32..end as u32, rays);
+            pixel_samples(scene, tile, pass, q as u32, (k - q * spp) as u32..end as u32, rays);
             k = q * spp + end;
         }
         return;
@@ -240,7 +258,7 @@ pub fn generate(scene: &Scene, tile: &Tile, aa: u32, ks: Range<u64>, rays: &mut 
     // 16 (pixel, sample) indices at a time, consecutive pixels sharing the lanes where a
     // pixel has fewer samples than lanes; each lane has its pixel's keys.
     let (spp, mut q, mut j) = (spp as u32, (ks.start / spp) as u32, (ks.start % spp) as u32);
-    let mut at = Pixel::new(scene, tile, aa, q);
+    let mut at = Pixel::new(scene, tile, pass, q);
     let mut lane = Lanes::default();
     for k0 in ks.clone().step_by(LANES) {
         let count = (ks.end - k0).min(LANES as u64) as usize;
@@ -248,7 +266,7 @@ pub fn generate(scene: &Scene, tile: &Tile, aa: u32, ks: Range<u64>, rays: &mut 
             j += 1;
             if j == spp {
                 (q, j) = (q + 1, 0);
-                at = Pixel::new(scene, tile, aa, q);
+                at = Pixel::new(scene, tile, pass, q);
             }
         }
         for k in 0..LANES {
@@ -258,7 +276,7 @@ pub fn generate(scene: &Scene, tile: &Tile, aa: u32, ks: Range<u64>, rays: &mut 
                 j += 1;
                 if j == spp {
                     (q, j) = (q + 1, 0);
-                    at = Pixel::new(scene, tile, aa, q);
+                    at = Pixel::new(scene, tile, pass, q);
                 }
             }
             lane.set(k, &at, j);
@@ -308,21 +326,21 @@ struct Pixel {
 }
 
 /// Pixel (`x`, `y`)'s path key, lens seed and first index in their sequences, for `n`
-/// samples: its own, or with `render.blue_noise` its 2×2 block's ([`dither`]).
-fn pixel_keys(s: &Settings, x: u32, y: u32, n: u32) -> (u32, u32, u32) {
-    let (owner, first) = if s.blue_noise { dither(s.seed, s.width, x, y, n) } else { (y * s.width + x, 0) };
+/// samples: its own, or when `dithered` its 2×2 block's ([`dither`]).
+fn pixel_keys(s: &Settings, dithered: bool, x: u32, y: u32, n: u32) -> (u32, u32, u32) {
+    let (owner, first) = if dithered { dither(s.seed, s.width, x, y, n) } else { (y * s.width + x, 0) };
     (hash(&[s.seed, owner, dim::PATH]), hash(&[s.seed, owner, dim::LENS]), first)
 }
 
 impl Pixel {
     /// The `q`-th pixel of `tile` in [`block_slot`] order.
-    fn new(scene: &Scene, tile: &Tile, aa: u32, q: u32) -> Pixel {
-        let s = &scene.settings;
+    fn new(scene: &Scene, tile: &Tile, pass: UniformPass, q: u32) -> Pixel {
+        let (s, aa) = (&scene.settings, pass.samples);
         let slot = block_slot(tile, q);
         let tw = tile.x1 - tile.x0;
         let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
         let pixel = y * s.width + x;
-        let (path, lens_seed, first) = pixel_keys(s, x, y, aa * s.dof_samples);
+        let (path, lens_seed, first) = pixel_keys(s, pass.dither, x, y, aa * s.dof_samples);
         Pixel { slot, x, y, pixel, cmj: CmjKey::new(hash(&[s.seed, pixel, dim::PIXEL]), aa), path, lens_seed, first }
     }
 }
@@ -357,8 +375,8 @@ impl Lanes {
 /// Samples `js` of the `q`-th pixel of `tile` (see [`generate`]), a pixel with at least
 /// as many samples as lanes: 16 at a time on SIMD lanes (film position, pinhole
 /// direction, lens), or one at a time past the lanes' CMJ pattern.
-fn pixel_samples(scene: &Scene, tile: &Tile, n: u32, q: u32, js: Range<u32>, rays: &mut RayQueue) {
-    let s = &scene.settings;
+fn pixel_samples(scene: &Scene, tile: &Tile, pass: UniformPass, q: u32, js: Range<u32>, rays: &mut RayQueue) {
+    let (s, n) = (&scene.settings, pass.samples);
     let cam = &scene.camera;
     let dof = s.dof_samples;
     let spp = n * dof;
@@ -369,7 +387,7 @@ fn pixel_samples(scene: &Scene, tile: &Tile, n: u32, q: u32, js: Range<u32>, ray
     let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
     let pixel = y * s.width + x;
     let pattern = hash(&[s.seed, pixel, dim::PIXEL]);
-    let (key, lens_seed, first) = pixel_keys(s, x, y, spp);
+    let (key, lens_seed, first) = pixel_keys(s, pass.dither, x, y, spp);
     if spp > CMJ_LANES_MAX {
         for j in js {
             let (aa, l) = (j / dof, j % dof);

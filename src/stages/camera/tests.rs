@@ -40,7 +40,7 @@ fn lanes_give_the_rays_of_the_scalar_formulas() {
         // Ranges that start and end inside pixels and inside a 16-lane group.
         for ks in [0..total, 3..total - 5, spp + 17..3 * spp + 40] {
             let mut rays = RayQueue::default();
-            generate(&scene, &tile, s.aa_samples, ks.clone(), &mut rays);
+            generate(&scene, &tile, UniformPass::of(s), ks.clone(), &mut rays);
             assert_eq!(rays.len() as u64, ks.end - ks.start);
             for (i, k) in ks.enumerate() {
                 let slot = block_slot(&tile, (k / spp) as u32);

@@ -5,9 +5,9 @@
 use serde::Serialize;
 
 use super::Row;
-use crate::accel::{Ray, Traversal, NO_LIGHT};
+use crate::accel::{Traversal, NO_LIGHT};
 use crate::scene::Scene;
-use crate::stages::focus::coc_pixels;
+use crate::stages::focus::{coc_pixels, pinhole_depth};
 
 /// The features of one scene. `None` where the renders it is read from were not made
 /// (the method was skipped or not asked for).
@@ -52,20 +52,12 @@ pub fn probe(scene: &Scene) -> (f64, f64, f64) {
     let (mut glossy, mut blurred, mut coc_sum) = (0u64, 0u64, 0.0f64);
     for y in 0..h {
         for x in 0..w {
-            let dir = cam.pinhole_dir(glam::Vec2::new(x as f32 + 0.5, y as f32 + 0.5), w, h);
-            let hit = scene.accel.closest::<false>(Ray::infinite(cam.position, dir), &mut trav);
-            let depth = match hit {
-                Some((t, id)) => {
-                    let rough = scene.accel.light(id) == NO_LIGHT
-                        && scene
-                            .materials
-                            .get(scene.accel.material(id) as usize)
-                            .is_some_and(|m| m.roughness().is_some());
-                    glossy += rough as u64;
-                    t * dir.dot(cam.forward)
-                }
-                None => f32::INFINITY,
-            };
+            let (depth, hit) = pinhole_depth(scene, x, y, &mut trav);
+            if let Some(id) = hit {
+                let rough = scene.accel.light(id) == NO_LIGHT
+                    && scene.materials.get(scene.accel.material(id) as usize).is_some_and(|m| m.roughness().is_some());
+                glossy += rough as u64;
+            }
             if cam.aperture > 0.0 {
                 let r = coc_pixels::<f32>(scene, depth);
                 if r.is_finite() {
