@@ -32,7 +32,14 @@ pub struct MapRow {
     pub features: Vec<f64>,
     /// Per target: its label and the winner in seconds and in rays.
     pub winners: Vec<(String, Option<&'static str>, Option<&'static str>)>,
+    /// Per target: each method's seconds to it (its cheapest setting that reaches it).
+    pub seconds: Vec<Vec<(&'static str, f64)>>,
 }
+
+/// A held-out prediction is near when the predicted method reaches the target within
+/// this factor of the winner's seconds: the tolerance auto mode is held to, and about
+/// this machine's run-to-run noise.
+pub const NEAR: f64 = 1.1;
 
 /// Where one method wins (in seconds), over the fitted scenes.
 #[derive(Clone, Debug, Serialize)]
@@ -60,6 +67,9 @@ pub struct Prediction {
     pub targets: Vec<(Option<&'static str>, Option<&'static str>)>,
     /// Targets predicted right.
     pub hits: usize,
+    /// Targets where the predicted method takes at most [`NEAR`] × the winner's seconds
+    /// (the right ones included).
+    pub near: usize,
 }
 
 /// The map.
@@ -85,6 +95,13 @@ impl Map {
                 held_out: s.held_out,
                 features: FEATURES.iter().map(|(_, f)| f(&s.features)).collect(),
                 winners: s.targets.iter().map(|t| (t.label.clone(), t.winner_seconds, t.winner_rays)).collect(),
+                seconds: s
+                    .targets
+                    .iter()
+                    .map(|t| {
+                        t.choices.iter().filter_map(|c| Some((c.method, c.by_seconds.as_ref()?.seconds))).collect()
+                    })
+                    .collect(),
             })
             .collect();
         let fitted: Vec<&MapRow> = rows.iter().filter(|r| !r.held_out).collect();
@@ -150,7 +167,14 @@ fn predict(row: &MapRow, fitted: &[&MapRow]) -> Prediction {
         .map(|(i, t)| (near.and_then(|n| n.winners.get(i)).and_then(|w| w.1), t.1))
         .collect();
     let hits = targets.iter().filter(|(p, a)| p.is_some() && p == a).count();
-    Prediction { scene: row.scene.clone(), nearest: near.map(|n| n.scene.clone()), targets, hits }
+    let time = |i: usize, m: Option<&str>| row.seconds.get(i)?.iter().find(|c| Some(c.0) == m).map(|c| c.1);
+    let near_enough = |(i, (p, a)): (usize, &(Option<&str>, Option<&str>))| match (time(i, *p), time(i, *a)) {
+        _ if p.is_some() && p == a => true,
+        (Some(p), Some(a)) => p <= NEAR * a,
+        _ => false,
+    };
+    let near_hits = targets.iter().enumerate().filter(|&t| near_enough(t)).count();
+    Prediction { scene: row.scene.clone(), nearest: near.map(|n| n.scene.clone()), targets, hits, near: near_hits }
 }
 
 #[cfg(test)]
@@ -163,6 +187,7 @@ mod tests {
             held_out,
             features: features.to_vec(),
             winners: winners.iter().map(|&w| (String::new(), Some(w), Some(w))).collect(),
+            seconds: Vec::new(),
         }
     }
 
@@ -175,7 +200,13 @@ mod tests {
         assert_eq!(nearest(&h, &fitted).map(|r| r.scene.as_str()), Some("edges"));
         let p = predict(&h, &fitted);
         assert_eq!(p.targets, [(Some("adaptive-aa"), Some("adaptive-aa")), (Some("adaptive-aa"), Some("uniform"))]);
-        assert_eq!(p.hits, 1);
+        assert_eq!((p.hits, p.near), (1, 1), "no seconds: only the exact hit");
+        // Adaptive AA within 10% of uniform's seconds on the second target: near.
+        let h = MapRow { seconds: vec![vec![("adaptive-aa", 1.0)], vec![("uniform", 2.0), ("adaptive-aa", 2.2)]], ..h };
+        assert_eq!((predict(&h, &fitted).hits, predict(&h, &fitted).near), (1, 2));
+        let h =
+            MapRow { seconds: vec![vec![("adaptive-aa", 1.0)], vec![("uniform", 2.0), ("adaptive-aa", 2.21)]], ..h };
+        assert_eq!(predict(&h, &fitted).near, 1);
         let w = wins_of("adaptive-shadows", &fitted);
         assert_eq!((w.wins_seconds, w.scenes.clone()), (1, vec!["shadows".to_string()]));
         assert_eq!(w.ranges[1], Some((0.4, 0.4)));

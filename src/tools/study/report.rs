@@ -191,17 +191,23 @@ fn map_tables(map: &Map) -> String {
         out += &format!("| {} | {} | {} | {} |\n", w.method, w.wins_seconds, w.wins_rays, ranges.join(" | "));
     }
     if !map.predictions.is_empty() {
-        out += "\nHeld-out scenes, winners (seconds) predicted by the nearest fitted scene in feature space:\n\n";
-        out += "| scene | nearest | predicted → actual per target | right |\n|---|---|---|---|\n";
+        out += &format!(
+            "\nHeld-out scenes, winners (seconds) predicted by the nearest fitted scene in feature space; near: the \
+             predicted method takes at most {}× the winner's seconds:\n\n",
+            super::map::NEAR
+        );
+        out += "| scene | nearest | predicted → actual per target | right | near |\n|---|---|---|---|---|\n";
         for p in &map.predictions {
             let t: Vec<String> =
                 p.targets.iter().map(|(pr, ac)| format!("{} → {}", pr.unwrap_or("–"), ac.unwrap_or("–"))).collect();
             out += &format!(
-                "| {} | {} | {} | {}/{} |\n",
+                "| {} | {} | {} | {}/{} | {}/{} |\n",
                 p.scene,
                 p.nearest.as_deref().unwrap_or("–"),
                 t.join("; "),
                 p.hits,
+                p.targets.len(),
+                p.near,
                 p.targets.len()
             );
         }
