@@ -56,6 +56,16 @@ pub const CORNER_MAX_SPP: u32 = 4;
 /// the pilot's sampling moves it. No study scene has a lens that blurs less.
 pub const CORNER_BLUR: f64 = 0.4;
 
+/// The fewest lens samples per point (`render.dof.samples`) with which auto mode renders
+/// the corner method: a corner's value is the mean of its lens rays, and with few the
+/// lens noise in it, not the image, decides the corner test. On the Mitsuba harness's
+/// depth-of-field scene (320×240, one shadow ray, auto at 4 samples and threshold 0.01
+/// against dithered uniform 4) the corners took 62 ms for FLIP 0.036 against 25 ms for
+/// 0.022 at 1 lens sample, and were slower and worse at 2 and 4; at 8 about even (eps
+/// 0.1: 71 ms for 0.0139, dithered uniform 2: 89 ms for 0.0134). The study's lens
+/// scenes, where they win, all have 8.
+pub const CORNER_LENS_SAMPLES: u32 = 8;
+
 /// With `render.blue_noise`, auto mode dithers its uniform pass at up to this many
 /// samples a pixel. In the study dithering lowered FLIP at 1–4 samples on 9 of 13 scenes
 /// (by up to 33%, never raising it by more than 2%) but raised it by 7% on the path-traced
@@ -128,8 +138,9 @@ pub fn shadows_pay(pilot: &Stats) -> ShadowChoice {
 const CORNER_MIN_LEVEL: u32 = 2;
 
 /// Auto mode's last decisions on a uniform choice of N samples a pixel: the paper's
-/// corner method where N ≤ [`CORNER_MAX_SPP`], `threshold` > 0 and a lens blurs at least
-/// [`CORNER_BLUR`] of the pilot's pixels (eps = `threshold`, last level log2 of
+/// corner method where N ≤ [`CORNER_MAX_SPP`], `threshold` > 0 and a lens with at least
+/// [`CORNER_LENS_SAMPLES`] samples a point blurs at least [`CORNER_BLUR`] of the pilot's
+/// pixels (eps = `threshold`, last level log2 of
 /// `render.aa.samples`, from 4 samples); else, with `render.blue_noise`, dithering where
 /// N ≤ [`DITHER_MAX_SPP`].
 fn settle(mut c: AutoChoice, scene: &Scene, threshold: f32) -> AutoChoice {
@@ -138,7 +149,7 @@ fn settle(mut c: AutoChoice, scene: &Scene, threshold: f32) -> AutoChoice {
         return c;
     }
     let few = c.max <= CORNER_MAX_SPP && threshold > 0.0 && s.aa_samples >= 1 << CORNER_MIN_LEVEL;
-    if few && scene.camera.aperture > 0.0 {
+    if few && scene.camera.aperture > 0.0 && s.dof_samples >= CORNER_LENS_SAMPLES {
         c.blurred = blurred_share(scene);
         if c.blurred >= CORNER_BLUR {
             let max_level = s.aa_samples.ilog2().min(MAX_LEVEL);
