@@ -43,8 +43,8 @@ pub(super) enum Sampling {
 /// Auto mode renders the paper's corner method in place of uniform sampling at up to
 /// this many samples a pixel, where a lens blurs most of the image ([`CORNER_BLUR`]).
 /// In the study (docs/adaptive.md) the corner method beat uniform's time to its 4-spp
-/// error on all three scenes with a lens (0.53–0.88×), with eps 0.01 and level 2 on
-/// each, and reached no 16-spp target on any of them.
+/// error on all three scenes with a lens (0.53–0.88×; eps 0.01 at level 2 reaches it on
+/// each), and reached no 16-spp target on any of them.
 pub const CORNER_MAX_SPP: u32 = 4;
 
 /// The share of the pilot's pixels blurred over more than one pixel (their centres'
@@ -67,9 +67,10 @@ pub const CORNER_BLUR: f64 = 0.4;
 pub const CORNER_LENS_SAMPLES: u32 = 8;
 
 /// With `render.blue_noise`, auto mode dithers its uniform pass at up to this many
-/// samples a pixel. In the study dithering lowered FLIP at 1–4 samples on 9 of 13 scenes
-/// (by up to 33%, never raising it by more than 2%) but raised it by 7% on the path-traced
-/// Cornell box at 16 and by 5–8% on frosted glass at 64.
+/// samples a pixel. In the study dithering lowered FLIP at 1–4 samples by up to 33%
+/// where area lights or paths carry the noise, moved it by −4% to +2% through a lens and
+/// not at all under a point light alone; from 16 samples it raised FLIP by 7–8% on the
+/// path-traced Cornell box and by up to 8% on frosted glass (at 64).
 pub const DITHER_MAX_SPP: u32 = 4;
 
 /// What the render's passes do after the pilot.
@@ -140,9 +141,8 @@ const CORNER_MIN_LEVEL: u32 = 2;
 /// Auto mode's last decisions on a uniform choice of N samples a pixel: the paper's
 /// corner method where N ≤ [`CORNER_MAX_SPP`], `threshold` > 0 and a lens with at least
 /// [`CORNER_LENS_SAMPLES`] samples a point blurs at least [`CORNER_BLUR`] of the pilot's
-/// pixels (eps = `threshold`, last level log2 of
-/// `render.aa.samples`, from 4 samples); else, with `render.blue_noise`, dithering where
-/// N ≤ [`DITHER_MAX_SPP`].
+/// pixels (eps = `threshold`, last level log2 of `render.aa.samples`, from 4 samples);
+/// else, with `render.blue_noise`, dithering where N ≤ [`DITHER_MAX_SPP`].
 fn settle(mut c: AutoChoice, scene: &Scene, threshold: f32) -> AutoChoice {
     let s = &scene.settings;
     if c.chose != "uniform" {
@@ -154,7 +154,7 @@ fn settle(mut c: AutoChoice, scene: &Scene, threshold: f32) -> AutoChoice {
         if c.blurred >= CORNER_BLUR {
             let max_level = s.aa_samples.ilog2().min(MAX_LEVEL);
             c.chose = "corners";
-            c.why = "a lens blurs most pixels and few samples are asked for: shared corners serve four alike pixels";
+            c.why = "a lens blurs many pixels and few samples are asked for: shared corners serve four alike pixels";
             (c.threshold, c.min_samples, c.max) = (threshold, 1 << CORNER_MIN_LEVEL, 1 << max_level);
             return c;
         }
