@@ -86,8 +86,9 @@ pub const METHODS: &[Method] = &[
         name: "blue-noise",
         about: "uniform with `render.blue_noise`: a 2x2 block's pixels share their paths' sample sequences",
         fixed: &["render.aa.mode=uniform", "render.shadows.mode=uniform", "render.blue_noise=true"],
-        // Uniform's counts and 3: dithering lowers FLIP about 10% at 4 samples (2-5% from
-        // 16), which only a count just under the loosest target's can turn into time.
+        // Uniform's counts and 3: dithering lowers FLIP by up to a third at 1-4 samples
+        // where area lights or paths carry the noise (docs/adaptive.md), which only a
+        // count just under the loosest target's can turn into time.
         grid: &[("render.aa.samples", BLUE_SPP), ("render.shadows.samples", SHADOW)],
         quick: &[("render.aa.samples", &["1", "3", "4", "16"]), ("render.shadows.samples", QUICK_SHADOW)],
         needs: Needs::Nothing,
