@@ -520,13 +520,25 @@ pub fn words(v: u32x16) -> [u32; LANES] {
 }
 
 /// Where 16 lanes read their values in a queue's columns: 16 entries (from 1 to 16
-/// ids, the last repeated), and whether they are 16 consecutive ones, which load
-/// straight from the column instead of entry by entry.
+/// ids, the last repeated), and whether they follow a pattern that loads a few values
+/// from the column instead of 16 one by one.
 pub struct LaneIds {
     /// The entries, one per lane.
     pub idx: [usize; LANES],
-    /// The first entry, when the lanes read entries `first..first + 16`.
-    run: Option<usize>,
+    /// The pattern of the entries, if any.
+    shape: Shape,
+}
+
+/// The patterns of [`LaneIds`] with a faster load than entry by entry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Shape {
+    /// Entries `first..first + 16`.
+    Run(usize),
+    /// Entries `first, …, first + 16 / 2^shift - 1`, each `2^shift` times in a row (1 to
+    /// 4: a point's shadow samples side by side).
+    Repeat(usize, u32),
+    /// Anything else.
+    Any,
 }
 
 impl LaneIds {
@@ -537,8 +549,21 @@ impl LaneIds {
         for (x, &i) in idx.iter_mut().zip(ids) {
             *x = i as usize;
         }
-        let run = idx.windows(2).all(|w| w[1] == w[0] + 1).then_some(idx[0]);
-        LaneIds { idx, run }
+        let first = idx[0];
+        let shape = if idx.windows(2).all(|w| w[1] == w[0] + 1) {
+            Shape::Run(first)
+        } else {
+            // The first entry's repeats give the only shift that could fit.
+            let same = idx.iter().take_while(|&&i| i == first).count();
+            let shift = same.trailing_zeros();
+            let fits = same.is_power_of_two() && idx.iter().enumerate().all(|(k, &i)| i == first + (k >> shift));
+            if fits {
+                Shape::Repeat(first, shift)
+            } else {
+                Shape::Any
+            }
+        };
+        LaneIds { idx, shape }
     }
 
     /// The lanes' values of the column `v`, entry by entry (a loop the compiler keeps
@@ -552,22 +577,47 @@ impl LaneIds {
         a
     }
 
+    /// The lanes' values of the column `v` where the entries repeat: a load of a few
+    /// values, then a shuffle (the fixed shift lets the compiler drop every bounds check
+    /// but the slice's).
+    #[inline(always)]
+    fn repeat<const SHIFT: u32, T: Copy + Default>(v: &[T], first: usize) -> [T; LANES] {
+        let src = &v[first..first + (LANES >> SHIFT)];
+        let mut a = [T::default(); LANES];
+        for (k, x) in a.iter_mut().enumerate() {
+            *x = src[k >> SHIFT];
+        }
+        a
+    }
+
+    /// The lanes' values of the column `v` as an array, by the entries' pattern.
+    #[inline(always)]
+    fn values<T: Copy + Default>(&self, v: &[T]) -> [T; LANES] {
+        match self.shape {
+            Shape::Repeat(a, 1) => Self::repeat::<1, T>(v, a),
+            Shape::Repeat(a, 2) => Self::repeat::<2, T>(v, a),
+            Shape::Repeat(a, 3) => Self::repeat::<3, T>(v, a),
+            Shape::Repeat(a, _) => [v[a]; LANES],
+            Shape::Run(_) | Shape::Any => self.spread(v),
+        }
+    }
+
     /// The lanes' values of the column `v`. (A run loads the slice straight into the
     /// vector: through an array it measured 1.5 ns a hit slower in shade.)
     #[inline(always)]
     pub fn gather(&self, v: &[f32]) -> f32x16 {
-        match self.run {
-            Some(a) => f32x16::from(&v[a..a + LANES]),
-            None => f32x16::from(self.spread(v)),
+        match self.shape {
+            Shape::Run(a) => f32x16::from(&v[a..a + LANES]),
+            Shape::Repeat(..) | Shape::Any => f32x16::from(self.values(v)),
         }
     }
 
     /// [`LaneIds::gather`] of words.
     #[inline(always)]
     pub fn gather_words(&self, v: &[u32]) -> u32x16 {
-        match self.run {
-            Some(a) => u32x16::from(&v[a..a + LANES]),
-            None => u32x16::from(self.spread(v)),
+        match self.shape {
+            Shape::Run(a) => u32x16::from(&v[a..a + LANES]),
+            Shape::Repeat(..) | Shape::Any => u32x16::from(self.values(v)),
         }
     }
 }
@@ -594,7 +644,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn lane_ids_load_a_run_only_when_consecutive() {
+    fn lane_ids_load_a_run_or_a_repeat_only_where_the_ids_follow_it() {
         let col: Vec<f32> = (0..40).map(|i| i as f32 * 1.5).collect();
         let expect = |ids: &[u32]| {
             let last = ids[ids.len() - 1];
@@ -605,9 +655,21 @@ mod tests {
         // repeated id that spans 15, and a full run.
         let gap: Vec<u32> = [0].into_iter().chain(2..16).collect();
         let dup: Vec<u32> = [0, 0].into_iter().chain(2..16).collect();
-        for ids in [&run, &gap, &dup, &vec![7]] {
+        // Repeats: each entry 2, 4, 8 or 16 times (a 15-id group too), one that breaks
+        // its pattern at the end, and one whose first entry repeats 3 times.
+        let rep = |n: u32, len: u32| (0..len).map(|k| 5 + k / n).collect::<Vec<u32>>();
+        let broken: Vec<u32> = rep(4, 15).into_iter().chain([9]).collect();
+        let three: Vec<u32> = [1, 1, 1].into_iter().chain(2..15).collect();
+        let repeats = [rep(2, 16), rep(4, 16), rep(8, 16), rep(16, 16), rep(4, 15), vec![7]];
+        let cases: Vec<(&Vec<u32>, bool)> =
+            [(&run, false), (&gap, false), (&dup, false), (&broken, false), (&three, false)]
+                .into_iter()
+                .chain(repeats.iter().map(|r| (r, true)))
+                .collect();
+        for (ids, repeat) in cases {
             let lanes = LaneIds::new(ids);
-            assert_eq!(lanes.run.is_some(), ids == &run, "{ids:?}");
+            assert_eq!(matches!(lanes.shape, Shape::Run(_)), ids == &run, "{ids:?}");
+            assert_eq!(matches!(lanes.shape, Shape::Repeat(..)), repeat, "{ids:?}");
             assert_eq!(lanes.gather(&col).to_array(), expect(ids).to_array(), "{ids:?}");
             let words: Vec<u32> = col.iter().map(|x| x.to_bits()).collect();
             assert_eq!(lanes.gather_words(&words).to_array(), expect(ids).to_array().map(f32::to_bits));

@@ -221,9 +221,27 @@ impl<'a> Tracer<'a> {
     /// in the same order and packets change no pixel's bits). Returns how many did.
     pub fn unblocked(&mut self, shadow: &ShadowQueue, film: &mut FilmQueue) -> usize {
         let mut lit = 0;
-        for (i, _) in self.occluded(shadow).iter().enumerate().filter(|(_, &b)| !b) {
-            film.push(shadow.slot[i], shadow.radiance(i));
-            lit += 1;
+        // 16 flags at a time: the unblocked lanes' columns copied whole, not entry by
+        // entry (most shadow rays reach their light).
+        for (c, flags) in self.occluded(shadow).chunks(LANES).enumerate() {
+            let (mut keep, mut m) = ([0usize; LANES], 0);
+            for (k, &b) in flags.iter().enumerate() {
+                keep[m] = k;
+                m += usize::from(!b);
+            }
+            if m == 0 {
+                continue;
+            }
+            lit += m;
+            let at = c * LANES;
+            let lanes = |v: &[f32]| columns(v, at, flags.len());
+            let l = [lanes(&shadow.lr), lanes(&shadow.lg), lanes(&shadow.lb)];
+            let slot = columns(&shadow.slot, at, flags.len());
+            if m == LANES {
+                film.push_lanes(slot, l, LANES);
+            } else {
+                film.push_picked(slot, l, &keep[..m]);
+            }
         }
         lit
     }
@@ -400,6 +418,19 @@ impl<'a> Tracer<'a> {
             self.work.prims += pw.prims;
         }
     }
+}
+
+/// Entries `at..at + n` (n ≤ 16) of the column `v` as lanes, a fixed-size copy when
+/// n = 16; lanes past `n` are left at the default.
+#[inline(always)]
+fn columns<T: Copy + Default>(v: &[T], at: usize, n: usize) -> [T; LANES] {
+    let mut a = [T::default(); LANES];
+    if n == LANES {
+        a.copy_from_slice(&v[at..at + LANES]);
+    } else {
+        a[..n].copy_from_slice(&v[at..at + n]);
+    }
+    a
 }
 
 /// Whether a queue leaves packets before its packet `p`: once [`PROBE_PACKETS`] packets of

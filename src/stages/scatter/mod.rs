@@ -265,6 +265,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
     };
     let (key1, key2) = (keys(1), keys(2));
     let at = |v: &[[f32; LANES]; 3], k: usize| Vec3::new(v[0][k], v[1][k], v[2][k]);
+    let mut out = Spawned::default();
     for (k, &i) in ids.iter().enumerate() {
         let i = i as usize;
         let (w, slot, depth, sample) = (rays.weight(i), rays.slot[i], rays.depth[i] + 1, rays.sample[i]);
@@ -272,7 +273,7 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
         let (_, fixed, color, mirror) = mat[k];
         let Some(mirror) = mirror else { continue };
         if mirror {
-            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample, 0.0, time);
+            out.add(at(&refl_o, k), at(&refl_d, k), slot, w * color, depth, key1[k], sample, time);
             continue;
         }
         if thin & (1 << k) != 0 {
@@ -282,10 +283,10 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
             let r = fresnel(-d.dot(n), 1.0 / mat[k].0);
             let c = if fixed.is_nan() { 2.0 * r / (1.0 + r) } else { fixed };
             if c > 0.0 {
-                next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0, time);
+                out.add(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, time);
             }
             if c < 1.0 {
-                next.push(at(&refr_o, k), d, slot, w * color * (1.0 - c), depth, key2[k], sample, 0.0, time);
+                out.add(at(&refr_o, k), d, slot, w * color * (1.0 - c), depth, key2[k], sample, time);
             }
             continue;
         }
@@ -300,16 +301,79 @@ fn scatter_lanes(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32], n
             // Mitsuba does: the same expectation, one ray instead of two.
             let pick = sobol_owen(sample, hash(&[rays.key[i], dim::GLOSS_BRANCH])).x;
             match pick < c {
-                true => next.push(at(&refl_o, k), at(&refl_d, k), slot, w, depth, key1[k], sample, 0.0, time),
-                false => next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color, depth, key2[k], sample, 0.0, time),
+                true => out.add(at(&refl_o, k), at(&refl_d, k), slot, w, depth, key1[k], sample, time),
+                false => out.add(at(&refr_o, k), at(&refr_d, k), slot, w * color, depth, key2[k], sample, time),
             }
             continue;
         }
         if c > 0.0 {
-            next.push(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, 0.0, time);
+            out.add(at(&refl_o, k), at(&refl_d, k), slot, w * c, depth, key1[k], sample, time);
         }
         if refracted && c < 1.0 {
-            next.push(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample, 0.0, time);
+            out.add(at(&refr_o, k), at(&refr_d, k), slot, w * color * (1.0 - c), depth, key2[k], sample, time);
+        }
+    }
+    out.flush(next, !rays.time.is_empty());
+}
+
+/// The rays of one lane group of hits (at most two a hit), in spawn order, for the
+/// queue 16 at a time: whole columns copied instead of a value pushed per column per ray.
+struct Spawned {
+    o: [[f32; 2 * LANES]; 3],
+    d: [[f32; 2 * LANES]; 3],
+    slot: [u32; 2 * LANES],
+    w: [[f32; 2 * LANES]; 3],
+    depth: [u32; 2 * LANES],
+    key: [u32; 2 * LANES],
+    sample: [u32; 2 * LANES],
+    time: [f32; 2 * LANES],
+    n: usize,
+}
+
+impl Default for Spawned {
+    fn default() -> Spawned {
+        let (v, u) = ([[0.0; 2 * LANES]; 3], [0; 2 * LANES]);
+        Spawned { o: v, d: v, slot: u, w: v, depth: u, key: u, sample: u, time: [0.0; 2 * LANES], n: 0 }
+    }
+}
+
+impl Spawned {
+    /// Appends one ray, with [`RayQueue::push`]'s arguments but the density (0).
+    #[allow(clippy::too_many_arguments)] // one argument per value of the ray
+    #[inline(always)]
+    fn add(&mut self, o: Vec3, d: Vec3, slot: u32, w: Vec3, depth: u32, key: u32, sample: u32, time: Option<f32>) {
+        let k = self.n;
+        for (c, v) in [(&mut self.o, o), (&mut self.d, d), (&mut self.w, w)] {
+            (c[0][k], c[1][k], c[2][k]) = (v.x, v.y, v.z);
+        }
+        (self.slot[k], self.depth[k], self.key[k], self.sample[k]) = (slot, depth, key, sample);
+        self.time[k] = time.unwrap_or_default();
+        self.n += 1;
+    }
+
+    /// Pushes the rays to `next` in order; `timed`: the queue carries times.
+    fn flush(&self, next: &mut RayQueue, timed: bool) {
+        for h in 0..2 {
+            let count = self.n.saturating_sub(h * LANES).min(LANES);
+            if count == 0 {
+                break;
+            }
+            let half = |v: &[f32; 2 * LANES]| -> [f32; LANES] { std::array::from_fn(|k| v[h * LANES + k]) };
+            let words = |v: &[u32; 2 * LANES]| -> [u32; LANES] { std::array::from_fn(|k| v[h * LANES + k]) };
+            let v3 = |v: &[[f32; 2 * LANES]; 3]| [half(&v[0]), half(&v[1]), half(&v[2])];
+            let time = half(&self.time);
+            next.push_lanes(
+                v3(&self.o),
+                v3(&self.d),
+                words(&self.slot),
+                v3(&self.w),
+                words(&self.depth),
+                words(&self.key),
+                words(&self.sample),
+                [0.0; LANES],
+                timed.then_some(&time),
+                count,
+            );
         }
     }
 }

@@ -228,6 +228,20 @@ fn quad_shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut Shadow
     let single = next_lit(first + 1).is_none();
     let (mut s, mut li, mut j) = (0, first, 0);
     let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
+    // One light and n dividing 16 (the usual case): whole groups of 16 / n points, the
+    // same triples without the lane-by-lane walk.
+    if single && n.is_power_of_two() && n as usize <= LANES {
+        let per = LANES / n as usize;
+        let shift = n.trailing_zeros();
+        lanes.light = [first as u32; LANES];
+        lanes.sample = std::array::from_fn(|k| k as u32 & (n - 1));
+        lanes.count = LANES;
+        while s + per <= surfaces.len() {
+            lanes.point = std::array::from_fn(|k| s as u32 + (k as u32 >> shift));
+            quad_lanes(scene, surfaces, &lanes, shadow);
+            s += per;
+        }
+    }
     while s < surfaces.len() {
         let mut count = 0;
         while count < LANES && s < surfaces.len() {
