@@ -1,6 +1,7 @@
 //! A packet's rays in SIMD form (`Lanes`) and its per-lane kernels: slab test, triangle, sphere, parallelogram.
 
 use glam::Vec3;
+use std::cell::OnceCell;
 
 use super::Columns;
 use crate::accel::shapes::{intersect_triangle, shear_axes, triangle_t_error, Shape};
@@ -23,13 +24,58 @@ pub(super) struct Lanes<'a, S> {
     origin: [S; 3],
     dir: [S; 3],
     inv: [S; 3],
+    /// The used lanes (all bits set), for the frame.
+    used: S,
+    /// The lanes' sheared frames, made at the first triangle (a tree of spheres and
+    /// parallelograms never pays for them).
+    frame: OnceCell<Frame<S>>,
+    /// The tree's absolute culling slack.
+    slack: S,
+}
+
+/// The lanes' sheared frames for the watertight triangle test.
+pub(super) struct Frame<S> {
     /// Origin components in each lane's sheared frame (kx, ky, kz).
     sheared_origin: [S; 3],
     /// The shear: d[kx]/d[kz], d[ky]/d[kz], 1/d[kz].
     shear: [S; 3],
     pub(super) axes: Axes<S>,
-    /// The tree's absolute culling slack.
-    slack: S,
+}
+
+impl<S: Vector> Frame<S> {
+    /// The frames of the rays `d` (their lanes: `origin`, `dir`; `used`: all bits set on
+    /// the used lanes). Scalar work is only the transpose; the shear axes (as masks), the
+    /// permuted components and every division run on lanes. Selects copy bits and the
+    /// divisions are correctly rounded, so the lanes hold the scalar rays' values.
+    #[inline(always)]
+    fn new(d: &[Vec3], origin: &[S; 3], dir: &[S; 3], used: S) -> Frame<S> {
+        let (zero, one, on) = (S::splat(0.0), S::splat(1.0), S::splat(f32::from_bits(u32::MAX)));
+        // `shear_axes` on lanes: kz is the axis of largest |d| (x over y over z on ties as
+        // its comparisons decide); kx, ky follow it cyclically.
+        let ad = dir.map(|x| S::fast_max(x, -x));
+        let x_over_y = ad[0].gt(ad[1]);
+        let kz_x = x_over_y & ad[0].gt(ad[2]);
+        let kz_y = S::select(x_over_y, zero, ad[1].gt(ad[2]));
+        let kz_z = S::select(kz_x | kz_y, zero, on);
+        let pick = |is_x: S, is_y: S, v: &[S; 3]| S::select(is_x, v[0], S::select(is_y, v[1], v[2]));
+        // Per frame axis j: "is x" and "is y" (else z), only on used lanes.
+        let is_x = [kz_z, kz_y, kz_x].map(|m| m & used);
+        let is_y = [kz_x, kz_z, kz_y].map(|m| m & used);
+        let sheared_origin = [0, 1, 2].map(|j| pick(is_x[j], is_y[j], origin));
+        // d[kx], d[ky], d[kz]: unused lanes divide 1 by 1.
+        let [dx, dy, dz] = [0, 1, 2].map(|j| S::select(used, pick(is_x[j], is_y[j], dir), one));
+        let mask = (1u32 << d.len()) - 1;
+        let uniform = |m: S| {
+            let b = m.bits() & mask;
+            b == 0 || b == mask
+        };
+        let axes = if is_x.iter().chain(&is_y).all(|&m| uniform(m)) {
+            Axes::Same(d.first().map_or([0, 1, 2], |&d| shear_axes(d)))
+        } else {
+            Axes::Mixed(is_x, is_y)
+        };
+        Frame { sheared_origin, shear: [dx / dz, dy / dz, one / dz], axes }
+    }
 }
 
 impl<S: Vector> Lanes<'_, S> {
@@ -51,10 +97,7 @@ impl<'a, S: Vector> Lanes<'a, S> {
     /// The lanes of rays `o`, `d`; `cols`: the same rays as queue columns, for a full
     /// packet of consecutive rays.
     pub(super) fn new(o: &'a [Vec3], d: &'a [Vec3], cols: Option<Columns>, slack: f32) -> Self {
-        // Scalar work is only the transpose (none from columns); the shear axes (as
-        // masks), the permuted components and every division run on lanes. Selects copy
-        // bits and the divisions are correctly rounded, so the lanes hold the scalar
-        // rays' values.
+        // Scalar work is only the transpose (none from columns).
         let (origin, dir) = match cols {
             Some(Columns([ox, oy, oz, dx, dy, dz])) if o.len() == S::WIDTH => {
                 let load3 = |a: [&[f32]; 3]| a.map(S::load_lanes);
@@ -73,47 +116,13 @@ impl<'a, S: Vector> Lanes<'a, S> {
                 (load3(&oa), load3(&da))
             }
         };
-        let (zero, one, on) = (S::splat(0.0), S::splat(1.0), S::splat(f32::from_bits(u32::MAX)));
+        let one = S::splat(1.0);
         let mut used = [0.0f32; LANES];
         used[..d.len()].fill(f32::from_bits(u32::MAX));
         let used = S::load(&used);
-        // `shear_axes` on lanes: kz is the axis of largest |d| (x over y over z on ties as
-        // its comparisons decide); kx, ky follow it cyclically.
-        let ad = dir.map(|x| S::fast_max(x, -x));
-        let x_over_y = ad[0].gt(ad[1]);
-        let kz_x = x_over_y & ad[0].gt(ad[2]);
-        let kz_y = S::select(x_over_y, zero, ad[1].gt(ad[2]));
-        let kz_z = S::select(kz_x | kz_y, zero, on);
-        let pick = |is_x: S, is_y: S, v: &[S; 3]| S::select(is_x, v[0], S::select(is_y, v[1], v[2]));
-        // Per frame axis j: "is x" and "is y" (else z), only on used lanes.
-        let is_x = [kz_z, kz_y, kz_x].map(|m| m & used);
-        let is_y = [kz_x, kz_z, kz_y].map(|m| m & used);
-        let sheared_origin = [0, 1, 2].map(|j| pick(is_x[j], is_y[j], &origin));
-        // d[kx], d[ky], d[kz]: unused lanes divide 1 by 1.
-        let [dx, dy, dz] = [0, 1, 2].map(|j| S::select(used, pick(is_x[j], is_y[j], &dir), one));
-        let mask = (1u32 << d.len()) - 1;
-        let uniform = |m: S| {
-            let b = m.bits() & mask;
-            b == 0 || b == mask
-        };
-        let axes = if is_x.iter().chain(&is_y).all(|&m| uniform(m)) {
-            Axes::Same(d.first().map_or([0, 1, 2], |&d| shear_axes(d)))
-        } else {
-            Axes::Mixed(is_x, is_y)
-        };
         // `inv_dir` on lanes (1/x clamped to ±MAX); unused lanes get 1.
         let inv = dir.map(|x| S::select(used, inv_dir_lanes(x), one));
-        Lanes {
-            o,
-            d,
-            origin,
-            dir,
-            inv,
-            sheared_origin,
-            shear: [dx / dz, dy / dz, one / dz],
-            axes,
-            slack: S::splat(slack),
-        }
+        Lanes { o, d, origin, dir, inv, used, frame: OnceCell::new(), slack: S::splat(slack) }
     }
 
     /// Lanes (bitmask) whose ray enters the box `min`–`max` before their `tmax` (with the
@@ -134,25 +143,33 @@ impl<'a, S: Vector> Lanes<'a, S> {
         (hit.bits(), near)
     }
 
+    /// The lanes' sheared frames, made on the first call.
+    #[inline(always)]
+    pub(super) fn frame(&self) -> &Frame<S> {
+        self.frame.get_or_init(|| Frame::new(self.d, &self.origin, &self.dir, self.used))
+    }
+
     /// A vertex's components in each lane's sheared frame, minus the lane's origin.
     #[inline(always)]
-    fn relative(&self, v: Vec3) -> [S; 3] {
-        let p = match &self.axes {
+    fn relative(&self, frame: &Frame<S>, v: Vec3) -> [S; 3] {
+        let p = match &frame.axes {
             Axes::Same(k) => [S::splat(v[k[0]]), S::splat(v[k[1]]), S::splat(v[k[2]])],
             Axes::Mixed(is_x, is_y) => {
                 let (x, y, z) = (S::splat(v.x), S::splat(v.y), S::splat(v.z));
                 [0, 1, 2].map(|j| S::select(is_x[j], x, S::select(is_y[j], y, z)))
             }
         };
-        [p[0] - self.sheared_origin[0], p[1] - self.sheared_origin[1], p[2] - self.sheared_origin[2]]
+        let o = &frame.sheared_origin;
+        [p[0] - o[0], p[1] - o[1], p[2] - o[2]]
     }
 
     /// The watertight triangle test: each lane's distance exactly as [`intersect_triangle`]
     /// computes it (infinity for a miss); exact for the lanes in `mask`.
     #[inline(always)]
     pub(super) fn triangle(&self, v0: Vec3, v1: Vec3, v2: Vec3, mask: u32) -> S {
-        let (a, b, c) = (self.relative(v0), self.relative(v1), self.relative(v2));
-        let [sx, sy, sz] = self.shear;
+        let frame = self.frame();
+        let (a, b, c) = (self.relative(frame, v0), self.relative(frame, v1), self.relative(frame, v2));
+        let [sx, sy, sz] = frame.shear;
         let (ax, ay) = (a[0] - sx * a[2], a[1] - sy * a[2]);
         let (bx, by) = (b[0] - sx * b[2], b[1] - sy * b[2]);
         let (cx, cy) = (c[0] - sx * c[2], c[1] - sy * c[2]);

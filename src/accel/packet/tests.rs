@@ -145,7 +145,7 @@ fn simd_kernels_equal_scalar_kernels_bit_for_bit() {
     for l in 0..8 {
         assert_eq!(t[l].to_bits(), intersect_triangle(v0, v1, v2, o[l], d[l]).to_bits(), "lane {l}");
     }
-    assert!(matches!(lanes.axes, Axes::Mixed(..)));
+    assert!(matches!(lanes.frame().axes, Axes::Mixed(..)));
     // Spheres (from inside, tangent from the centre plane, behind) and parallelograms
     // (edge-on, through a corner, from behind) against the same lanes.
     let shapes = [
