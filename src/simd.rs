@@ -612,6 +612,12 @@ impl LaneIds {
         }
     }
 
+    /// [`LaneIds::gather`] of three columns: a vector's components.
+    #[inline(always)]
+    pub fn gather3(&self, x: &[f32], y: &[f32], z: &[f32]) -> V3<f32x16> {
+        V3 { x: self.gather(x), y: self.gather(y), z: self.gather(z) }
+    }
+
     /// [`LaneIds::gather`] of words.
     #[inline(always)]
     pub fn gather_words(&self, v: &[u32]) -> u32x16 {

@@ -317,23 +317,22 @@ fn quad_lanes(scene: &Scene, q: &SurfaceQueue, triples: &Triples, shadow: &mut S
     let si = triples.point;
     // A run of consecutive points (one sample, one light) loads straight from the queue.
     let lanes = LaneIds::new(&si);
-    let f = |v: &[f32]| lanes.gather(v);
-    let v3 = |x: &[f32], y: &[f32], z: &[f32]| V3 { x: f(x), y: f(y), z: f(z) };
-    let u = |v: &[u32]| lanes.gather_words(v);
+    // Straight calls, not closures: a closure over the loads was kept out of line.
     let lights = LightLanes::new(scene, &triples.light);
-    let (o, normal) = (v3(&q.ox, &q.oy, &q.oz), v3(&q.nx, &q.ny, &q.nz));
-    let index = u(&q.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(triples.sample));
-    let seed = light_seed_lanes(u(&q.key), u32x16::from(triples.light));
+    let (o, normal) = (lanes.gather3(&q.ox, &q.oy, &q.oz), lanes.gather3(&q.nx, &q.ny, &q.nz));
+    let index = lanes.gather_words(&q.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(triples.sample));
+    let seed = light_seed_lanes(lanes.gather_words(&q.key), u32x16::from(triples.light));
     let s = quad_sample(&lights.quad, o, normal, index, seed, false);
     let factor = s.cos_x * s.cos_y * lights.scale / s.dist2;
-    let (w, brdf) = (v3(&q.wr, &q.wg, &q.wb), v3(&q.cr, &q.cg, &q.cb).scale(f32x16::splat(FRAC_1_PI)));
+    let w = lanes.gather3(&q.wr, &q.wg, &q.wb);
+    let brdf = lanes.gather3(&q.cr, &q.cg, &q.cb).scale(f32x16::splat(FRAC_1_PI));
     let r = lights.radiance;
     let l = |w: f32x16, b: f32x16, r: f32x16| (w * b * r * factor).to_array();
     let (mut lr, mut lg, mut lb) = (l(w.x, brdf.x, r.x), l(w.y, brdf.y, r.y), l(w.z, brdf.z, r.z));
     let (wx, wy, wz) = (s.wi.x.to_array(), s.wi.y.to_array(), s.wi.z.to_array());
     let tmax = (s.dist * f32x16::splat(SHADOW_TMAX_SCALE)).to_array();
     let dark = (s.cos_x.simd_le(f32x16::ZERO) | s.cos_y.simd_le(f32x16::ZERO)).to_bitmask();
-    let spec = v3(&q.sr, &q.sg, &q.sb);
+    let spec = lanes.gather3(&q.sr, &q.sg, &q.sb);
     let phong =
         !(spec.x.simd_eq(f32x16::ZERO) & spec.y.simd_eq(f32x16::ZERO) & spec.z.simd_eq(f32x16::ZERO)).to_bitmask();
     let (factor, (rx, ry, rz)) = (factor.to_array(), (r.x.to_array(), r.y.to_array(), r.z.to_array()));
