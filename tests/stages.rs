@@ -359,14 +359,27 @@ fn scatter_on_lanes_gives_the_scalar_functions_rays_bit_for_bit() {
 #[test]
 fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
     // Cornell with two more quad lights, one dark; Lambert and Phong walls; 1, 3 and 16
-    // samples a light, so lanes hold one point, several, and parts of one.
-    let mut text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml")).unwrap();
+    // samples a light, so lanes hold one point, several, and parts of one. Then the same
+    // with a triangle, a point (and a dark one) and a directional light beside them, so
+    // lanes mix every kind the lanes take.
+    let cornell = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml")).unwrap();
+    let mut text = cornell.clone();
     text += "\n[[lights]]\ntype = \"quad\"\ncorner = [0.9, 0.5, -0.3]\nedge_u = [0, 0.6, 0]\nedge_v = [0, 0, 0.6]\nradiance = [0, 0, 0]\n";
     text += "\n[[lights]]\ntype = \"quad\"\ncorner = [-0.95, 1.2, -0.2]\nedge_u = [0, 0, 0.4]\nedge_v = [0, 0.4, 0]\nradiance = [3, 3, 3]\n";
-    for n in [1, 3, 16] {
+    let mut mixed = text.clone();
+    mixed += "\n[[lights]]\ntype = \"triangle\"\nv0 = [0.9, 0.4, -0.5]\nv1 = [0.9, 0.4, 0.1]\nv2 = [0.9, 1.0, -0.2]\nradiance = [2, 1, 1]\n";
+    mixed += "\n[[lights]]\ntype = \"point\"\nposition = [0.2, 1.5, 0.4]\nintensity = [0.5, 0.6, 0.7]\n";
+    mixed += "\n[[lights]]\ntype = \"point\"\nposition = [-0.2, 1.5, 0.4]\nintensity = [0, 0, 0]\n";
+    mixed += "\n[[lights]]\ntype = \"directional\"\ndirection = [0.3, -1, -0.4]\nirradiance = [0.4, 0.4, 0.3]\n";
+    // Cornell's light made a point light: one ray a point, the single-light fast path.
+    let quad = "type = \"quad\"\ncorner = [-0.3, 1.995, -0.3]\nedge_u = [0.6, 0, 0]\nedge_v = [0, 0, 0.6]\nradiance = [15, 14, 12]";
+    assert!(cornell.contains(quad));
+    let point = cornell.replace(quad, "type = \"point\"\nposition = [0, 1.9, 0]\nintensity = [2, 2, 1.8]");
+    let cases = [(&text, 3), (&mixed, 7), (&point, 1)];
+    for ((text, lights), n) in cases.iter().flat_map(|c| [1, 3, 16].map(|n| (*c, n))) {
         let scene = support::scene_in(
             std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes")),
-            &text,
+            text,
             &[&format!("render.shadows.samples={n}"), "render.width=24", "render.height=18"],
         );
         let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 24, y1: 18 };
@@ -390,7 +403,7 @@ fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
                 });
             }
         }
-        assert_eq!(scene.lights.len(), 3);
+        assert_eq!(scene.lights.len(), lights);
         assert!(want.len() > 1000, "{n} samples: only {} shadow rays", want.len());
         let bits = |q: &ShadowQueue| {
             (0..q.len())

@@ -1,0 +1,313 @@
+//! Uniform shadow rays on lanes: 16 (point, light, sample) triples at a time, for scenes
+//! whose lights are parallelograms, triangles, points and directions (a sphere light
+//! keeps the scalar loop). Each lane computes its light's formula of
+//! [`uniform_shadow_rays`](crate::light::uniform_shadow_rays) with the same operations,
+//! so the queue keeps the scalar loop's order and bits.
+
+use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
+use wide::{f32x16, u32x16};
+
+use crate::emitter::area::{quad_sample, QuadLanes, QuadSample};
+use crate::light::{light_seed_lanes, SHADOW_TMAX_SCALE};
+use crate::queue::{ShadowQueue, SurfaceQueue};
+use crate::scene::{Light, Scene};
+use crate::simd::{LaneIds, Word, LANES, V3};
+use crate::surface::diffuse_brdf;
+
+/// What a lane's light is, for its formula.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// A parallelogram: `shadows.samples` stratified samples.
+    Quad,
+    /// A triangle: the same samples, the unit square folded onto it.
+    Triangle,
+    /// A point light: one ray to it.
+    Point,
+    /// A directional light: one ray against its direction, to infinity.
+    Directional,
+}
+
+impl Kind {
+    /// The kind of `light`, `None` for the lights the lanes leave to the scalar loop.
+    fn of(light: &Light) -> Option<Kind> {
+        match light {
+            Light::Quad { .. } => Some(Kind::Quad),
+            Light::Triangle { .. } => Some(Kind::Triangle),
+            Light::Point { .. } => Some(Kind::Point),
+            Light::Directional { .. } => Some(Kind::Directional),
+            Light::Sphere { .. } => None,
+        }
+    }
+
+    /// The lane mask of this kind's lanes in `kinds`.
+    #[inline(always)]
+    fn mask(self, kinds: &[Kind; LANES]) -> f32x16 {
+        f32x16::from(kinds.map(|k| if k == self { f32::from_bits(!0) } else { 0.0 }))
+    }
+}
+
+/// True when the lanes can cast uniform shadow rays to `light`.
+pub(super) fn on_lanes(light: &Light) -> bool {
+    Kind::of(light).is_some()
+}
+
+/// The light's emission, zero for a dark light (which casts no ray).
+fn emission(light: &Light) -> Vec3 {
+    match *light {
+        Light::Point { intensity: e, .. }
+        | Light::Directional { irradiance: e, .. }
+        | Light::Sphere { radiance: e, .. }
+        | Light::Quad { radiance: e, .. }
+        | Light::Triangle { radiance: e, .. } => e,
+    }
+}
+
+/// Uniform shadow rays from every point of `surfaces` to every lit light (all
+/// [`on_lanes`]), 16 (point, light, sample) triples at a time, in the scalar loop's
+/// order (point, then light, then sample): the queue, and every sum taken over it later,
+/// keeps its bits.
+pub(super) fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
+    let n = scene.settings.shadow_samples;
+    let lit = |li: usize| emission(&scene.lights[li]) != Vec3::ZERO;
+    let next_lit = |from: usize| (from..scene.lights.len()).find(|&li| lit(li));
+    // Rays a point casts to light li: one to a point or a direction.
+    let count = |li: usize| match Kind::of(&scene.lights[li]) {
+        Some(Kind::Quad | Kind::Triangle) => n,
+        Some(Kind::Point | Kind::Directional) | None => 1,
+    };
+    let Some(first) = next_lit(0) else { return };
+    let table = light_table(scene);
+    // The usual scene has one lit light: no search per point then.
+    let single = next_lit(first + 1).is_none();
+    let (mut s, mut li, mut j) = (0, first, 0);
+    let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
+    // One light and its count dividing 16 (the usual case): whole groups of 16 / count
+    // points, the same triples without the lane-by-lane walk.
+    let c = count(first);
+    if single && c.is_power_of_two() && c as usize <= LANES {
+        let per = LANES / c as usize;
+        let shift = c.trailing_zeros();
+        lanes.light = [first as u32; LANES];
+        lanes.sample = std::array::from_fn(|k| k as u32 & (c - 1));
+        lanes.count = LANES;
+        while s + per <= surfaces.len() {
+            lanes.point = std::array::from_fn(|k| s as u32 + (k as u32 >> shift));
+            light_lanes(scene, &table, surfaces, &lanes, shadow);
+            s += per;
+        }
+    }
+    let mut c = count(li);
+    while s < surfaces.len() {
+        let mut filled = 0;
+        while filled < LANES && s < surfaces.len() {
+            (lanes.point[filled], lanes.light[filled], lanes.sample[filled]) = (s as u32, li as u32, j);
+            filled += 1;
+            j += 1;
+            if j == c {
+                j = 0;
+                if single {
+                    s += 1;
+                } else {
+                    li = next_lit(li + 1).unwrap_or_else(|| {
+                        s += 1;
+                        first
+                    });
+                    c = count(li);
+                }
+            }
+        }
+        // Lanes past the last triple repeat it and are not written.
+        for k in filled..LANES {
+            (lanes.point[k], lanes.light[k], lanes.sample[k]) =
+                (lanes.point[k - 1], lanes.light[k - 1], lanes.sample[k - 1]);
+        }
+        lanes.count = filled;
+        light_lanes(scene, &table, surfaces, &lanes, shadow);
+    }
+}
+
+/// One lane group of (point, light, sample) triples, the first `count` real.
+struct Triples {
+    point: [u32; LANES],
+    light: [u32; LANES],
+    sample: [u32; LANES],
+    count: usize,
+}
+
+/// The lights of a lane group: their kinds, geometry (a point light's position and a
+/// directional light's direction to it in `quad.corner`), area / n and emission per lane.
+struct LightLanes {
+    kind: [Kind; LANES],
+    quad: QuadLanes<f32x16>,
+    scale: f32x16,
+    radiance: V3<f32x16>,
+}
+
+/// A light's parameters as [`LightLanes`] holds them: corner (a point light's position,
+/// a directional light's direction to it), edges, normal and emission by component, then
+/// area / n; and its kind.
+type Params = ([f32; 16], Kind);
+
+/// The [`Params`] of every light of `scene` (a sphere light's are not used).
+fn light_table(scene: &Scene) -> Vec<Params> {
+    let n = scene.settings.shadow_samples as f32;
+    let params = |light: &Light| {
+        let e = emission(light);
+        let at = |p: Vec3| (p, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, e);
+        let (corner, u, v, normal, scale, radiance) = match (light.planar(), *light) {
+            (Some((corner, u, v, normal, area, radiance, _)), _) => (corner, u, v, normal, area / n, radiance),
+            (None, Light::Directional { direction, .. }) => at(-direction),
+            (None, Light::Point { position, .. }) => at(position),
+            (None, Light::Sphere { center, .. }) => at(center),
+            (None, Light::Quad { .. } | Light::Triangle { .. }) => at(Vec3::ZERO),
+        };
+        let [c, u, v, n, r] = [corner, u, v, normal, radiance].map(|v| v.to_array());
+        let values = [c[0], c[1], c[2], u[0], u[1], u[2], v[0], v[1], v[2], n[0], n[1], n[2], r[0], r[1], r[2], scale];
+        (values, Kind::of(light).unwrap_or(Kind::Point))
+    };
+    scene.lights.iter().map(params).collect()
+}
+
+impl LightLanes {
+    /// The lights of `lights` (indices into `table`): splat when all lanes share one.
+    fn new(table: &[Params], lights: &[u32; LANES]) -> LightLanes {
+        let v3 = |a: &[f32]| Vec3::new(a[0], a[1], a[2]);
+        if lights.iter().all(|&l| l == lights[0]) {
+            let (p, kind) = &table[lights[0] as usize];
+            let quad = QuadLanes::splat(v3(&p[0..]), v3(&p[3..]), v3(&p[6..]), v3(&p[9..]));
+            let (scale, radiance) = (f32x16::splat(p[15]), V3::splat(v3(&p[12..])));
+            return LightLanes { kind: [*kind; LANES], quad, scale, radiance };
+        }
+        let (mut col, mut kind) = ([[0.0f32; LANES]; 16], [Kind::Quad; LANES]);
+        for (k, &li) in lights.iter().enumerate() {
+            let (values, kd) = &table[li as usize];
+            for (c, &x) in col.iter_mut().zip(values) {
+                c[k] = x;
+            }
+            kind[k] = *kd;
+        }
+        let v = |j: usize| V3 { x: f32x16::from(col[j]), y: f32x16::from(col[j + 1]), z: f32x16::from(col[j + 2]) };
+        let quad = QuadLanes { corner: v(0), u: v(3), v: v(6), normal: v(9) };
+        LightLanes { kind, quad, scale: f32x16::from(col[15]), radiance: v(12) }
+    }
+
+    /// Whether some lane's light is of kind `kind`.
+    fn has(&self, kind: Kind) -> bool {
+        self.kind.contains(&kind)
+    }
+}
+
+/// Per lane of a group: the ray's direction, its `tmax`, the factor its contribution
+/// takes after weight × BRDF × emission, and whether it is cast.
+struct Rays {
+    wi: V3<f32x16>,
+    tmax: f32x16,
+    factor: f32x16,
+    dark: f32x16,
+}
+
+/// Where `mask` is set, `a`'s fields, else `b`'s.
+#[inline(always)]
+fn pick(mask: f32x16, a: Rays, b: Rays) -> Rays {
+    let sel = |x: f32x16, y: f32x16| mask.select(x, y);
+    Rays {
+        wi: V3 { x: sel(a.wi.x, b.wi.x), y: sel(a.wi.y, b.wi.y), z: sel(a.wi.z, b.wi.z) },
+        tmax: sel(a.tmax, b.tmax),
+        factor: sel(a.factor, b.factor),
+        dark: sel(a.dark, b.dark),
+    }
+}
+
+/// An area light's rays: [`quad_sample`]'s, as in
+/// [`area_light_samples`](crate::light::area_light_samples).
+#[inline(always)]
+fn area_rays(s: QuadSample<f32x16>, scale: f32x16) -> Rays {
+    let zero = f32x16::ZERO;
+    Rays {
+        factor: s.cos_x * s.cos_y * scale / s.dist2,
+        tmax: s.dist * f32x16::splat(SHADOW_TMAX_SCALE),
+        dark: s.cos_x.simd_le(zero) | s.cos_y.simd_le(zero),
+        wi: s.wi,
+    }
+}
+
+/// The shadow rays of one lane group of `triples`: each lane its light's formula (the
+/// scalar ones of [`uniform_shadow_rays`](crate::light::uniform_shadow_rays)), Lambert
+/// on the lanes and a Phong point's BRDF by the scalar function.
+fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) {
+    let n = scene.settings.shadow_samples;
+    let si = triples.point;
+    let lanes = LaneIds::new(&si);
+    // Straight calls, not closures: a closure over the loads was kept out of line.
+    let lights = LightLanes::new(table, &triples.light);
+    let (o, normal) = (lanes.gather3(&q.ox, &q.oy, &q.oz), lanes.gather3(&q.nx, &q.ny, &q.nz));
+    let zero = f32x16::ZERO;
+    // Each kind's formula only where a lane has it, picked lane by lane after.
+    let mut rays: Option<Rays> = None;
+    let mut add = |kind: Kind, r: Rays| {
+        rays = Some(match rays.take() {
+            Some(prev) => pick(kind.mask(&lights.kind), r, prev),
+            None => r,
+        })
+    };
+    let (quads, triangles) = (lights.has(Kind::Quad), lights.has(Kind::Triangle));
+    if quads || triangles {
+        let index = lanes.gather_words(&q.sample).wmul(u32x16::splat(n)).wadd(u32x16::from(triples.sample));
+        let seed = light_seed_lanes(lanes.gather_words(&q.key), u32x16::from(triples.light));
+        for (kind, present) in [(Kind::Quad, quads), (Kind::Triangle, triangles)] {
+            if present {
+                let s = quad_sample(&lights.quad, o, normal, index, seed, kind == Kind::Triangle);
+                add(kind, area_rays(s, lights.scale));
+            }
+        }
+    }
+    if lights.has(Kind::Point) {
+        // As the scalar loop: to the position, cos / dist².
+        let to = lights.quad.corner - o;
+        let dist2 = to.dot(to);
+        let dist = dist2.sqrt();
+        let wi = to.over(dist);
+        let cos = normal.dot(wi);
+        let dark = cos.simd_le(zero) | dist2.simd_eq(zero);
+        add(Kind::Point, Rays { wi, tmax: dist * f32x16::splat(SHADOW_TMAX_SCALE), factor: cos / dist2, dark });
+    }
+    if lights.has(Kind::Directional) {
+        let wi = lights.quad.corner;
+        let cos = normal.dot(wi);
+        add(Kind::Directional, Rays { wi, tmax: f32x16::splat(f32::MAX), factor: cos, dark: cos.simd_le(zero) });
+    }
+    let Some(Rays { wi, tmax, factor, dark }) = rays else { return };
+    let w = lanes.gather3(&q.wr, &q.wg, &q.wb);
+    let brdf = lanes.gather3(&q.cr, &q.cg, &q.cb).scale(f32x16::splat(FRAC_1_PI));
+    let r = lights.radiance;
+    let l = |w: f32x16, b: f32x16, r: f32x16| (w * b * r * factor).to_array();
+    let (mut lr, mut lg, mut lb) = (l(w.x, brdf.x, r.x), l(w.y, brdf.y, r.y), l(w.z, brdf.z, r.z));
+    let (wx, wy, wz) = (wi.x.to_array(), wi.y.to_array(), wi.z.to_array());
+    let (tmax, dark) = (tmax.to_array(), dark.to_bitmask());
+    let spec = lanes.gather3(&q.sr, &q.sg, &q.sb);
+    let phong = !(spec.x.simd_eq(zero) & spec.y.simd_eq(zero) & spec.z.simd_eq(zero)).to_bitmask();
+    let (factor, (rx, ry, rz)) = (factor.to_array(), (r.x.to_array(), r.y.to_array(), r.z.to_array()));
+    // The lanes that cast a ray, then whole columns at once.
+    let (mut keep, mut m) = ([0usize; LANES], 0);
+    for k in (0..triples.count).filter(|&k| dark & (1 << k) == 0) {
+        keep[m] = k;
+        m += 1;
+        let p = si[k] as usize;
+        if phong & (1 << k) != 0 {
+            let wi = Vec3::new(wx[k], wy[k], wz[k]);
+            let brdf = diffuse_brdf(q.color(p), q.specular(p), q.shininess[p], q.normal(p), wi, q.wo(p));
+            let l = q.weight(p) * brdf * Vec3::new(rx[k], ry[k], rz[k]) * factor[k];
+            (lr[k], lg[k], lb[k]) = (l.x, l.y, l.z);
+        }
+    }
+    let (o, wi, slot) = (o.lanes(), [wx, wy, wz], si.map(|p| q.slot[p as usize]));
+    // Each ray carries its point's path time.
+    let time = (!q.time.is_empty()).then(|| si.map(|p| q.time[p as usize]));
+    // Every lane kept (the usual group): whole vectors, no per-value push.
+    if m == LANES {
+        shadow.push_lanes(o, wi, tmax, slot, [lr, lg, lb], time.as_ref(), LANES);
+    } else {
+        shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], time.as_ref(), &keep[..m]);
+    }
+}
