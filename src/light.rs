@@ -368,12 +368,7 @@ pub fn probe_targets(scene: &Scene, probe: Probe, li: usize, key: u32) -> [Vec3;
 pub fn uniform_shadow_rays(scene: &Scene, surf: &Surface, li: usize, mut f: impl FnMut(Vec3, f32, Vec3)) {
     match scene.lights[li] {
         // A dark light adds nothing: it costs no shadow rays either.
-        Light::Point { intensity, .. }
-        | Light::Directional { irradiance: intensity, .. }
-        | Light::Sphere { radiance: intensity, .. }
-        | Light::Quad { radiance: intensity, .. }
-        | Light::Triangle { radiance: intensity, .. }
-            if intensity == Vec3::ZERO => {}
+        ref light if light.emission() == Vec3::ZERO => {}
         Light::Directional { direction, irradiance } => {
             let wi = -direction;
             let cos = surf.n.dot(wi);

@@ -402,6 +402,19 @@ impl Light {
         }
     }
 
+    /// What the light emits: a point light's intensity, a directional light's
+    /// irradiance, an area or sphere light's radiance (zero for a dark light, which casts
+    /// no shadow ray).
+    pub fn emission(&self) -> Vec3 {
+        match *self {
+            Light::Point { intensity: e, .. }
+            | Light::Directional { irradiance: e, .. }
+            | Light::Sphere { radiance: e, .. }
+            | Light::Quad { radiance: e, .. }
+            | Light::Triangle { radiance: e, .. } => e,
+        }
+    }
+
     /// A sphere light that emits.
     pub fn lit_sphere(&self) -> bool {
         matches!(*self, Light::Sphere { radiance, .. } if radiance != Vec3::ZERO)

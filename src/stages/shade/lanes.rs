@@ -52,24 +52,13 @@ pub(super) fn on_lanes(light: &Light) -> bool {
     Kind::of(light).is_some()
 }
 
-/// The light's emission, zero for a dark light (which casts no ray).
-fn emission(light: &Light) -> Vec3 {
-    match *light {
-        Light::Point { intensity: e, .. }
-        | Light::Directional { irradiance: e, .. }
-        | Light::Sphere { radiance: e, .. }
-        | Light::Quad { radiance: e, .. }
-        | Light::Triangle { radiance: e, .. } => e,
-    }
-}
-
 /// Uniform shadow rays from every point of `surfaces` to every lit light (all
 /// [`on_lanes`]), 16 (point, light, sample) triples at a time, in the scalar loop's
 /// order (point, then light, then sample): the queue, and every sum taken over it later,
 /// keeps its bits.
 pub(super) fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
     let n = scene.settings.shadow_samples;
-    let lit = |li: usize| emission(&scene.lights[li]) != Vec3::ZERO;
+    let lit = |li: usize| scene.lights[li].emission() != Vec3::ZERO;
     let next_lit = |from: usize| (from..scene.lights.len()).find(|&li| lit(li));
     // Rays a point casts to light li: one to a point or a direction.
     let count = |li: usize| match Kind::of(&scene.lights[li]) {
@@ -153,7 +142,7 @@ type Params = ([f32; 16], Kind);
 fn light_table(scene: &Scene) -> Vec<Params> {
     let n = scene.settings.shadow_samples as f32;
     let params = |light: &Light| {
-        let e = emission(light);
+        let e = light.emission();
         let at = |p: Vec3| (p, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0, e);
         let (corner, u, v, normal, scale, radiance) = match (light.planar(), *light) {
             (Some((corner, u, v, normal, area, radiance, _)), _) => (corner, u, v, normal, area / n, radiance),
