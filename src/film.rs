@@ -288,11 +288,19 @@ impl TileFilm {
 
     /// Adds a pass's slot heat to the tile pixels; slot s belongs to pixel s / `group`.
     pub fn collect_heat(&mut self, pass: &SlotHeat, group: usize) {
-        for s in 0..pass.rays.len() {
-            let p = s / group;
-            self.heat.rays[p] += pass.rays[s];
-            self.heat.points[p] += pass.points[s];
-            self.heat.penumbra[p] += pass.penumbra[s];
+        let h = &mut self.heat;
+        for (dst, src) in [(&mut h.rays, &pass.rays), (&mut h.points, &pass.points), (&mut h.penumbra, &pass.penumbra)]
+        {
+            if group == 1 {
+                // A slot per pixel (uniform AA): sums on vector lanes.
+                dst.iter_mut().zip(src).for_each(|(d, &x)| *d += x);
+                continue;
+            }
+            for (d, slots) in dst.iter_mut().zip(src.chunks(group)) {
+                for &x in slots {
+                    *d += x;
+                }
+            }
         }
     }
 

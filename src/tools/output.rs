@@ -298,7 +298,7 @@ fn encode_exr(image: &Image) -> std::result::Result<Vec<u8>, String> {
         (p.x, p.y, p.z)
     });
     let mut out = std::io::Cursor::new(Vec::new());
-    Image::from_channels((w, image.height as usize), channels)
+    Image::from_encoded_channels((w, image.height as usize), Encoding::UNCOMPRESSED, channels)
         .write()
         .to_buffered(&mut out)
         .map_err(|e| e.to_string())?;
@@ -318,7 +318,7 @@ fn encode_exr_crop(
         let p = image.pixels[y * w + x];
         (p.x, p.y, p.z)
     });
-    let mut exr = Image::from_channels((w, image.height as usize), channels);
+    let mut exr = Image::from_encoded_channels((w, image.height as usize), Encoding::UNCOMPRESSED, channels);
     exr.attributes.display_window = IntegerBounds::new((0, 0), (width as usize, height as usize));
     exr.layer_data.attributes.layer_position = Vec2(crop.x0 as i32, crop.y0 as i32);
     for (k, v) in attributes {
