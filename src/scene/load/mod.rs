@@ -64,16 +64,36 @@ pub fn load(src: &SceneSource, sets: &[String]) -> Result<Scene> {
             })
         }
     };
-    // Apply overrides one at a time so an error names the --set that caused it.
+    // Overrides are applied one at a time and the result read once: on an error they are
+    // read again one at a time, so it names the --set that caused it.
+    let with_file = value.clone();
     for set in sets {
         apply_set(&mut value, set, &src.name)?;
         check_finite(&value, "", &ctx)?;
-        // The file alone deserialized, so the error is this override's: name its key.
-        let key = set.split_once('=').map_or(set.as_str(), |(k, _)| k).trim();
-        file = SceneFile::deserialize(value.clone())
-            .map_err(|e| Error::input(format!("{} (--set {set}): field `{key}`: {}", src.name, e.message().trim())))?;
+    }
+    if !sets.is_empty() {
+        file = match SceneFile::deserialize(value) {
+            Ok(file) => file,
+            Err(_) => return Err(first_bad_set(with_file, sets, &src.name)),
+        };
     }
     build(&file, &ctx)
+}
+
+/// The error of the first of `sets` (each of which applies) after which the scene
+/// `value` no longer reads, naming it and its key.
+fn first_bad_set(mut value: toml::Value, sets: &[String], name: &str) -> Error {
+    for set in sets {
+        if let Err(e) = apply_set(&mut value, set, name) {
+            return e;
+        }
+        if let Err(e) = SceneFile::deserialize(value.clone()) {
+            // The file alone read, so the error is this override's: name its key.
+            let key = set.split_once('=').map_or(set.as_str(), |(k, _)| k).trim();
+            return Error::input(format!("{name} (--set {set}): field `{key}`: {}", e.message().trim()));
+        }
+    }
+    Error::Internal(format!("{name}: the overrides together do not read, but each one does"))
 }
 
 /// Imports a Mitsuba XML scene, applies `--set` overrides to the scene it maps to (same
