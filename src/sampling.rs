@@ -6,7 +6,8 @@
 
 use glam::Vec2;
 
-use crate::simd::{Real, Word};
+use crate::simd::{Real, Word, LANES};
+use wide::u32x16;
 
 /// Sample dimensions: each use of randomness gets its own, so streams never correlate.
 pub mod dim {
@@ -196,6 +197,16 @@ pub fn cmj_lanes<W: Word>(s: W, n: u32, pattern: u32) -> (W::Real, W::Real, W) {
 pub struct CmjKey(pub [u32; 8]);
 
 impl CmjKey {
+    /// The keys of 16 patterns for `n` samples ([`CmjKey::new`]), hashed on lanes.
+    pub fn sixteen(pattern: u32x16, n: u32) -> [CmjKey; LANES] {
+        let p = pattern.to_array();
+        if n != 1 {
+            return std::array::from_fn(|k| CmjKey::new(p[k], n));
+        }
+        let [a, b] = [1, 2].map(|w| hash_lanes([pattern, u32x16::splat(w)]).to_array());
+        std::array::from_fn(|k| CmjKey([a[k], b[k], 0, 0, 0, 0, 0, 0]))
+    }
+
     /// The key of `pattern` for `n` samples.
     pub fn new(pattern: u32, n: u32) -> CmjKey {
         if n == 1 {
@@ -300,10 +311,17 @@ pub fn sobol_owen(index: u32, seed: u32) -> Vec2 {
 /// moves noise to the highest frequencies without changing any pixel's own
 /// distribution (each run alone is as stratified as a pixel's own sequence).
 pub fn dither(seed: u32, width: u32, x: u32, y: u32, n: u32) -> (u32, u32) {
-    let block = (y / 2) * width.div_ceil(2) + x / 2;
-    let place = (x & 1) | (y & 1) << 1;
-    let rank = owen_scramble(place << 30, hash(&[seed, block, dim::DITHER])) >> 30;
-    (block, rank * n)
+    dither_lanes(seed, width, x, y, n)
+}
+
+/// [`dither`] on lanes of pixels.
+#[inline(always)]
+pub fn dither_lanes<W: Word>(seed: u32, width: u32, x: W, y: W, n: u32) -> (W, W) {
+    let block = (y >> 1).wmul(W::splat(width.div_ceil(2))).wadd(x >> 1);
+    let one = W::splat(1);
+    let place = (x & one) | (y & one) << 1;
+    let rank = owen_scramble(place << 30, hash_lanes([W::splat(seed), block, W::splat(dim::DITHER)])) >> 30;
+    (block, rank.wmul(W::splat(n)))
 }
 
 /// [`sobol_owen`] for lanes of indices and seeds: the x and y lanes.

@@ -154,6 +154,38 @@ fn rel(a: Vec3, b: Vec3) -> f32 {
 const DOWN: Vec3 = Vec3::NEG_Y;
 
 // ---------------------------------------------------------------------------------------
+// Camera
+
+/// The lanes' dithering and CMJ keys are the scalar ones, lane by lane.
+#[test]
+fn dither_and_cmj_keys_on_lanes_are_the_scalar_ones() {
+    use wavetrace::sampling::{dither, dither_lanes, CmjKey};
+    use wavetrace::simd::LANES;
+    use wide::u32x16;
+    let mut next = 0x9e37_79b9u32;
+    let mut draw = |m: u32| {
+        next = next.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (next >> 8) % m
+    };
+    for round in 0..200 {
+        let (width, n, seed) = (1 + draw(5000), 1 + draw(64), draw(1 << 24));
+        let x: [u32; LANES] = std::array::from_fn(|_| draw(width));
+        let y: [u32; LANES] = std::array::from_fn(|_| draw(4000));
+        let (block, first) = dither_lanes(seed, width, u32x16::from(x), u32x16::from(y), n);
+        let (block, first) = (block.to_array(), first.to_array());
+        for k in 0..LANES {
+            assert_eq!((block[k], first[k]), dither(seed, width, x[k], y[k], n), "round {round} lane {k}");
+        }
+        let pattern: [u32; LANES] = std::array::from_fn(|_| draw(1 << 24) ^ (draw(256) << 24));
+        let samples = [1, 1, 2, 3, 4, 7, 16][round % 7];
+        let keys = CmjKey::sixteen(u32x16::from(pattern), samples);
+        for k in 0..LANES {
+            assert_eq!(keys[k], CmjKey::new(pattern[k], samples), "round {round} lane {k}");
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------
 // Shade
 
 #[test]

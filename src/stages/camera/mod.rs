@@ -13,8 +13,8 @@ use wide::{f32x16, u32x16};
 use super::Tile;
 use crate::queue::{HalfBufferQueue, RayQueue};
 use crate::sampling::{
-    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, dither, hash, hash_lanes, sobol_owen, sobol_owen_lanes,
-    CmjKey, CMJ_LANES_MAX,
+    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, dither, dither_lanes, hash, hash_lanes, sobol_owen,
+    sobol_owen_lanes, CmjKey, CMJ_LANES_MAX,
 };
 use crate::scene::{Scene, Settings};
 use crate::simd::{iota, words, Real, Word, LANES, V3};
@@ -258,7 +258,15 @@ pub fn generate(scene: &Scene, tile: &Tile, pass: UniformPass, ks: Range<u64>, r
     // 16 (pixel, sample) indices at a time, consecutive pixels sharing the lanes where a
     // pixel has fewer samples than lanes; each lane has its pixel's keys.
     let (spp, mut q, mut j) = (spp as u32, (ks.start / spp) as u32, (ks.start % spp) as u32);
-    let mut at = Pixel::new(scene, tile, pass, q);
+    // The pixels' keys, 16 pixels at a time.
+    let (mut q0, mut pixels) = (q, Pixel::sixteen(scene, tile, pass, q));
+    let mut next_pixel = |q: u32| {
+        if q >= q0 + LANES as u32 {
+            (q0, pixels) = (q, Pixel::sixteen(scene, tile, pass, q));
+        }
+        pixels[(q - q0) as usize]
+    };
+    let mut at = next_pixel(q);
     let mut lane = Lanes::default();
     for k0 in ks.clone().step_by(LANES) {
         let count = (ks.end - k0).min(LANES as u64) as usize;
@@ -266,7 +274,7 @@ pub fn generate(scene: &Scene, tile: &Tile, pass: UniformPass, ks: Range<u64>, r
             j += 1;
             if j == spp {
                 (q, j) = (q + 1, 0);
-                at = Pixel::new(scene, tile, pass, q);
+                at = next_pixel(q);
             }
         }
         for k in 0..LANES {
@@ -276,7 +284,7 @@ pub fn generate(scene: &Scene, tile: &Tile, pass: UniformPass, ks: Range<u64>, r
                 j += 1;
                 if j == spp {
                     (q, j) = (q + 1, 0);
-                    at = Pixel::new(scene, tile, pass, q);
+                    at = next_pixel(q);
                 }
             }
             lane.set(k, &at, j);
@@ -308,6 +316,7 @@ pub fn generate(scene: &Scene, tile: &Tile, pass: UniformPass, ks: Range<u64>, r
 }
 
 /// What a pixel's camera rays draw on: its place and its keys (see [`generate`]).
+#[derive(Clone, Copy)]
 struct Pixel {
     /// Its index in the tile.
     slot: u32,
@@ -333,15 +342,33 @@ fn pixel_keys(s: &Settings, dithered: bool, x: u32, y: u32, n: u32) -> (u32, u32
 }
 
 impl Pixel {
-    /// The `q`-th pixel of `tile` in [`block_slot`] order.
-    fn new(scene: &Scene, tile: &Tile, pass: UniformPass, q: u32) -> Pixel {
+    /// The `q0`-th to `q0 + 15`-th pixels of `tile` in [`block_slot`] order (past its
+    /// last, the last again), their keys hashed on lanes: [`pixel_keys`]' and the CMJ
+    /// pattern's of [`pixel_samples`], bit for bit.
+    fn sixteen(scene: &Scene, tile: &Tile, pass: UniformPass, q0: u32) -> [Pixel; LANES] {
         let (s, aa) = (&scene.settings, pass.samples);
-        let slot = block_slot(tile, q);
-        let tw = tile.x1 - tile.x0;
-        let (x, y) = (tile.x0 + slot % tw, tile.y0 + slot / tw);
-        let pixel = y * s.width + x;
-        let (path, lens_seed, first) = pixel_keys(s, pass.dither, x, y, aa * s.dof_samples);
-        Pixel { slot, x, y, pixel, cmj: CmjKey::new(hash(&[s.seed, pixel, dim::PIXEL]), aa), path, lens_seed, first }
+        let (tw, last) = (tile.x1 - tile.x0, tile.pixels() as u32 - 1);
+        let slot: [u32; LANES] = std::array::from_fn(|k| block_slot(tile, (q0 + k as u32).min(last)));
+        let slots = u32x16::from(slot);
+        let (row, col) = slots.div_rem(tw);
+        let (x, y) = (col + u32x16::splat(tile.x0), row + u32x16::splat(tile.y0));
+        let pixel = y * u32x16::splat(s.width) + x;
+        let (owner, first) =
+            if pass.dither { dither_lanes(s.seed, s.width, x, y, aa * s.dof_samples) } else { (pixel, u32x16::ZERO) };
+        let seed = u32x16::splat(s.seed);
+        let [path, lens_seed] = [dim::PATH, dim::LENS].map(|d| words(hash_lanes([seed, owner, u32x16::splat(d)])));
+        let cmj = CmjKey::sixteen(hash_lanes([seed, pixel, u32x16::splat(dim::PIXEL)]), aa);
+        let (x, y, pixel, first) = (words(x), words(y), words(pixel), words(first));
+        std::array::from_fn(|k| Pixel {
+            slot: slot[k],
+            x: x[k],
+            y: y[k],
+            pixel: pixel[k],
+            cmj: cmj[k],
+            path: path[k],
+            lens_seed: lens_seed[k],
+            first: first[k],
+        })
     }
 }
 
