@@ -291,18 +291,8 @@ pub fn write_image(path: &Path, image: &Image) -> Result<()> {
 
 #[cfg(feature = "exr")]
 fn encode_exr(image: &Image) -> std::result::Result<Vec<u8>, String> {
-    use exr::prelude::*;
-    let w = image.width as usize;
-    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-        let p = image.pixels[y * w + x];
-        (p.x, p.y, p.z)
-    });
-    let mut out = std::io::Cursor::new(Vec::new());
-    Image::from_encoded_channels((w, image.height as usize), Encoding::UNCOMPRESSED, channels)
-        .write()
-        .to_buffered(&mut out)
-        .map_err(|e| e.to_string())?;
-    Ok(out.into_inner())
+    let size = (image.width as usize, image.height as usize);
+    encode_exr_lines(image, exr_header(size))
 }
 
 #[cfg(feature = "exr")]
@@ -313,20 +303,54 @@ fn encode_exr_crop(
     attributes: &[(String, String)],
 ) -> std::result::Result<Vec<u8>, String> {
     use exr::prelude::*;
-    let w = image.width as usize;
-    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-        let p = image.pixels[y * w + x];
-        (p.x, p.y, p.z)
-    });
-    let mut exr = Image::from_encoded_channels((w, image.height as usize), Encoding::UNCOMPRESSED, channels);
-    exr.attributes.display_window = IntegerBounds::new((0, 0), (width as usize, height as usize));
-    exr.layer_data.attributes.layer_position = Vec2(crop.x0 as i32, crop.y0 as i32);
+    let mut header = exr_header((image.width as usize, image.height as usize))
+        .with_display_window(IntegerBounds::new((0, 0), (width as usize, height as usize)))
+        .with_position(Vec2(crop.x0 as i32, crop.y0 as i32));
     for (k, v) in attributes {
         let text = |t: &str| Text::new_or_none(t).ok_or_else(|| format!("header attribute `{k}` is not plain text"));
-        exr.attributes.other.insert(text(k)?, AttributeValue::Text(text(v)?));
+        header.shared_attributes.other.insert(text(k)?, AttributeValue::Text(text(v)?));
     }
-    let mut out = std::io::Cursor::new(Vec::new());
-    exr.write().to_buffered(&mut out).map_err(|e| e.to_string())?;
+    encode_exr_lines(image, header)
+}
+
+/// The header of an RGB 32-bit float EXR of `size` pixels, uncompressed scanlines, as
+/// the exr crate's image writer would make it.
+#[cfg(feature = "exr")]
+fn exr_header(size: (usize, usize)) -> exr::meta::header::Header {
+    use exr::meta::attribute::{ChannelDescription, SampleType};
+    use exr::prelude::*;
+    let channels = ["B", "G", "R"].map(|c| ChannelDescription::named(c, SampleType::F32));
+    let mut header = exr::meta::header::Header::new(Text::from("rgb"), size, channels.into_iter().collect())
+        .with_encoding(Compression::Uncompressed, exr::meta::BlockDescription::ScanLines, LineOrder::Increasing);
+    header.own_attributes.layer_name = None;
+    header
+}
+
+/// `image` as an EXR with `header` (channels B, G, R; uncompressed scanlines), each line
+/// laid out by hand and handed to the crate as a block: 4x faster than its image writer,
+/// which converts every sample through a closure (16.5 against 4.0 ms at 1280x960).
+#[cfg(feature = "exr")]
+fn encode_exr_lines(image: &Image, header: exr::meta::header::Header) -> std::result::Result<Vec<u8>, String> {
+    use exr::block::{writer::ChunksWriter, BlockIndex, UncompressedBlock};
+    use exr::prelude::Vec2;
+    let (w, h) = (image.width as usize, image.height as usize);
+    // The samples, the line offsets and the header: the buffer is never copied as it grows.
+    let mut out = std::io::Cursor::new(Vec::with_capacity(w * h * 12 + h * 16 + 4096));
+    let rows = image.pixels.chunks(w.max(1));
+    exr::block::write(&mut out, std::iter::once(header).collect(), true, |meta, writer| {
+        let mut lines = writer.sequential_blocks_compressor(&meta);
+        for (y, row) in rows.enumerate() {
+            // A line holds each channel's samples in turn, in the header's (alphabetical) order.
+            let mut data = Vec::with_capacity(w * 12);
+            for channel in [|p: &glam::Vec3| p.z, |p: &glam::Vec3| p.y, |p: &glam::Vec3| p.x] {
+                data.extend(row.iter().flat_map(|p| channel(p).to_ne_bytes()));
+            }
+            let index = BlockIndex { layer: 0, pixel_position: Vec2(0, y), pixel_size: Vec2(w, 1), level: Vec2(0, 0) };
+            lines.compress_block(y, UncompressedBlock { index, data })?;
+        }
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
     Ok(out.into_inner())
 }
 
