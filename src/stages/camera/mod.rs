@@ -17,7 +17,7 @@ use crate::sampling::{
     sobol_owen_lanes, CmjKey, CMJ_LANES_MAX,
 };
 use crate::scene::{Scene, Settings};
-use crate::simd::{iota, words, Real, Word, LANES, V3};
+use crate::simd::{iota, words, LaneIds, Real, Word, LANES, V3};
 
 /// How many lens rays each point of a pass gets, and how a flattened ray index splits
 /// into (point, ray of the point).
@@ -256,82 +256,63 @@ pub fn generate(scene: &Scene, tile: &Tile, pass: UniformPass, ks: Range<u64>, r
     let dof = s.dof_samples;
     let w = Vec3::splat(1.0 / spp as f32).to_array().map(|x| [x; LANES]);
     // 16 (pixel, sample) indices at a time, consecutive pixels sharing the lanes where a
-    // pixel has fewer samples than lanes; each lane has its pixel's keys.
-    let (spp, mut q, mut j) = (spp as u32, (ks.start / spp) as u32, (ks.start % spp) as u32);
-    // The pixels' keys, 16 pixels at a time.
-    let (mut q0, mut pixels) = (q, Pixel::sixteen(scene, tile, pass, q));
-    let mut next_pixel = |q: u32| {
-        if q >= q0 + LANES as u32 {
-            (q0, pixels) = (q, Pixel::sixteen(scene, tile, pass, q));
-        }
-        pixels[(q - q0) as usize]
-    };
-    let mut at = next_pixel(q);
-    let mut lane = Lanes::default();
+    // pixel has fewer samples than lanes; each lane has its pixel's keys, read from the
+    // keys of 16 pixels made at a time.
+    let spp = spp as u32;
+    let mut pixels = Pixels::sixteen(scene, tile, pass, ks.start as u32 / spp);
     for k0 in ks.clone().step_by(LANES) {
         let count = (ks.end - k0).min(LANES as u64) as usize;
-        if k0 > ks.start {
-            j += 1;
-            if j == spp {
-                (q, j) = (q + 1, 0);
-                at = next_pixel(q);
-            }
+        // Lanes past the last sample repeat it (a valid index) and are not written.
+        let last = k0 as u32 + count as u32 - 1;
+        let (q, j) = iota(k0 as u32).min(u32x16::splat(last)).div_rem(spp);
+        if last / spp >= pixels.q0 + LANES as u32 {
+            pixels = Pixels::sixteen(scene, tile, pass, k0 as u32 / spp);
         }
-        for k in 0..LANES {
-            // Each lane the next sample; lanes past the last sample repeat it (a
-            // valid index) and are not written.
-            if k > 0 && k < count {
-                j += 1;
-                if j == spp {
-                    (q, j) = (q + 1, 0);
-                    at = next_pixel(q);
-                }
-            }
-            lane.set(k, &at, j);
-        }
-        let js = u32x16::from(lane.j);
-        let sample = if dof == 1 { js } else { js.div_rem(dof).0 };
-        let (cx, cy, _) = cmj_keyed(sample, aa, lane.cmj.map(u32x16::from));
-        let (fx, fy) = (f32x16::from(lane.x) + cx, f32x16::from(lane.y) + cy);
+        let lane = pixels.lanes(q, j);
+        let sample = if dof == 1 { lane.j } else { lane.j.div_rem(dof).0 };
+        let (cx, cy, _) = cmj_keyed(sample, aa, lane.cmj);
+        let (fx, fy) = (lane.x + cx, lane.y + cy);
         let d = cam.pinhole_dirs(fx, fy, s.width, s.height);
         if cam.aperture > 0.0 {
             // One lens ray per AA sample: each pixel's Sobol points on lanes (what
             // `lens_sample` gives, bit for bit); several: each AA sample's CMJ pattern,
             // lane by lane. The disk mapping and the thin-lens rays on lanes.
             let (x, y) = if dof == 1 {
-                sobol_owen_lanes(u32x16::from(lane.index), u32x16::from(lane.lens_seed))
+                sobol_owen_lanes(lane.index, lane.lens_seed)
             } else {
-                let (aw, mut lens) = (words(sample), [[0.0; LANES]; 2]);
+                let (aw, jw, seed, mut lens) = (words(sample), words(lane.j), words(lane.lens_seed), [[0.0; LANES]; 2]);
                 for k in 0..LANES {
-                    let (pixel, jk) = (lane.pixel[k], lane.j[k]);
-                    (lens[0][k], lens[1][k]) = lens_sample(scene, pixel, aw[k], jk % dof, jk, lane.lens_seed[k]).into();
+                    (lens[0][k], lens[1][k]) =
+                        lens_sample(scene, lane.pixel[k], aw[k], jw[k] % dof, jw[k], seed[k]).into();
                 }
                 (f32x16::from(lens[0]), f32x16::from(lens[1]))
             };
-            push_lanes(scene, d, Some((x, y)), (lane.slot, lane.path, lane.index), w, count, rays);
+            push_lanes(scene, d, Some((x, y)), (lane.slot, lane.path, words(lane.index)), w, count, rays);
         } else {
-            push_lanes(scene, d, None, (lane.slot, lane.path, lane.index), w, count, rays);
+            push_lanes(scene, d, None, (lane.slot, lane.path, words(lane.index)), w, count, rays);
         }
     }
 }
 
-/// What a pixel's camera rays draw on: its place and its keys (see [`generate`]).
-#[derive(Clone, Copy)]
-struct Pixel {
-    /// Its index in the tile.
-    slot: u32,
-    x: u32,
-    y: u32,
-    /// Its index in the image.
-    pixel: u32,
-    /// Its AA samples' CMJ pattern.
-    cmj: CmjKey,
-    /// The key of its rays' paths.
-    path: u32,
-    /// The seed of its lens samples.
-    lens_seed: u32,
-    /// Its first index in the sequences of `path` and `lens_seed` (0 unless dithered).
-    first: u32,
+/// What 16 consecutive pixels' camera rays draw on: their places and their keys (see
+/// [`generate`]), a column each.
+struct Pixels {
+    /// The first one's place in [`block_slot`] order.
+    q0: u32,
+    /// Their indices in the tile.
+    slot: [u32; LANES],
+    x: [f32; LANES],
+    y: [f32; LANES],
+    /// Their indices in the image.
+    pixel: [u32; LANES],
+    /// Their AA samples' CMJ patterns, word by word.
+    cmj: [[u32; LANES]; 8],
+    /// The keys of their rays' paths.
+    path: [u32; LANES],
+    /// The seeds of their lens samples.
+    lens_seed: [u32; LANES],
+    /// Their first indices in the sequences of `path` and `lens_seed` (0 unless dithered).
+    first: [u32; LANES],
 }
 
 /// Pixel (`x`, `y`)'s path key, lens seed and first index in their sequences, for `n`
@@ -341,62 +322,60 @@ fn pixel_keys(s: &Settings, dithered: bool, x: u32, y: u32, n: u32) -> (u32, u32
     (hash(&[s.seed, owner, dim::PATH]), hash(&[s.seed, owner, dim::LENS]), first)
 }
 
-impl Pixel {
+impl Pixels {
     /// The `q0`-th to `q0 + 15`-th pixels of `tile` in [`block_slot`] order (past its
     /// last, the last again), their keys hashed on lanes: [`pixel_keys`]' and the CMJ
     /// pattern's of [`pixel_samples`], bit for bit.
-    fn sixteen(scene: &Scene, tile: &Tile, pass: UniformPass, q0: u32) -> [Pixel; LANES] {
+    fn sixteen(scene: &Scene, tile: &Tile, pass: UniformPass, q0: u32) -> Pixels {
         let (s, aa) = (&scene.settings, pass.samples);
         let (tw, last) = (tile.x1 - tile.x0, tile.pixels() as u32 - 1);
         let slot: [u32; LANES] = std::array::from_fn(|k| block_slot(tile, (q0 + k as u32).min(last)));
-        let slots = u32x16::from(slot);
-        let (row, col) = slots.div_rem(tw);
+        let (row, col) = u32x16::from(slot).div_rem(tw);
         let (x, y) = (col + u32x16::splat(tile.x0), row + u32x16::splat(tile.y0));
         let pixel = y * u32x16::splat(s.width) + x;
         let (owner, first) =
             if pass.dither { dither_lanes(s.seed, s.width, x, y, aa * s.dof_samples) } else { (pixel, u32x16::ZERO) };
         let seed = u32x16::splat(s.seed);
         let [path, lens_seed] = [dim::PATH, dim::LENS].map(|d| words(hash_lanes([seed, owner, u32x16::splat(d)])));
-        let cmj = CmjKey::sixteen(hash_lanes([seed, pixel, u32x16::splat(dim::PIXEL)]), aa);
-        let (x, y, pixel, first) = (words(x), words(y), words(pixel), words(first));
-        std::array::from_fn(|k| Pixel {
-            slot: slot[k],
-            x: x[k],
-            y: y[k],
-            pixel: pixel[k],
-            cmj: cmj[k],
-            path: path[k],
-            lens_seed: lens_seed[k],
-            first: first[k],
-        })
+        let keys = CmjKey::sixteen(hash_lanes([seed, pixel, u32x16::splat(dim::PIXEL)]), aa);
+        let [x, y] = [x, y].map(|v| words(v).map(|c| c as f32));
+        let cmj = std::array::from_fn(|w| std::array::from_fn(|k| keys[k].0[w]));
+        Pixels { q0, slot, x, y, pixel: words(pixel), cmj, path, lens_seed, first: words(first) }
+    }
+
+    /// Lane k: sample `j[k]` of pixel `q[k]` (each one of these 16).
+    #[inline(always)]
+    fn lanes(&self, q: u32x16, j: u32x16) -> Lanes {
+        // Consecutive samples: a pixel's `spp` lanes side by side, which `LaneIds` loads
+        // as a few values and a shuffle.
+        let ids = LaneIds::new(&words(q - u32x16::splat(self.q0)));
+        let index = j + ids.gather_words(&self.first);
+        Lanes {
+            slot: words(ids.gather_words(&self.slot)),
+            x: ids.gather(&self.x),
+            y: ids.gather(&self.y),
+            pixel: words(ids.gather_words(&self.pixel)),
+            cmj: self.cmj.each_ref().map(|c| ids.gather_words(c)),
+            path: words(ids.gather_words(&self.path)),
+            lens_seed: ids.gather_words(&self.lens_seed),
+            j,
+            index,
+        }
     }
 }
 
 /// 16 camera samples' pixels and sample indices, lane by lane.
-#[derive(Default)]
 struct Lanes {
     slot: [u32; LANES],
-    x: [f32; LANES],
-    y: [f32; LANES],
+    x: f32x16,
+    y: f32x16,
     pixel: [u32; LANES],
-    cmj: [[u32; LANES]; 8],
+    cmj: [u32x16; 8],
     path: [u32; LANES],
-    lens_seed: [u32; LANES],
-    j: [u32; LANES],
+    lens_seed: u32x16,
+    j: u32x16,
     /// Each lane's sample index in its path's sequences: `j` past its pixel's first.
-    index: [u32; LANES],
-}
-
-impl Lanes {
-    /// Lane `k`: sample `j` of pixel `p`.
-    #[inline(always)]
-    fn set(&mut self, k: usize, p: &Pixel, j: u32) {
-        (self.slot[k], self.x[k], self.y[k], self.pixel[k]) = (p.slot, p.x as f32, p.y as f32, p.pixel);
-        for w in 0..8 {
-            self.cmj[w][k] = p.cmj.0[w];
-        }
-        (self.path[k], self.lens_seed[k], self.j[k], self.index[k]) = (p.path, p.lens_seed, j, p.first + j);
-    }
+    index: u32x16,
 }
 
 /// Samples `js` of the `q`-th pixel of `tile` (see [`generate`]), a pixel with at least
