@@ -34,3 +34,26 @@ fn the_seed_changes_the_noise() {
     assert_eq!(small(3), small(3));
     assert_ne!(small(3), small(4));
 }
+
+/// Leaving the heat out changes no pixel and no counter, whole or cropped, with uniform
+/// and adaptive AA (whose shared corners' heat is split among pixels).
+#[test]
+fn leaving_the_heat_out_changes_nothing_else() {
+    let scene = |mode: &str| {
+        let sets = ["render.width=40", "render.height=30", &format!("render.aa.mode={mode}")];
+        load(&SceneSource::default_scene(), &sets.map(String::from)).expect("default scene loads")
+    };
+    for mode in ["uniform", "adaptive"] {
+        let scene = scene(mode);
+        for crop in [None, Some(wavetrace::film::Tile { x0: 5, y0: 3, x1: 29, y1: 21 })] {
+            let with = RenderOptions { threads: Some(2), crop, ..Default::default() };
+            let (a, b) = (render(&scene, &with), render(&scene, &RenderOptions { no_heat: true, ..with.clone() }));
+            let (a, b) = (a.expect("render"), b.expect("render"));
+            assert_eq!(a.image, b.image, "{mode} {crop:?}");
+            assert_eq!(a.stats.total_rays(), b.stats.total_rays(), "{mode} {crop:?}");
+            assert_eq!(a.heat.rays.len(), a.image.pixels.len(), "{mode} {crop:?}");
+            assert!(a.heat.rays.iter().all(|&r| r > 0.0), "{mode} {crop:?}: every pixel has rays");
+            assert!(b.heat.rays.is_empty() && b.heat.level.is_empty(), "{mode} {crop:?}: no heat");
+        }
+    }
+}

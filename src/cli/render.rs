@@ -393,6 +393,7 @@ fn render_scene(args: &RenderArgs, scene: &wavetrace::Scene, crop: Option<Tile>)
         progress: progress.clone(),
         no_counters: args.no_counters,
         trace: args.trace.is_some(),
+        no_heat: args.heatmaps.is_empty(),
         cancel: Some(cancel),
     };
     let out = render(scene, &opts);

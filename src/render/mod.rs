@@ -72,6 +72,9 @@ pub struct RenderOptions {
     pub no_counters: bool,
     /// Record one span per stage call per thread for a Chrome trace.
     pub trace: bool,
+    /// Leave out the per-pixel heat ([`RenderOutput::heat`] is then empty): for a render
+    /// that draws no heatmap, which need not fill 13 bytes a pixel it never reads.
+    pub no_heat: bool,
     /// Set from elsewhere (a Ctrl-C handler) to stop: tiles already finished are kept,
     /// the one in progress is dropped, and the output is marked partial.
     pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
@@ -263,7 +266,8 @@ fn pixel_pass(
 ) -> (PerThread, Vec<Vec3>, Heat, Vec<Tile>) {
     let s = &ctx.scene.settings;
     let n = (s.width * s.height) as usize;
-    let result = Mutex::new((vec![Vec3::ZERO; n], Heat::zeroed(n)));
+    let with_heat = !ctx.opts.no_heat;
+    let result = Mutex::new((vec![Vec3::ZERO; n], Heat::zeroed(if with_heat { n } else { 0 })));
     let finished = Mutex::new(Vec::new());
     let stats = for_tiles(
         ctx,
@@ -280,7 +284,9 @@ fn pixel_pass(
             let mut r = lock(&result);
             let (img, heat) = &mut *r;
             copy_tile(img, s.width, tile, &wk.tile.out);
-            heat.copy_tile(s.width, tile, &wk.tile.heat);
+            if with_heat {
+                heat.copy_tile(s.width, tile, &wk.tile.heat);
+            }
             lock(&finished).push(*tile);
         },
     );
@@ -406,7 +412,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let (main_stats, pixels, mut heat, finished) =
         pixel_pass(&ctx, &pixel_tiles, (shared_grid.then_some(&grid[..]), blur), plan.sampling);
     let seconds = start.elapsed().as_secs_f64();
-    if shared_grid {
+    if shared_grid && !opts.no_heat {
         share_corner_heat(&mut heat, &grid_heat, w, h);
     }
 
@@ -421,7 +427,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<RenderOutput> {
     let (image, heat) = if window.pixels() == image.pixels.len() {
         (image, heat)
     } else {
-        (image.crop(&window), heat.crop(w, &window))
+        let heat = if opts.no_heat { heat } else { heat.crop(w, &window) };
+        (image.crop(&window), heat)
     };
     let (auto, auto_shadows) = (plan.aa, plan.shadow);
     Ok(RenderOutput { image, heat, stats, per_thread, seconds, spans, partial, finished_pixels, auto, auto_shadows })
