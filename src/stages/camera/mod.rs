@@ -13,7 +13,7 @@ use wide::{f32x16, u32x16};
 use super::Tile;
 use crate::queue::{HalfBufferQueue, RayQueue};
 use crate::sampling::{
-    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, dither, dither_lanes, hash, hash_lanes, sobol_owen,
+    cmj, cmj_keyed, cmj_lanes, concentric_disk_lanes, dim, dither_lanes, hash, hash_lanes, sobol_owen,
     sobol_owen_lanes, CmjKey, CMJ_LANES_MAX,
 };
 use crate::scene::{Scene, Settings};
@@ -316,16 +316,22 @@ struct Pixels {
 }
 
 /// Pixel (`x`, `y`)'s path key, lens seed and first index in their sequences, for `n`
-/// samples: its own, or when `dithered` its 2×2 block's ([`dither`]).
-fn pixel_keys(s: &Settings, dithered: bool, x: u32, y: u32, n: u32) -> (u32, u32, u32) {
-    let (owner, first) = if dithered { dither(s.seed, s.width, x, y, n) } else { (y * s.width + x, 0) };
-    (hash(&[s.seed, owner, dim::PATH]), hash(&[s.seed, owner, dim::LENS]), first)
+/// samples: its own, or when `dithered` its 2×2 block's ([`dither_lanes`]). One pixel's
+/// (`u32`) or 16 pixels' on lanes.
+#[inline(always)]
+fn pixel_keys<W: Word>(s: &Settings, dithered: bool, x: W, y: W, n: u32) -> (W, W, W) {
+    let (owner, first) = match dithered {
+        true => dither_lanes(s.seed, s.width, x, y, n),
+        false => (y.wmul(W::splat(s.width)).wadd(x), W::splat(0)),
+    };
+    let key = |d: u32| hash_lanes([W::splat(s.seed), owner, W::splat(d)]);
+    (key(dim::PATH), key(dim::LENS), first)
 }
 
 impl Pixels {
     /// The `q0`-th to `q0 + 15`-th pixels of `tile` in [`block_slot`] order (past its
-    /// last, the last again), their keys hashed on lanes: [`pixel_keys`]' and the CMJ
-    /// pattern's of [`pixel_samples`], bit for bit.
+    /// last, the last again), their keys hashed on lanes ([`pixel_keys`], and the CMJ
+    /// pattern of [`pixel_samples`]).
     fn sixteen(scene: &Scene, tile: &Tile, pass: UniformPass, q0: u32) -> Pixels {
         let (s, aa) = (&scene.settings, pass.samples);
         let (tw, last) = (tile.x1 - tile.x0, tile.pixels() as u32 - 1);
@@ -333,14 +339,12 @@ impl Pixels {
         let (row, col) = u32x16::from(slot).div_rem(tw);
         let (x, y) = (col + u32x16::splat(tile.x0), row + u32x16::splat(tile.y0));
         let pixel = y * u32x16::splat(s.width) + x;
-        let (owner, first) =
-            if pass.dither { dither_lanes(s.seed, s.width, x, y, aa * s.dof_samples) } else { (pixel, u32x16::ZERO) };
-        let seed = u32x16::splat(s.seed);
-        let [path, lens_seed] = [dim::PATH, dim::LENS].map(|d| words(hash_lanes([seed, owner, u32x16::splat(d)])));
-        let keys = CmjKey::sixteen(hash_lanes([seed, pixel, u32x16::splat(dim::PIXEL)]), aa);
+        let (path, lens_seed, first) = pixel_keys(s, pass.dither, x, y, aa * s.dof_samples);
+        let keys = CmjKey::sixteen(hash_lanes([u32x16::splat(s.seed), pixel, u32x16::splat(dim::PIXEL)]), aa);
         let [x, y] = [x, y].map(|v| words(v).map(|c| c as f32));
         let cmj = std::array::from_fn(|w| std::array::from_fn(|k| keys[k].0[w]));
-        Pixels { q0, slot, x, y, pixel: words(pixel), cmj, path, lens_seed, first: words(first) }
+        let [path, lens_seed, first] = [path, lens_seed, first].map(words);
+        Pixels { q0, slot, x, y, pixel: words(pixel), cmj, path, lens_seed, first }
     }
 
     /// Lane k: sample `j[k]` of pixel `q[k]` (each one of these 16).
