@@ -457,12 +457,15 @@ pub struct PenumbraQueues {
     pub cells: Vec<Progressive>,
     /// Scratch for the progressive order's merge.
     pub merge: Vec<Progressive>,
+    /// Scratch: each point's number of rays as the lanes cast them.
+    pub counts: Vec<u32>,
 }
 
 impl PenumbraQueues {
     /// Bytes held by the buffers (capacity, not length).
     pub fn bytes(&self) -> usize {
-        let scratch = (self.cells.capacity() + self.merge.capacity()) * std::mem::size_of::<Progressive>();
+        let scratch = (self.cells.capacity() + self.merge.capacity()) * std::mem::size_of::<Progressive>()
+            + self.counts.capacity() * std::mem::size_of::<u32>();
         self.rays.bytes()
             + self.points.bytes()
             + self.per_ray.bytes()

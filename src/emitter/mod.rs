@@ -8,7 +8,7 @@
 //!   and `envmap`), a light at infinity under the path transport.
 //!
 //! How the stages sample the scene's lights (which light, how many samples, probes, the
-//! seeds that keep a pixel's samples stratified) is `light.rs`, which calls these.
+//! seeds that keep a pixel's samples stratified) is `light/`, which calls these.
 
 pub mod area;
 pub mod environment;

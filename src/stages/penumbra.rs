@@ -14,6 +14,7 @@
 //! traces through the shadow stage's kernel, the tracer.
 
 use crate::accel::tracer::Tracer;
+use crate::light::lanes::pair_shadow_lanes;
 use crate::light::{area_light_samples, sample_grid, SHADOW_TMAX_SCALE};
 use crate::queue::{sparse_opt, FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, ShadowPoints, SurfaceQueue};
 use crate::sampling::{dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
@@ -95,6 +96,17 @@ fn generate(
     q.points.clear();
     q.per_ray.clear();
     q.active.clear();
+    if !progressive {
+        // Every ray at once: the lanes cast them in the scalar loop's order and bits.
+        let pairs = penumbra.index.iter().map(|&k| (points.surface[k as usize], points.light[k as usize]));
+        pair_shadow_lanes(scene, surfaces, pairs, &mut q.rays, &mut q.counts);
+        let mut start = 0;
+        for &n in &q.counts {
+            q.points.push(start, start + n, 0, 0);
+            start += n;
+        }
+        return;
+    }
     let (cols, rows) = sample_grid(scene.settings.shadow_samples);
     let levels = morton_levels(cols, rows);
     for (i, &k) in penumbra.index.iter().enumerate() {
@@ -107,23 +119,19 @@ fn generate(
         q.cells.clear();
         let (shadow, cells) = (&mut q.rays, &mut q.cells);
         area_light_samples(scene, &surf, li, |cell, wi, dist, l| {
-            if progressive {
-                let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
-                cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
-            }
+            let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
+            cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
             shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l, time);
         });
         let end = q.rays.len() as u32;
         q.points.push(start, end, 0, 0);
-        if progressive {
-            let scramble = hash(&[surf.key, surf.sample, li as u32, dim::STOP_ORDER]);
-            progressive_order(&mut q.cells, levels, scramble, &mut q.merge);
-            for c in &q.cells {
-                q.per_ray.push(i as u32, false, c.item);
-            }
-            if !q.cells.is_empty() {
-                q.active.push(i as u32);
-            }
+        let scramble = hash(&[surf.key, surf.sample, li as u32, dim::STOP_ORDER]);
+        progressive_order(&mut q.cells, levels, scramble, &mut q.merge);
+        for c in &q.cells {
+            q.per_ray.push(i as u32, false, c.item);
+        }
+        if !q.cells.is_empty() {
+            q.active.push(i as u32);
         }
     }
 }

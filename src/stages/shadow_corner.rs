@@ -12,9 +12,10 @@ use glam::Vec3;
 
 use crate::accel::tracer::Tracer;
 use crate::light::{probe_count, probe_targets, SHADOW_TMAX_SCALE};
-use crate::queue::{sparse_opt, FilmQueue, IndexQueue, ShadowPoints, ShadowQueue};
+use crate::queue::{FilmQueue, IndexQueue, ShadowPoints, ShadowQueue};
 use crate::sampling::hash;
 use crate::scene::{Probe, Scene};
+use crate::simd::LANES;
 
 /// Tests every queued point (`points`, whose surfaces are in `surfaces`) against its
 /// light with the probe set `probe`: writes the probe rays to `probes`
@@ -32,20 +33,28 @@ pub fn shadow_corners(
     let ShadowPoints { surfaces, points } = shading;
     penumbra.clear();
     probes.clear();
+    // The probes go to the queue 16 at a time: a scalar push per ray cost as much as
+    // the rest of the stage's generation.
+    let mut lanes = ProbeLanes::default();
+    let motion = !surfaces.time.is_empty();
     for k in 0..points.len() {
         let s = points.surface[k] as usize;
         let o = surfaces.origin(s);
         // The point's probes carry its path's time.
-        let time = sparse_opt(&surfaces.time, s);
+        let time = if motion { surfaces.time[s] } else { 0.0 };
         let li = points.light[k] as usize;
         let targets = probe_targets(scene, probe, li, hash(&[surfaces.key[s], surfaces.sample[s]]));
         let n = probe_count(&scene.lights[li], probe) as usize;
         for target in &targets[..n] {
             let to = *target - o;
             let dist = to.length();
-            probes.push(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, Vec3::ZERO, time);
+            lanes.put(o, to / dist, dist * SHADOW_TMAX_SCALE, k as u32, time);
+            if lanes.count == LANES {
+                lanes.flush(probes, motion);
+            }
         }
     }
+    lanes.flush(probes, motion);
     let blocked = tracer.occluded(probes);
     // A point's probes are a run of equal slots: count the visible ones per run.
     let mut r = 0;
@@ -64,4 +73,36 @@ pub fn shadow_corners(
         }
     }
     probes.len()
+}
+
+/// Up to 16 probe rays on their way into the probe queue, by column.
+#[derive(Default)]
+struct ProbeLanes {
+    o: [[f32; LANES]; 3],
+    d: [[f32; LANES]; 3],
+    tmax: [f32; LANES],
+    slot: [u32; LANES],
+    time: [f32; LANES],
+    count: usize,
+}
+
+impl ProbeLanes {
+    /// Adds a ray (the caller flushes a full set).
+    #[inline(always)]
+    fn put(&mut self, o: Vec3, d: Vec3, tmax: f32, slot: u32, time: f32) {
+        let k = self.count;
+        for c in 0..3 {
+            (self.o[c][k], self.d[c][k]) = (o[c], d[c]);
+        }
+        (self.tmax[k], self.slot[k], self.time[k]) = (tmax, slot, time);
+        self.count += 1;
+    }
+
+    /// Appends the rays held to `probes` (with their times under motion blur), in order,
+    /// and empties the set.
+    fn flush(&mut self, probes: &mut ShadowQueue, motion: bool) {
+        let black = [[0.0; LANES]; 3];
+        probes.push_lanes(self.o, self.d, self.tmax, self.slot, black, motion.then_some(&self.time), self.count);
+        self.count = 0;
+    }
 }

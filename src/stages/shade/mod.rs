@@ -4,16 +4,16 @@
 //! light; per area light `shadows.samples` stratified rays in uniform mode, or one entry
 //! in the shadow-corner queue in adaptive mode when the light's probes cost at most 0.8
 //! of its samples, else the uniform rays). Uniform shadow rays are computed on 16 lanes
-//! at a time (`lanes.rs`) in the order and with the bits of the scalar loop, which
-//! serves scenes with a sphere light.
+//! at a time ([`crate::light::lanes`]) in the order and with the bits of the scalar loop,
+//! which serves scenes with a sphere light.
 
 use glam::Vec3;
 
-mod lanes;
 mod path;
 use path::path_lights;
 
 use crate::accel::NO_LIGHT;
+use crate::light::lanes;
 use crate::light::{emitted, hit_light_pdf, probes_light, uniform_shadow_rays, unoccluded};
 use crate::queue::{
     sparse_opt, FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS,

@@ -1,15 +1,18 @@
-//! Uniform shadow rays on lanes: 16 (point, light, sample) triples at a time, for scenes
-//! whose lights are parallelograms, triangles, points and directions (a sphere light
-//! keeps the scalar loop). Each lane computes its light's formula of
+//! Uniform shadow rays on lanes: 16 (point, light, sample) triples at a time, for
+//! parallelograms, triangles, points and directions (a sphere light keeps the scalar
+//! loop). Each lane computes its light's formula of
 //! [`uniform_shadow_rays`](crate::light::uniform_shadow_rays) with the same operations,
-//! so the queue keeps the scalar loop's order and bits.
+//! so the queue keeps the scalar loop's order and bits. The shade stage casts every
+//! point's rays this way ([`shadow_lanes`]), the penumbra stage its points' rays to their
+//! lights ([`pair_shadow_lanes`]).
 
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
+use super::{light_seed_lanes, SHADOW_TMAX_SCALE};
+use crate::accel::lanes_of;
 use crate::emitter::area::{quad_sample, QuadLanes, QuadSample};
-use crate::light::{light_seed_lanes, SHADOW_TMAX_SCALE};
 use crate::queue::{ShadowQueue, SurfaceQueue};
 use crate::scene::{Light, Scene};
 use crate::simd::{LaneIds, Word, LANES, V3};
@@ -48,7 +51,7 @@ impl Kind {
 }
 
 /// True when the lanes can cast uniform shadow rays to `light`.
-pub(super) fn on_lanes(light: &Light) -> bool {
+pub fn on_lanes(light: &Light) -> bool {
     Kind::of(light).is_some()
 }
 
@@ -56,15 +59,10 @@ pub(super) fn on_lanes(light: &Light) -> bool {
 /// [`on_lanes`]), 16 (point, light, sample) triples at a time, in the scalar loop's
 /// order (point, then light, then sample): the queue, and every sum taken over it later,
 /// keeps its bits.
-pub(super) fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
-    let n = scene.settings.shadow_samples;
+pub fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
     let lit = |li: usize| scene.lights[li].emission() != Vec3::ZERO;
     let next_lit = |from: usize| (from..scene.lights.len()).find(|&li| lit(li));
-    // Rays a point casts to light li: one to a point or a direction.
-    let count = |li: usize| match Kind::of(&scene.lights[li]) {
-        Some(Kind::Quad | Kind::Triangle) => n,
-        Some(Kind::Point | Kind::Directional) | None => 1,
-    };
+    let count = |li: usize| rays_to(scene, li);
     let Some(first) = next_lit(0) else { return };
     let table = light_table(scene);
     // The usual scene has one lit light: no search per point then.
@@ -113,6 +111,57 @@ pub(super) fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut 
         }
         lanes.count = filled;
         light_lanes(scene, &table, surfaces, &lanes, shadow);
+    }
+}
+
+/// The uniform shadow rays of each (point of `surfaces`, lit light, both [`on_lanes`])
+/// pair of `pairs`, pair by pair in the scalar loop's order, appended to `shadow`;
+/// `counts` (cleared first) gets each pair's number of rays (its samples that face the
+/// point and the light).
+pub fn pair_shadow_lanes(
+    scene: &Scene,
+    surfaces: &SurfaceQueue,
+    pairs: impl Iterator<Item = (u32, u32)>,
+    shadow: &mut ShadowQueue,
+    counts: &mut Vec<u32>,
+) {
+    counts.clear();
+    let table = light_table(scene);
+    let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
+    // Each lane's pair, to count its ray.
+    let mut owner = [0u32; LANES];
+    let mut flush = |lanes: &mut Triples, owner: &[u32; LANES], counts: &mut Vec<u32>| {
+        for k in lanes.count..LANES {
+            (lanes.point[k], lanes.light[k], lanes.sample[k]) = (lanes.point[0], lanes.light[0], lanes.sample[0]);
+        }
+        for k in lanes_of(light_lanes(scene, &table, surfaces, lanes, shadow)) {
+            counts[owner[k] as usize] += 1;
+        }
+        lanes.count = 0;
+    };
+    for (p, li) in pairs {
+        owner[lanes.count] = counts.len() as u32;
+        counts.push(0);
+        for j in 0..rays_to(scene, li as usize) {
+            let k = lanes.count;
+            (lanes.point[k], lanes.light[k], lanes.sample[k], owner[k]) = (p, li, j, counts.len() as u32 - 1);
+            lanes.count += 1;
+            if lanes.count == LANES {
+                flush(&mut lanes, &owner, counts);
+            }
+        }
+    }
+    if lanes.count > 0 {
+        flush(&mut lanes, &owner, counts);
+    }
+}
+
+/// The rays a point casts to light `li` in uniform mode: `shadows.samples` to an area
+/// light, one to a point or a direction.
+fn rays_to(scene: &Scene, li: usize) -> u32 {
+    match Kind::of(&scene.lights[li]) {
+        Some(Kind::Quad | Kind::Triangle) => scene.settings.shadow_samples,
+        Some(Kind::Point | Kind::Directional) | None => 1,
     }
 }
 
@@ -223,8 +272,9 @@ fn area_rays(s: QuadSample<f32x16>, scale: f32x16) -> Rays {
 
 /// The shadow rays of one lane group of `triples`: each lane its light's formula (the
 /// scalar ones of [`uniform_shadow_rays`](crate::light::uniform_shadow_rays)), Lambert
-/// on the lanes and a Phong point's BRDF by the scalar function.
-fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) {
+/// on the lanes and a Phong point's BRDF by the scalar function. Returns the lanes that
+/// cast a ray.
+fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) -> u32 {
     let n = scene.settings.shadow_samples;
     let si = triples.point;
     let lanes = LaneIds::new(&si);
@@ -266,7 +316,7 @@ fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Trip
         let cos = normal.dot(wi);
         add(Kind::Directional, Rays { wi, tmax: f32x16::splat(f32::MAX), factor: cos, dark: cos.simd_le(zero) });
     }
-    let Some(Rays { wi, tmax, factor, dark }) = rays else { return };
+    let Some(Rays { wi, tmax, factor, dark }) = rays else { return 0 };
     let w = lanes.gather3(&q.wr, &q.wg, &q.wb);
     let brdf = lanes.gather3(&q.cr, &q.cg, &q.cb).scale(f32x16::splat(FRAC_1_PI));
     let r = lights.radiance;
@@ -278,10 +328,11 @@ fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Trip
     let phong = !(spec.x.simd_eq(zero) & spec.y.simd_eq(zero) & spec.z.simd_eq(zero)).to_bitmask();
     let (factor, (rx, ry, rz)) = (factor.to_array(), (r.x.to_array(), r.y.to_array(), r.z.to_array()));
     // The lanes that cast a ray, then whole columns at once.
-    let (mut keep, mut m) = ([0usize; LANES], 0);
+    let (mut keep, mut m, mut cast) = ([0usize; LANES], 0, 0u32);
     for k in (0..triples.count).filter(|&k| dark & (1 << k) == 0) {
         keep[m] = k;
         m += 1;
+        cast |= 1 << k;
         let p = si[k] as usize;
         if phong & (1 << k) != 0 {
             let wi = Vec3::new(wx[k], wy[k], wz[k]);
@@ -299,4 +350,5 @@ fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Trip
     } else {
         shadow.push_picked(o, wi, tmax, slot, [lr, lg, lb], time.as_ref(), &keep[..m]);
     }
+    cast
 }

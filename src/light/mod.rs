@@ -4,7 +4,9 @@
 //! a ray that hits an emitter sees, and where shadow rays stop. Stages call these and
 //! never match on a light's shape themselves. The geometry of each shape (a sample,
 //! its density, the exact irradiance) is in the emitter module (`emitter/area.rs`,
-//! `emitter/sphere.rs`).
+//! `emitter/sphere.rs`). [`lanes`] casts uniform shadow rays 16 at a time.
+
+pub mod lanes;
 
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
