@@ -146,6 +146,12 @@ fn floor_irradiance(scene: &Scene, p: Vec3) -> f32 {
     polygon_irradiance(p, Vec3::Y, &[c, c + u, c + u + v, c + v], 1.0)
 }
 
+/// The box around every primitive of `scene`.
+fn scene_bounds(scene: &Scene) -> (Vec3, Vec3) {
+    let boxes = scene.accel.prims().map(|p| p.shape.bounds());
+    boxes.fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), (a, b)| (lo.min(a), hi.max(b)))
+}
+
 /// Relative difference per channel.
 fn rel(a: Vec3, b: Vec3) -> f32 {
     ((a - b).abs() / b.abs()).max_element()
@@ -188,6 +194,48 @@ fn dither_and_cmj_keys_on_lanes_are_the_scalar_ones() {
 // ---------------------------------------------------------------------------------------
 // Shade
 
+/// Units in the last place of `x` between `x` and `exact`.
+fn ulps(x: f32, exact: f64) -> f64 {
+    let x64 = x as f64;
+    let ulp = (f32::from_bits((x.abs()).to_bits() + 1) - x.abs()) as f64;
+    (x64 - exact).abs() / ulp
+}
+
+/// The irradiance's arctangent is within 3 ulp of f64's `atan2` over every octant and
+/// over angles from 1e-30 to π, and gives the same bits on lanes as in scalar code.
+#[test]
+fn edge_angle_is_within_three_ulp_and_the_same_on_lanes() {
+    use wavetrace::emitter::area::edge_angle;
+    use wide::f32x16;
+    let mut next = 0x2545_f491u32;
+    let mut unit = || {
+        next = next.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (next >> 8) as f32 / (1u32 << 24) as f32
+    };
+    for round in 0..20_000 {
+        // Half the pairs on the unit circle, half at random scales and tiny angles.
+        let sin: [f32; 16] = std::array::from_fn(|_| {
+            let s = unit();
+            if round % 2 == 0 {
+                s.max(1e-7)
+            } else {
+                s * 10f32.powi(-(unit() * 30.0) as i32) + f32::MIN_POSITIVE
+            }
+        });
+        let cos: [f32; 16] = std::array::from_fn(|_| (unit() - 0.5) * 10f32.powi((unit() * 6.0) as i32 - 3));
+        let lanes = edge_angle(f32x16::from(sin), f32x16::from(cos)).to_array();
+        for k in 0..16 {
+            let a = edge_angle(sin[k], cos[k]);
+            assert_eq!(a.to_bits(), lanes[k].to_bits(), "lane {k}: {} {}", sin[k], cos[k]);
+            let u = ulps(a, (sin[k] as f64).atan2(cos[k] as f64));
+            assert!(u <= 3.0, "atan2({}, {}) = {a}: {u} ulp", sin[k], cos[k]);
+        }
+    }
+    // Exact quadrant values.
+    assert_eq!(edge_angle(1.0f32, 0.0), std::f32::consts::FRAC_PI_2);
+    assert_eq!(edge_angle(1.0f32, 1.0), std::f32::consts::FRAC_PI_4);
+}
+
 #[test]
 fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
     // Spheres, parallelograms and meshes, hit by camera rays and by rays from inside
@@ -205,13 +253,7 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
         let tile = wavetrace::film::Tile { x0: 0, y0: 0, x1: 16, y1: 12 };
         let small = support::scene_in(dir, &text, &["render.width=16", "render.height=12", "render.aa.samples=4"]);
         wavetrace::stages::camera::generate(&small, &tile, UniformPass::of(&small.settings), 0..16 * 12 * 4, &mut rays);
-        let (lo, hi) = scene
-            .accel
-            .prims()
-            .map(|p| p.shape.bounds())
-            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), (a, b)| {
-                (lo.min(a), hi.max(b))
-            });
+        let (lo, hi) = scene_bounds(&scene);
         for k in 0..3000 {
             let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
             rays.push(o, rng.unit(), k, Vec3::new(0.5, 1.0, 0.25), 0, k, k, 0.0, None);
@@ -256,6 +298,73 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
         }
     }
     assert!(shapes.iter().all(|&n| n > 500), "too few hits of some shape: {shapes:?}");
+}
+
+/// The adaptive shadow test's unoccluded light on lanes is the scalar function's, bit for
+/// bit, for points on lanes (Lambertian, in front, the light above the horizon) and for
+/// the others (Phong, behind the light, the light partly below the horizon), under
+/// parallelogram and triangle lights, in groups of 1 to 16.
+#[test]
+fn unoccluded_light_on_lanes_is_the_scalar_functions() {
+    use wavetrace::light::{unoccluded, unoccluded_lanes};
+    use wavetrace::simd::LANES;
+    let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
+    let mut rng = support::Lcg(11);
+    // On lanes, Phong, behind, partly below the horizon.
+    let mut kinds = [0usize; 4];
+    for name in ["penumbra", "import/penumbra-triangle", "cornell", "bunny"] {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+        let scene = support::scene_in(dir.join(name).parent().unwrap(), &text, &[]);
+        let (lo, hi) = scene_bounds(&scene);
+        let mut rays = RayQueue::default();
+        for k in 0..10_000 {
+            let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
+            rays.push(o, rng.unit(), k, Vec3::new(0.5, 1.0, 0.25), 0, k, k, 0.0, None);
+        }
+        let hits = trace(&scene, &rays);
+        let ids: Vec<u32> = (0..rays.len() as u32)
+            .filter(|&i| wavetrace::surface::diffuse_material(&scene, hits.prim[i as usize]).is_some())
+            .collect();
+        let mut surfaces = SurfaceQueue::default();
+        for group in ids.chunks(LANES) {
+            wavetrace::surface::diffuse_surfaces(&scene, &rays, &hits, group, &mut surfaces);
+        }
+        let area: Vec<usize> = (0..scene.lights.len()).filter(|&li| scene.lights[li].planar().is_some()).collect();
+        assert!(!area.is_empty(), "{name}");
+        let mut first = 0;
+        while first < surfaces.len() {
+            let count = (1 + first % 16).min(surfaces.len() - first);
+            let ids: [u32; LANES] = std::array::from_fn(|k| (first + k.min(count - 1)) as u32);
+            for &li in &area {
+                let mut got = [Some((Vec3::NAN, 7)); LANES];
+                unoccluded_lanes(&scene, &surfaces, (&ids, count), li, &mut got);
+                for (k, &got) in got[..count].iter().enumerate() {
+                    let surf = wavetrace::surface::queued_surface(&surfaces, first + k);
+                    let want = unoccluded(&scene, &surf, li);
+                    let bits = |v: Option<(Vec3, u64)>| v.map(|(l, n)| (l.to_array().map(f32::to_bits), n));
+                    assert_eq!(bits(got), bits(want), "{name}: point {} light {li}", first + k);
+                    let (corner, u, v, normal, ..) = scene.lights[li].planar().unwrap();
+                    let above =
+                        [corner, corner + u, corner + v, corner + u + v].iter().all(|&p| surf.n.dot(p - surf.o) > 0.0);
+                    kinds[if normal.dot(surf.o - corner) <= 0.0 {
+                        2
+                    } else if surf.specular != Vec3::ZERO {
+                        1
+                    } else if above {
+                        0
+                    } else {
+                        3
+                    }] += 1;
+                }
+                assert!(
+                    got[count..].iter().all(|g| g.is_some_and(|(l, n)| l.is_nan() && n == 7)),
+                    "lanes past count written"
+                );
+            }
+            first += count;
+        }
+    }
+    assert!(kinds.iter().all(|&n| n > 100), "too few points of some kind: {kinds:?}");
 }
 
 /// The scatter stage's rays, as the scalar functions give them: the reference the

@@ -11,12 +11,15 @@ pub mod lanes;
 use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 
-use crate::emitter::area::{polygon_irradiance, quad_irradiance, quad_sample, QuadLanes, QuadSample};
+use crate::emitter::area::{
+    polygon_irradiance, quad_irradiance, quad_sample, unclipped_irradiance, QuadLanes, QuadSample,
+};
 use crate::emitter::sphere::{sphere_pdf, sphere_sample};
+use crate::queue::SurfaceQueue;
 use crate::sampling::{cmj_grid, dim, hash, hash_lanes, sobol_owen, to_unit};
 use crate::scene::{AreaLights, Light, Probe, Scene};
 use crate::simd::{LaneIds, Real, Word, LANES, V3};
-use crate::surface::{diffuse_brdf, Surface};
+use crate::surface::{diffuse_brdf, queued_surface, Surface};
 use wide::{f32x16, u32x16};
 
 /// Shadow rays stop this fraction short of the light, so a surface the light lies on
@@ -256,6 +259,57 @@ pub fn unoccluded(scene: &Scene, surf: &Surface, li: usize) -> Option<(Vec3, u64
         sum = surf.w * surf.color * FRAC_1_PI * radiance * e;
     }
     Some((sum, n))
+}
+
+/// [`unoccluded`] for 16 points of `surfaces` (`ids`; lanes from `count` on are not
+/// written) and area light `li`, into `out`: on lanes where a point is Lambertian, in
+/// front of the light and has all its corners above its horizon (the irradiance's
+/// polygon unclipped), by the scalar function elsewhere. The same values, bit for bit.
+pub fn unoccluded_lanes(
+    scene: &Scene,
+    surfaces: &SurfaceQueue,
+    (ids, count): (&[u32; LANES], usize),
+    li: usize,
+    out: &mut [Option<(Vec3, u64)>; LANES],
+) {
+    let scalar = |k: usize| unoccluded(scene, &queued_surface(surfaces, ids[k] as usize), li);
+    let Some((corner, u, v, normal, _, radiance, triangle)) = scene.lights[li].planar() else {
+        out[..count].fill(None);
+        return;
+    };
+    let lanes = LaneIds::new(ids);
+    let o = lanes.gather3(&surfaces.ox, &surfaces.oy, &surfaces.oz);
+    let n = lanes.gather3(&surfaces.nx, &surfaces.ny, &surfaces.nz);
+    let spec = lanes.gather3(&surfaces.sr, &surfaces.sg, &surfaces.sb);
+    let zero = f32x16::ZERO;
+    // As `quad_irradiance` and `polygon_irradiance` order the corners.
+    let corners = [corner, corner + u, corner + u + v, corner + v];
+    let verts: &[Vec3] = if triangle { &[corner, corner + u, corner + v] } else { &corners };
+    let rel: [V3<f32x16>; 4] = std::array::from_fn(|k| V3::splat(verts[k.min(verts.len() - 1)]) - o);
+    let rel = &rel[..verts.len()];
+    let mut simple = V3::splat(normal).dot(o - V3::splat(corner)).simd_gt(zero)
+        & spec.x.simd_eq(zero)
+        & spec.y.simd_eq(zero)
+        & spec.z.simd_eq(zero);
+    for r in rel {
+        simple &= n.dot(*r).simd_gt(zero);
+    }
+    let simple = simple.to_bitmask();
+    if radiance == Vec3::ZERO || simple == 0 {
+        for (k, o) in out.iter_mut().enumerate().take(count) {
+            *o = scalar(k);
+        }
+        return;
+    }
+    let e = unclipped_irradiance(n, rel);
+    let w = lanes.gather3(&surfaces.wr, &surfaces.wg, &surfaces.wb);
+    let c = lanes.gather3(&surfaces.cr, &surfaces.cg, &surfaces.cb);
+    let f = |w: f32x16, c: f32x16, r: f32| (w * c * f32x16::splat(FRAC_1_PI) * f32x16::splat(r) * e).to_array();
+    let (r, g, b) = (f(w.x, c.x, radiance.x), f(w.y, c.y, radiance.y), f(w.z, c.z, radiance.z));
+    let samples = scene.settings.shadow_samples as u64;
+    for (k, o) in out.iter_mut().enumerate().take(count) {
+        *o = if simple & (1 << k) != 0 { Some((Vec3::new(r[k], g[k], b[k]), samples)) } else { scalar(k) };
+    }
 }
 
 /// The radiance a ray from `origin` with direction `d` sees on emitter `light`:

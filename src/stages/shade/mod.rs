@@ -14,7 +14,7 @@ use path::path_lights;
 
 use crate::accel::NO_LIGHT;
 use crate::light::lanes;
-use crate::light::{emitted, hit_light_pdf, probes_light, uniform_shadow_rays, unoccluded};
+use crate::light::{emitted, hit_light_pdf, probes_light, uniform_shadow_rays, unoccluded_lanes};
 use crate::queue::{
     sparse_opt, FilmQueue, HitQueue, IndexQueue, RayQueue, ShadowPointQueue, ShadowQueue, SurfaceQueue, MISS,
 };
@@ -189,22 +189,33 @@ fn light_points(
         lanes::shadow_lanes(scene, surfaces, shadow);
         return counts;
     }
-    for p in 0..surfaces.len() {
-        let surf = queued_surface(surfaces, p);
-        // The point's rays carry its path's time.
-        let time = sparse_opt(&surfaces.time, p);
-        for li in 0..scene.lights.len() {
-            // Count the rays uniform mode would have cast for a probed light, for the stats.
-            match probed(li).then(|| unoccluded(scene, &surf, li)).flatten() {
-                Some((_, 0)) => {}
-                Some((sum, n)) => {
-                    points.push(p as u32, li as u32, surf.slot, sum);
-                    counts.uniform_equivalent += n;
-                }
-                None => {
-                    uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| {
-                        shadow.push(surf.o, wi, tmax, surf.slot, l, time);
-                    });
+    // The probed lights' unoccluded light, 16 points at a time on lanes, then each
+    // point's lights in the scalar loop's order.
+    let probed_lights: Vec<usize> = (0..scene.lights.len()).filter(|&li| probed(li)).collect();
+    let mut lit = vec![[None; LANES]; scene.lights.len()];
+    for first in (0..surfaces.len()).step_by(LANES) {
+        let count = (surfaces.len() - first).min(LANES);
+        let ids: [u32; LANES] = std::array::from_fn(|k| (first + k.min(count - 1)) as u32);
+        for &li in &probed_lights {
+            unoccluded_lanes(scene, surfaces, (&ids, count), li, &mut lit[li]);
+        }
+        for (k, p) in (first..first + count).enumerate() {
+            let surf = queued_surface(surfaces, p);
+            // The point's rays carry its path's time.
+            let time = sparse_opt(&surfaces.time, p);
+            for (li, lit) in lit.iter_mut().enumerate() {
+                // Count the rays uniform mode would have cast for a probed light, for the stats.
+                match lit[k].take() {
+                    Some((_, 0)) => {}
+                    Some((sum, n)) => {
+                        points.push(p as u32, li as u32, surf.slot, sum);
+                        counts.uniform_equivalent += n;
+                    }
+                    None => {
+                        uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| {
+                            shadow.push(surf.o, wi, tmax, surf.slot, l, time);
+                        });
+                    }
                 }
             }
         }
