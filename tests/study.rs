@@ -121,7 +121,7 @@ fn flat_scene_cheapest_settings_are_known() {
 #[test]
 fn quick_study_of_a_small_scene_writes_everything_and_reuses_its_reference() {
     let manifest =
-        "[study]\nmethods = [\"uniform\", \"adaptive-aa\", \"dof-aware\", \"adaptive-shadows\", \"variance\"]\n\
+        "[study]\nmethods = [\"uniform\", \"adaptive-aa\", \"dof-aware\", \"adaptive-shadows\", \"variance\", \"auto\"]\n\
                     [[scene]]\nfile = \"tiny.toml\"\nheld_out = true\n\
                     [[scene]]\nfile = \"tiny.toml\"\nname = \"tiny-b\"\nsets = [\"render.seed=7\"]\n";
     let dir = folder(&[("tiny.toml", &tiny()), ("study.toml", manifest)]);
@@ -146,6 +146,21 @@ fn quick_study_of_a_small_scene_writes_everything_and_reuses_its_reference() {
         for t in &s.targets {
             // Targets come from uniform's own renders, so uniform always reaches them.
             assert!(t.choices[0].by_seconds.is_some() && t.winner_seconds.is_some(), "{t:?}");
+            // The map's winners leave auto, which picks among the others, out: the same
+            // winner unless auto won, else the fastest of the rest.
+            assert!(t.fixed_seconds.is_some() && t.fixed_seconds != Some("auto") && t.fixed_rays != Some("auto"));
+            if t.winner_seconds != Some("auto") {
+                assert_eq!(t.fixed_seconds, t.winner_seconds);
+            }
+            let rest = t
+                .choices
+                .iter()
+                .filter(|c| c.method != "auto")
+                .filter_map(|c| Some((c.method, c.by_seconds.as_ref()?)));
+            let fastest = rest.min_by(|a, b| a.1.seconds.total_cmp(&b.1.seconds)).map(|c| c.1.seconds);
+            let fixed =
+                t.choices.iter().find(|c| Some(c.method) == t.fixed_seconds).and_then(|c| c.by_seconds.as_ref());
+            assert_eq!(fixed.map(|p| p.seconds), fastest, "{t:?}");
             // Every method's pick within 1.5× of the fastest has five runs, and its
             // seconds are their median.
             let picks: Vec<_> = t.choices.iter().filter_map(|c| c.by_seconds.as_ref()).collect();
@@ -167,6 +182,10 @@ fn quick_study_of_a_small_scene_writes_everything_and_reuses_its_reference() {
         }
     }
     assert_eq!(r.map.rows.len(), 2);
+    for (row, scene) in r.map.rows.iter().zip(&r.scenes) {
+        let fixed: Vec<_> = scene.targets.iter().map(|t| (t.fixed_seconds, t.fixed_rays)).collect();
+        assert_eq!(row.winners.iter().map(|w| (w.1, w.2)).collect::<Vec<_>>(), fixed);
+    }
     assert_eq!(r.map.predictions.len(), 1, "one held-out scene");
     assert_eq!(r.map.predictions[0].nearest.as_deref(), Some("tiny-b"));
     let json: serde_json::Value =

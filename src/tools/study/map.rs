@@ -1,4 +1,5 @@
-//! The map across scenes: which method wins which target, set against the scene features,
+//! The map across scenes: which method wins which target, set against the scene features
+//! (among the methods that do not pick: auto, which applies the map, is left out),
 //! and a check of how well the features predict it. The fitted scenes are those not
 //! `held_out`; each held-out scene's winners are predicted from its nearest fitted scene
 //! in feature space (features scaled to [0, 1] over the fitted scenes), target by target
@@ -30,7 +31,8 @@ pub struct MapRow {
     pub held_out: bool,
     /// The feature values, in [`FEATURES`] order.
     pub features: Vec<f64>,
-    /// Per target: its label and the winner in seconds and in rays.
+    /// Per target: its label and the winner in seconds and in rays among the methods
+    /// that do not pick (auto, which applies the map, is left out of it).
     pub winners: Vec<(String, Option<&'static str>, Option<&'static str>)>,
     /// Per target: each method's seconds to it (its cheapest setting that reaches it).
     pub seconds: Vec<Vec<(&'static str, f64)>>,
@@ -94,7 +96,7 @@ impl Map {
                 scene: s.name.clone(),
                 held_out: s.held_out,
                 features: FEATURES.iter().map(|(_, f)| f(&s.features)).collect(),
-                winners: s.targets.iter().map(|t| (t.label.clone(), t.winner_seconds, t.winner_rays)).collect(),
+                winners: s.targets.iter().map(|t| (t.label.clone(), t.fixed_seconds, t.fixed_rays)).collect(),
                 seconds: s
                     .targets
                     .iter()

@@ -310,10 +310,12 @@ fn answer(label: &str, flip: f64, plan: &ScenePlan, rows: &[Row]) -> TargetResul
             Choice { method: name, by_seconds: pick(name, Cost::Seconds), by_rays: pick(name, Cost::Rays) }
         })
         .collect();
-    let win = |cost: Cost| {
+    // The winner under `cost` among every method, or among those that do not pick.
+    let win = |cost: Cost, fixed: bool| {
         let entries: Vec<Entry> = choices
             .iter()
             .enumerate()
+            .filter(|(i, _)| !(fixed && plan.methods[*i].method.picks))
             .filter_map(|(i, c)| {
                 let p = if cost == Cost::Seconds { c.by_seconds.as_ref() } else { c.by_rays.as_ref() }?;
                 Some(Entry { method: i, measure: rows[p.row].measure() })
@@ -324,8 +326,10 @@ fn answer(label: &str, flip: f64, plan: &ScenePlan, rows: &[Row]) -> TargetResul
     TargetResult {
         label: label.to_string(),
         flip,
-        winner_seconds: win(Cost::Seconds),
-        winner_rays: win(Cost::Rays),
+        winner_seconds: win(Cost::Seconds, false),
+        winner_rays: win(Cost::Rays, false),
+        fixed_seconds: win(Cost::Seconds, true),
+        fixed_rays: win(Cost::Rays, true),
         choices,
     }
 }

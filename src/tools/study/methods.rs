@@ -52,6 +52,9 @@ pub struct Method {
     pub quick: Grid,
     /// What a scene needs for the method to run.
     pub needs: Needs,
+    /// The method picks one of the others per render (auto): the map, which says
+    /// which of them wins where, leaves it out; its own standing is the ratios table's.
+    pub picks: bool,
 }
 
 /// Camera samples per pixel of the uniform grid, and the default target counts.
@@ -81,6 +84,7 @@ pub const METHODS: &[Method] = &[
         grid: &[("render.aa.samples", SPP), ("render.shadows.samples", SHADOW)],
         quick: &[("render.aa.samples", QUICK_SPP), ("render.shadows.samples", QUICK_SHADOW)],
         needs: Needs::Nothing,
+        picks: false,
     },
     Method {
         name: "blue-noise",
@@ -92,6 +96,7 @@ pub const METHODS: &[Method] = &[
         grid: &[("render.aa.samples", BLUE_SPP), ("render.shadows.samples", SHADOW)],
         quick: &[("render.aa.samples", &["1", "3", "4", "16"]), ("render.shadows.samples", QUICK_SHADOW)],
         needs: Needs::Nothing,
+        picks: false,
     },
     Method {
         name: "adaptive-aa",
@@ -100,6 +105,7 @@ pub const METHODS: &[Method] = &[
         grid: &[("render.aa.eps", EPS), ("render.aa.max_level", LEVEL), ("render.shadows.samples", &["4", "16"])],
         quick: &[("render.aa.eps", &["0.1", "0.01"]), ("render.aa.max_level", &["2", "4"]), ("render.shadows.samples", QUICK_SHADOW)],
         needs: Needs::Nothing,
+        picks: false,
     },
     Method {
         name: "dof-aware",
@@ -108,6 +114,7 @@ pub const METHODS: &[Method] = &[
         grid: &[("render.aa.eps", EPS), ("render.aa.max_level", LEVEL), ("render.shadows.samples", &["4", "16"])],
         quick: &[("render.aa.eps", &["0.1", "0.01"]), ("render.aa.max_level", &["2", "4"])],
         needs: Needs::Aperture,
+        picks: false,
     },
     Method {
         name: "adaptive-shadows",
@@ -116,6 +123,7 @@ pub const METHODS: &[Method] = &[
         grid: &[("render.aa.samples", SPP), ("render.shadows.samples", &["4", "16", "64"])],
         quick: &[("render.aa.samples", QUICK_SPP), ("render.shadows.samples", &["4", "16"])],
         needs: Needs::AreaLight,
+        picks: false,
     },
     Method {
         name: "early-stop",
@@ -126,6 +134,7 @@ pub const METHODS: &[Method] = &[
         grid: &[("render.aa.samples", SPP), ("render.shadows.samples", &["64"]), ("render.shadows.tolerance", &["0.1", "0.05"])],
         quick: &[("render.aa.samples", QUICK_SPP), ("render.shadows.samples", &["16"]), ("render.shadows.tolerance", &["0.1"])],
         needs: Needs::AreaLight,
+        picks: false,
     },
     Method {
         name: "variance",
@@ -135,6 +144,7 @@ pub const METHODS: &[Method] = &[
         grid: &[("render.aa.threshold", THRESHOLD), ("render.aa.samples", &["32", "128"]), ("render.shadows.samples", SHADOW)],
         quick: &[("render.aa.threshold", &["0.1", "0.01"]), ("render.aa.samples", &["16"]), ("render.shadows.samples", QUICK_SHADOW)],
         needs: Needs::Nothing,
+        picks: false,
     },
     Method {
         name: "auto",
@@ -159,6 +169,7 @@ pub const METHODS: &[Method] = &[
         ],
         quick: &[("render.aa.samples", &["4", "16"]), ("render.shadows.samples", &["1", "16"])],
         needs: Needs::Nothing,
+        picks: true,
     },
 ];
 

@@ -45,7 +45,7 @@ pub use features::Features;
 pub use search::{cheapest, Cost, Measure};
 
 /// Schema version of `study.json`.
-pub const JSON_VERSION: u32 = 1;
+pub const JSON_VERSION: u32 = 2;
 /// Every render's row.
 pub const CSV_FILE: &str = "study.csv";
 /// Everything.
@@ -213,6 +213,11 @@ pub struct TargetResult {
     pub winner_seconds: Option<&'static str>,
     /// The method whose cheapest setting traces the fewest rays.
     pub winner_rays: Option<&'static str>,
+    /// The winner in seconds among the methods that do not pick ([`Method::picks`]):
+    /// the map's.
+    pub fixed_seconds: Option<&'static str>,
+    /// The winner in rays among them.
+    pub fixed_rays: Option<&'static str>,
 }
 
 /// Everything about one scene.

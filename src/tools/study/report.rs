@@ -154,7 +154,11 @@ fn ratio_table(scenes: &[SceneResult]) -> String {
 /// The map: per scene, its features and winners; per method, where it wins; held-out
 /// predictions.
 fn map_tables(map: &Map) -> String {
-    let mut out = String::from("## Map: the winner per target against the features\n\n");
+    let mut out = String::from(
+        "## Map: the winner per target against the features\n\nThe winning method among those that do not pick \
+         (auto, which picks among them from its pilot, is left out: its standing is the ratios table's), in seconds \
+         († in rays where another).\n\n",
+    );
     let targets = map.rows.iter().map(|r| r.winners.len()).max().unwrap_or(0);
     out += &format!(
         "| scene | {} | {} |\n",
