@@ -60,22 +60,19 @@ pub fn on_lanes(light: &Light) -> bool {
 /// order (point, then light, then sample): the queue, and every sum taken over it later,
 /// keeps its bits.
 pub fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQueue) {
-    let lit = |li: usize| scene.lights[li].emission() != Vec3::ZERO;
-    let next_lit = |from: usize| (from..scene.lights.len()).find(|&li| lit(li));
-    let count = |li: usize| rays_to(scene, li);
-    let Some(first) = next_lit(0) else { return };
-    let table = light_table(scene);
-    // The usual scene has one lit light: no search per point then.
-    let single = next_lit(first + 1).is_none();
-    let (mut s, mut li, mut j) = (0, first, 0);
-    let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
-    // One light and its count dividing 16 (the usual case): whole groups of 16 / count
+    let lit: Vec<u32> =
+        (0..scene.lights.len() as u32).filter(|&li| scene.lights[li as usize].emission() != Vec3::ZERO).collect();
+    let Some(&first) = lit.first() else { return };
+    let mut s = 0;
+    // One lit light whose count divides 16 (the usual case): whole groups of 16 / count
     // points, the same triples without the lane-by-lane walk.
-    let c = count(first);
-    if single && c.is_power_of_two() && c as usize <= LANES {
+    let c = rays_to(scene, first as usize);
+    if lit.len() == 1 && c.is_power_of_two() && c as usize <= LANES {
+        let table = light_table(scene);
+        let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
         let per = LANES / c as usize;
         let shift = c.trailing_zeros();
-        lanes.light = [first as u32; LANES];
+        lanes.light = [first; LANES];
         lanes.sample = std::array::from_fn(|k| k as u32 & (c - 1));
         lanes.count = LANES;
         while s + per <= surfaces.len() {
@@ -84,34 +81,9 @@ pub fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQ
             s += per;
         }
     }
-    let mut c = count(li);
-    while s < surfaces.len() {
-        let mut filled = 0;
-        while filled < LANES && s < surfaces.len() {
-            (lanes.point[filled], lanes.light[filled], lanes.sample[filled]) = (s as u32, li as u32, j);
-            filled += 1;
-            j += 1;
-            if j == c {
-                j = 0;
-                if single {
-                    s += 1;
-                } else {
-                    li = next_lit(li + 1).unwrap_or_else(|| {
-                        s += 1;
-                        first
-                    });
-                    c = count(li);
-                }
-            }
-        }
-        // Lanes past the last triple repeat it and are not written.
-        for k in filled..LANES {
-            (lanes.point[k], lanes.light[k], lanes.sample[k]) =
-                (lanes.point[k - 1], lanes.light[k - 1], lanes.sample[k - 1]);
-        }
-        lanes.count = filled;
-        light_lanes(scene, &table, surfaces, &lanes, shadow);
-    }
+    // The rest, and every point of any other scene: pair by pair.
+    let pairs = (s as u32..surfaces.len() as u32).flat_map(|p| lit.iter().map(move |&li| (p, li)));
+    pair_shadow_lanes(scene, surfaces, pairs, shadow, &mut Vec::new());
 }
 
 /// The uniform shadow rays of each (point of `surfaces`, lit light, both [`on_lanes`])

@@ -200,19 +200,21 @@ fn light_points(
             unoccluded_lanes(scene, surfaces, (&ids, count), li, &mut lit[li]);
         }
         for (k, p) in (first..first + count).enumerate() {
-            let surf = queued_surface(surfaces, p);
-            // The point's rays carry its path's time.
-            let time = sparse_opt(&surfaces.time, p);
+            // The whole surface only for a light sampled uniformly.
+            let mut surf = None;
             for (li, lit) in lit.iter_mut().enumerate() {
                 // Count the rays uniform mode would have cast for a probed light, for the stats.
                 match lit[k].take() {
                     Some((_, 0)) => {}
                     Some((sum, n)) => {
-                        points.push(p as u32, li as u32, surf.slot, sum);
+                        points.push(p as u32, li as u32, surfaces.slot[p], sum);
                         counts.uniform_equivalent += n;
                     }
                     None => {
-                        uniform_shadow_rays(scene, &surf, li, |wi, tmax, l| {
+                        let surf = surf.get_or_insert_with(|| queued_surface(surfaces, p));
+                        // The point's rays carry its path's time.
+                        let time = sparse_opt(&surfaces.time, p);
+                        uniform_shadow_rays(scene, surf, li, |wi, tmax, l| {
                             shadow.push(surf.o, wi, tmax, surf.slot, l, time);
                         });
                     }
