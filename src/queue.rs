@@ -459,13 +459,15 @@ pub struct PenumbraQueues {
     pub merge: Vec<Progressive>,
     /// Scratch: each point's number of rays as the lanes cast them.
     pub counts: Vec<u32>,
+    /// Scratch with early stopping: each ray's light cell, as the lanes cast them.
+    pub ray_cells: Vec<u32>,
 }
 
 impl PenumbraQueues {
     /// Bytes held by the buffers (capacity, not length).
     pub fn bytes(&self) -> usize {
         let scratch = (self.cells.capacity() + self.merge.capacity()) * std::mem::size_of::<Progressive>()
-            + self.counts.capacity() * std::mem::size_of::<u32>();
+            + (self.counts.capacity() + self.ray_cells.capacity()) * std::mem::size_of::<u32>();
         self.rays.bytes()
             + self.points.bytes()
             + self.per_ray.bytes()

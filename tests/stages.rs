@@ -300,6 +300,37 @@ fn diffuse_surfaces_on_lanes_are_diffuse_surface_bit_for_bit() {
     assert!(shapes.iter().all(|&n| n > 500), "too few hits of some shape: {shapes:?}");
 }
 
+/// A shadow queue's rays as bits: origin, direction, tmax and contribution, with the slot.
+fn shadow_bits(q: &ShadowQueue) -> Vec<([u32; 10], u32)> {
+    (0..q.len())
+        .map(|i| {
+            [q.ox[i], q.oy[i], q.oz[i], q.dx[i], q.dy[i], q.dz[i], q.tmax[i], q.lr[i], q.lg[i], q.lb[i]]
+                .map(f32::to_bits)
+        })
+        .zip(q.slot.iter().copied())
+        .collect()
+}
+
+/// The diffuse shading points that `count` rays from random points of `scene`'s bounds
+/// in random directions hit, computed on lanes 16 at a time.
+fn random_surfaces(scene: &Scene, rng: &mut support::Lcg, count: u32) -> SurfaceQueue {
+    let (lo, hi) = scene_bounds(scene);
+    let mut rays = RayQueue::default();
+    for k in 0..count {
+        let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
+        rays.push(o, rng.unit(), k, Vec3::new(0.5, 1.0, 0.25), 0, k, k, 0.0, None);
+    }
+    let hits = trace(scene, &rays);
+    let ids: Vec<u32> = (0..rays.len() as u32)
+        .filter(|&i| wavetrace::surface::diffuse_material(scene, hits.prim[i as usize]).is_some())
+        .collect();
+    let mut surfaces = SurfaceQueue::default();
+    for group in ids.chunks(wavetrace::simd::LANES) {
+        wavetrace::surface::diffuse_surfaces(scene, &rays, &hits, group, &mut surfaces);
+    }
+    surfaces
+}
+
 /// The adaptive shadow test's unoccluded light on lanes is the scalar function's, bit for
 /// bit, for points on lanes (Lambertian, in front, the light above the horizon) and for
 /// the others (Phong, behind the light, the light partly below the horizon), under
@@ -315,20 +346,7 @@ fn unoccluded_light_on_lanes_is_the_scalar_functions() {
     for name in ["penumbra", "import/penumbra-triangle", "cornell", "bunny"] {
         let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
         let scene = support::scene_in(dir.join(name).parent().unwrap(), &text, &[]);
-        let (lo, hi) = scene_bounds(&scene);
-        let mut rays = RayQueue::default();
-        for k in 0..10_000 {
-            let o = Vec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
-            rays.push(o, rng.unit(), k, Vec3::new(0.5, 1.0, 0.25), 0, k, k, 0.0, None);
-        }
-        let hits = trace(&scene, &rays);
-        let ids: Vec<u32> = (0..rays.len() as u32)
-            .filter(|&i| wavetrace::surface::diffuse_material(&scene, hits.prim[i as usize]).is_some())
-            .collect();
-        let mut surfaces = SurfaceQueue::default();
-        for group in ids.chunks(LANES) {
-            wavetrace::surface::diffuse_surfaces(&scene, &rays, &hits, group, &mut surfaces);
-        }
+        let surfaces = random_surfaces(&scene, &mut rng, 10_000);
         let area: Vec<usize> = (0..scene.lights.len()).filter(|&li| scene.lights[li].planar().is_some()).collect();
         assert!(!area.is_empty(), "{name}");
         let mut first = 0;
@@ -432,6 +450,57 @@ fn scatter_reference(scene: &Scene, rays: &RayQueue, hits: &HitQueue, ids: &[u32
         }
     }
     next
+}
+
+/// The penumbra stage's rays with early stopping: each (point, area light) pair's rays
+/// on lanes, and each ray's light cell, are `area_light_samples`' bit for bit, under
+/// parallelogram and triangle lights, with counts whose grid is a net (16, 32, 64: the
+/// cell from the sample's position) and not (3, 9: its index), pairs split across lane
+/// groups and sharing them.
+#[test]
+fn penumbra_rays_and_cells_on_lanes_are_area_light_samples() {
+    use wavetrace::light::area_light_samples;
+    use wavetrace::light::lanes::pair_shadow_lanes;
+    let dir = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes"));
+    let mut rng = support::Lcg(5);
+    for name in ["penumbra", "import/penumbra-triangle", "cornell"] {
+        for n in [3, 9, 16, 32, 64] {
+            let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+            let samples = format!("render.shadows.samples={n}");
+            let scene = support::scene_in(dir.join(name).parent().unwrap(), &text, &[&samples]);
+            let surfaces = random_surfaces(&scene, &mut rng, 600);
+            let area: Vec<u32> =
+                (0..scene.lights.len() as u32).filter(|&li| scene.lights[li as usize].planar().is_some()).collect();
+            let pairs: Vec<(u32, u32)> =
+                (0..surfaces.len() as u32).flat_map(|p| area.iter().map(move |&li| (p, li))).collect();
+            let (mut got, mut counts, mut cells) = (ShadowQueue::default(), Vec::new(), vec![7u32]);
+            pair_shadow_lanes(&scene, &surfaces, pairs.iter().copied(), &mut got, &mut counts, Some(&mut cells));
+            let (mut want, mut want_cells, mut want_counts) = (ShadowQueue::default(), Vec::new(), Vec::new());
+            for &(p, li) in &pairs {
+                let surf = wavetrace::surface::queued_surface(&surfaces, p as usize);
+                let before = want.len();
+                area_light_samples(&scene, &surf, li as usize, |cell, wi, dist, l| {
+                    want_cells.push(cell);
+                    want.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l, None);
+                });
+                want_counts.push((want.len() - before) as u32);
+            }
+            assert!(want.len() > 20 * n as usize, "{name}, {n} samples: only {} rays", want.len());
+            assert!(shadow_bits(&got) == shadow_bits(&want), "{name}, {n} samples: the rays differ");
+            assert_eq!(counts, want_counts, "{name}, {n} samples: rays per pair");
+            assert_eq!(cells, want_cells, "{name}, {n} samples: light cells");
+            // Other counts number a pair's cells by sample, in order; a net's come from
+            // the samples' positions, out of order somewhere.
+            let (mut at, mut unordered) = (0, 0);
+            for &c in &counts {
+                let pair = &cells[at..at + c as usize];
+                unordered += pair.windows(2).any(|w| w[1] <= w[0]) as u32;
+                at += c as usize;
+            }
+            let net = (n as u32).is_power_of_two();
+            assert_eq!(unordered > 0, net, "{name}, {n} samples: {unordered} pairs out of sample order");
+        }
+    }
 }
 
 #[test]
@@ -546,16 +615,10 @@ fn uniform_shadow_rays_on_lanes_are_the_scalar_functions_rays_bit_for_bit() {
         }
         assert_eq!(scene.lights.len(), lights);
         assert!(want.len() > 1000, "{n} samples: only {} shadow rays", want.len());
-        let bits = |q: &ShadowQueue| {
-            (0..q.len())
-                .map(|i| {
-                    [q.ox[i], q.oy[i], q.oz[i], q.dx[i], q.dy[i], q.dz[i], q.tmax[i], q.lr[i], q.lg[i], q.lb[i]]
-                        .map(f32::to_bits)
-                })
-                .zip(q.slot.iter().copied())
-                .collect::<Vec<_>>()
-        };
-        assert!(bits(&out.shadow) == bits(&want), "{n} samples: the lanes' shadow queue differs from the scalar one");
+        assert!(
+            shadow_bits(&out.shadow) == shadow_bits(&want),
+            "{n} samples: the lanes' shadow queue differs from the scalar one"
+        );
     }
 }
 

@@ -10,7 +10,7 @@ use glam::Vec3;
 use std::f32::consts::FRAC_1_PI;
 use wide::{f32x16, u32x16};
 
-use super::{light_seed_lanes, SHADOW_TMAX_SCALE};
+use super::{light_cell, light_seed_lanes, sample_grid, SHADOW_TMAX_SCALE};
 use crate::accel::lanes_of;
 use crate::emitter::area::{quad_sample, QuadLanes, QuadSample};
 use crate::queue::{ShadowQueue, SurfaceQueue};
@@ -77,27 +77,33 @@ pub fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQ
         lanes.count = LANES;
         while s + per <= surfaces.len() {
             lanes.point = std::array::from_fn(|k| s as u32 + (k as u32 >> shift));
-            light_lanes(scene, &table, surfaces, &lanes, shadow);
+            light_lanes(scene, &table, surfaces, &lanes, shadow, None);
             s += per;
         }
     }
     // The rest, and every point of any other scene: pair by pair.
     let pairs = (s as u32..surfaces.len() as u32).flat_map(|p| lit.iter().map(move |&li| (p, li)));
-    pair_shadow_lanes(scene, surfaces, pairs, shadow, &mut Vec::new());
+    pair_shadow_lanes(scene, surfaces, pairs, shadow, &mut Vec::new(), None);
 }
 
 /// The uniform shadow rays of each (point of `surfaces`, lit light, both [`on_lanes`])
 /// pair of `pairs`, pair by pair in the scalar loop's order, appended to `shadow`;
 /// `counts` (cleared first) gets each pair's number of rays (its samples that face the
-/// point and the light).
+/// point and the light), and `cells` (cleared first), when given, each ray's light cell
+/// ([`light_cell`]; 0 for a point or directional light's one ray), as
+/// [`area_light_samples`](crate::light::area_light_samples) numbers them.
 pub fn pair_shadow_lanes(
     scene: &Scene,
     surfaces: &SurfaceQueue,
     pairs: impl Iterator<Item = (u32, u32)>,
     shadow: &mut ShadowQueue,
     counts: &mut Vec<u32>,
+    mut cells: Option<&mut Vec<u32>>,
 ) {
     counts.clear();
+    if let Some(cells) = cells.as_deref_mut() {
+        cells.clear();
+    }
     let table = light_table(scene);
     let mut lanes = Triples { point: [0; LANES], light: [0; LANES], sample: [0; LANES], count: 0 };
     // Each lane's pair, to count its ray.
@@ -106,7 +112,7 @@ pub fn pair_shadow_lanes(
         for k in lanes.count..LANES {
             (lanes.point[k], lanes.light[k], lanes.sample[k]) = (lanes.point[0], lanes.light[0], lanes.sample[0]);
         }
-        for k in lanes_of(light_lanes(scene, &table, surfaces, lanes, shadow)) {
+        for k in lanes_of(light_lanes(scene, &table, surfaces, lanes, shadow, cells.as_deref_mut())) {
             counts[owner[k] as usize] += 1;
         }
         lanes.count = 0;
@@ -245,9 +251,17 @@ fn area_rays(s: QuadSample<f32x16>, scale: f32x16) -> Rays {
 /// The shadow rays of one lane group of `triples`: each lane its light's formula (the
 /// scalar ones of [`uniform_shadow_rays`](crate::light::uniform_shadow_rays)), Lambert
 /// on the lanes and a Phong point's BRDF by the scalar function. Returns the lanes that
-/// cast a ray.
-fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Triples, shadow: &mut ShadowQueue) -> u32 {
+/// cast a ray; appends their light cells to `cells` when given ([`pair_shadow_lanes`]).
+fn light_lanes(
+    scene: &Scene,
+    table: &[Params],
+    q: &SurfaceQueue,
+    triples: &Triples,
+    shadow: &mut ShadowQueue,
+    cells: Option<&mut Vec<u32>>,
+) -> u32 {
     let n = scene.settings.shadow_samples;
+    let mut cell = [0u32; LANES];
     let si = triples.point;
     let lanes = LaneIds::new(&si);
     // Straight calls, not closures: a closure over the loads was kept out of line.
@@ -269,6 +283,12 @@ fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Trip
         for (kind, present) in [(Kind::Quad, quads), (Kind::Triangle, triangles)] {
             if present {
                 let s = quad_sample(&lights.quad, o, normal, index, seed, kind == Kind::Triangle);
+                if cells.is_some() {
+                    let (grid, (u, v)) = (sample_grid(n), (s.uv.0.to_array(), s.uv.1.to_array()));
+                    for k in (0..LANES).filter(|&k| lights.kind[k] == kind) {
+                        cell[k] = light_cell((u[k], v[k]), triples.sample[k], n.is_power_of_two(), grid);
+                    }
+                }
                 add(kind, area_rays(s, lights.scale));
             }
         }
@@ -312,6 +332,9 @@ fn light_lanes(scene: &Scene, table: &[Params], q: &SurfaceQueue, triples: &Trip
             let l = q.weight(p) * brdf * Vec3::new(rx[k], ry[k], rz[k]) * factor[k];
             (lr[k], lg[k], lb[k]) = (l.x, l.y, l.z);
         }
+    }
+    if let Some(cells) = cells {
+        cells.extend(lanes_of(cast).map(|k| cell[k]));
     }
     let (o, wi, slot) = (o.lanes(), [wx, wy, wz], si.map(|p| q.slot[p as usize]));
     // Each ray carries its point's path time.

@@ -84,12 +84,25 @@ pub fn area_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
         if q.cos_x <= 0.0 || q.cos_y <= 0.0 {
             continue;
         }
-        // Scaling by a power of two and truncating reads the fraction's top bits exactly,
-        // so the net's points land in distinct cells.
-        let cell = if net { (q.uv.1 * rows as f32) as u32 * cols + (q.uv.0 * cols as f32) as u32 } else { j };
+        let cell = light_cell(q.uv, j, net, (cols, rows));
         let wi = q.wi.vec();
         let brdf = diffuse_brdf(surf.color, surf.specular, surf.shininess, surf.n, wi, surf.wo);
         f(cell, wi, q.dist, surf.w * brdf * radiance * (q.cos_x * q.cos_y * scale / q.dist2));
+    }
+}
+
+/// The light cell of sample `j` of a point, at `uv` on the light, in the [`sample_grid`]
+/// `grid` of its count (`net`: a power of two, whose points land one a cell): the order
+/// early stopping walks a point's samples in. Scaling by a power of two and truncating
+/// reads the fraction's top bits exactly, so the net's points land in distinct cells;
+/// other counts take the sample's index.
+#[inline(always)]
+pub fn light_cell(uv: (f32, f32), j: u32, net: bool, grid: (u32, u32)) -> u32 {
+    let (cols, rows) = grid;
+    if net {
+        (uv.1 * rows as f32) as u32 * cols + (uv.0 * cols as f32) as u32
+    } else {
+        j
     }
 }
 

@@ -15,11 +15,10 @@
 
 use crate::accel::tracer::Tracer;
 use crate::light::lanes::pair_shadow_lanes;
-use crate::light::{area_light_samples, sample_grid, SHADOW_TMAX_SCALE};
-use crate::queue::{sparse_opt, FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, ShadowPoints, SurfaceQueue};
+use crate::light::sample_grid;
+use crate::queue::{FilmQueue, IndexQueue, PenumbraQueues, ShadowPointQueue, ShadowPoints, SurfaceQueue};
 use crate::sampling::{dim, hash, morton_levels, progressive_cell, progressive_order, Progressive};
 use crate::scene::{PenumbraStop, Scene};
-use crate::surface::queued_surface;
 
 /// Two-sided 95% normal quantile of the Wilson interval.
 const Z95: f32 = 1.959_964;
@@ -96,36 +95,33 @@ fn generate(
     q.points.clear();
     q.per_ray.clear();
     q.active.clear();
-    if !progressive {
-        // Every ray at once: the lanes cast them in the scalar loop's order and bits.
-        let pairs = penumbra.index.iter().map(|&k| (points.surface[k as usize], points.light[k as usize]));
-        pair_shadow_lanes(scene, surfaces, pairs, &mut q.rays, &mut q.counts);
-        let mut start = 0;
-        for &n in &q.counts {
-            q.points.push(start, start + n, 0, 0);
-            start += n;
-        }
+    // Every ray at once: the lanes cast them in the scalar loop's order and bits, with
+    // their light cells when the batches need them.
+    let pairs = penumbra.index.iter().map(|&k| (points.surface[k as usize], points.light[k as usize]));
+    let cells = progressive.then_some(&mut q.ray_cells);
+    pair_shadow_lanes(scene, surfaces, pairs, &mut q.rays, &mut q.counts, cells);
+    let mut start = 0;
+    for &n in &q.counts {
+        q.points.push(start, start + n, 0, 0);
+        start += n;
+    }
+    if !progressive || penumbra.is_empty() {
         return;
     }
     let (cols, rows) = sample_grid(scene.settings.shadow_samples);
     let levels = morton_levels(cols, rows);
+    // Each light cell's place on the progressive grid, once a wave, not a division a ray.
+    let grid: Vec<(u32, u32)> =
+        (0..cols * rows).map(|cell| progressive_cell(cell % cols, cell / cols, cols, rows, levels)).collect();
     for (i, &k) in penumbra.index.iter().enumerate() {
-        let k = k as usize;
-        let start = q.rays.len() as u32;
-        let surf = queued_surface(surfaces, points.surface[k] as usize);
-        let li = points.light[k] as usize;
-        // The point's rays carry its path's time.
-        let time = sparse_opt(&surfaces.time, points.surface[k] as usize);
+        let (s, li) = (points.surface[k as usize] as usize, points.light[k as usize]);
+        let (start, end) = (q.points.start[i], q.points.end[i]);
         q.cells.clear();
-        let (shadow, cells) = (&mut q.rays, &mut q.cells);
-        area_light_samples(scene, &surf, li, |cell, wi, dist, l| {
-            let (x, y) = progressive_cell(cell % cols, cell / cols, cols, rows, levels);
-            cells.push(Progressive { x, y, item: shadow.len() as u32, morton: 0 });
-            shadow.push(surf.o, wi, dist * SHADOW_TMAX_SCALE, surf.slot, l, time);
-        });
-        let end = q.rays.len() as u32;
-        q.points.push(start, end, 0, 0);
-        let scramble = hash(&[surf.key, surf.sample, li as u32, dim::STOP_ORDER]);
+        for item in start..end {
+            let (x, y) = grid[q.ray_cells[item as usize] as usize];
+            q.cells.push(Progressive { x, y, item, morton: 0 });
+        }
+        let scramble = hash(&[surfaces.key[s], surfaces.sample[s], li, dim::STOP_ORDER]);
         progressive_order(&mut q.cells, levels, scramble, &mut q.merge);
         for c in &q.cells {
             q.per_ray.push(i as u32, false, c.item);
