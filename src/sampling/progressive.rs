@@ -61,7 +61,7 @@ pub fn progressive_order(items: &mut [Progressive], levels: u32, scramble: u32, 
     }
     let n = items.len();
     let cells = 1usize << (2 * levels);
-    if n == cells && n > 1 {
+    if n == cells && n > 1 && levels <= 16 {
         full_grid_order(items, levels, scramble, scratch);
         return;
     }
@@ -81,20 +81,28 @@ fn block_flip(scramble: u32, block: u32, level: u32) -> u32 {
 /// put an item at the scrambled radical inverse of its Morton code, built digit by digit
 /// from the finest level as the merges build it (position ← 4 · position + scrambled
 /// digit), and each item goes straight to its place. The merges' order, bit for bit (a
-/// unit test compares them).
+/// unit test compares them). Items are walked in Morton order, so a block's scramble is
+/// hashed once, when the walk enters it.
 fn full_grid_order(items: &mut [Progressive], levels: u32, scramble: u32, scratch: &mut Vec<Progressive>) {
     scratch.clear();
     scratch.resize(items.len(), Progressive::default());
     for it in items.iter() {
+        scratch[it.morton as usize] = *it;
+    }
+    let mut flips = [0u32; 16];
+    for (m, it) in scratch.iter().enumerate() {
+        let m = m as u32;
         let mut pos = 0;
         for level in 0..levels {
-            let digit = (it.morton >> (2 * level)) & 3;
-            let flip = block_flip(scramble, it.morton >> (2 * (level + 1)), level);
-            pos += (digit ^ flip) << (2 * (levels - 1 - level));
+            let block = m >> (2 * (level + 1));
+            if m & ((1 << (2 * (level + 1))) - 1) == 0 {
+                flips[level as usize] = block_flip(scramble, block, level);
+            }
+            let digit = (m >> (2 * level)) & 3;
+            pos += (digit ^ flips[level as usize]) << (2 * (levels - 1 - level));
         }
-        scratch[pos as usize] = *it;
+        items[pos as usize] = *it;
     }
-    items.copy_from_slice(scratch);
 }
 
 /// [`progressive_order`] by its definition: items into Morton order, then the
