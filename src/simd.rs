@@ -47,6 +47,8 @@ pub trait Word:
     fn add_rem(self, p: Self, p_mod: Self, len: u32) -> Self;
     /// The value as a float (exact below 2²⁴).
     fn real(self) -> Self::Real;
+    /// `x` truncated toward zero, for `x` in [0, 2³¹) (`as u32`'s value there).
+    fn trunc(x: Self::Real) -> Self;
 }
 
 /// 32-bit floats.
@@ -117,6 +119,10 @@ impl Word for u32 {
     #[inline(always)]
     fn real(self) -> f32 {
         self as f32
+    }
+    #[inline(always)]
+    fn trunc(x: f32) -> Self {
+        x as u32
     }
 }
 
@@ -226,6 +232,11 @@ impl Word for u32x16 {
     #[inline(always)]
     fn real(self) -> f32x16 {
         f32x16::from_i32x16(wide::bytemuck::cast(self))
+    }
+    #[inline(always)]
+    fn trunc(x: f32x16) -> Self {
+        // Below 2³¹ the signed conversion is the value itself.
+        wide::bytemuck::cast(x.fast_trunc_int())
     }
 }
 

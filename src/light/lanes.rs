@@ -77,7 +77,7 @@ pub fn shadow_lanes(scene: &Scene, surfaces: &SurfaceQueue, shadow: &mut ShadowQ
         lanes.count = LANES;
         while s + per <= surfaces.len() {
             lanes.point = std::array::from_fn(|k| s as u32 + (k as u32 >> shift));
-            light_lanes(scene, &table, surfaces, &lanes, shadow, None);
+            light_lanes::<false>(scene, &table, surfaces, &lanes, shadow, &mut Vec::new());
             s += per;
         }
     }
@@ -112,7 +112,11 @@ pub fn pair_shadow_lanes(
         for k in lanes.count..LANES {
             (lanes.point[k], lanes.light[k], lanes.sample[k]) = (lanes.point[0], lanes.light[0], lanes.sample[0]);
         }
-        for k in lanes_of(light_lanes(scene, &table, surfaces, lanes, shadow, cells.as_deref_mut())) {
+        let cast = match cells.as_deref_mut() {
+            Some(cells) => light_lanes::<true>(scene, &table, surfaces, lanes, shadow, cells),
+            None => light_lanes::<false>(scene, &table, surfaces, lanes, shadow, &mut Vec::new()),
+        };
+        for k in lanes_of(cast) {
             counts[owner[k] as usize] += 1;
         }
         lanes.count = 0;
@@ -251,14 +255,15 @@ fn area_rays(s: QuadSample<f32x16>, scale: f32x16) -> Rays {
 /// The shadow rays of one lane group of `triples`: each lane its light's formula (the
 /// scalar ones of [`uniform_shadow_rays`](crate::light::uniform_shadow_rays)), Lambert
 /// on the lanes and a Phong point's BRDF by the scalar function. Returns the lanes that
-/// cast a ray; appends their light cells to `cells` when given ([`pair_shadow_lanes`]).
-fn light_lanes(
+/// cast a ray; with `CELLS`, appends their light cells to `cells` ([`pair_shadow_lanes`];
+/// a constant, so the shade stage's calls compile without them).
+fn light_lanes<const CELLS: bool>(
     scene: &Scene,
     table: &[Params],
     q: &SurfaceQueue,
     triples: &Triples,
     shadow: &mut ShadowQueue,
-    cells: Option<&mut Vec<u32>>,
+    cells: &mut Vec<u32>,
 ) -> u32 {
     let n = scene.settings.shadow_samples;
     let mut cell = [0u32; LANES];
@@ -283,10 +288,11 @@ fn light_lanes(
         for (kind, present) in [(Kind::Quad, quads), (Kind::Triangle, triangles)] {
             if present {
                 let s = quad_sample(&lights.quad, o, normal, index, seed, kind == Kind::Triangle);
-                if cells.is_some() {
-                    let (grid, (u, v)) = (sample_grid(n), (s.uv.0.to_array(), s.uv.1.to_array()));
+                if CELLS {
+                    let j = u32x16::from(triples.sample);
+                    let c = light_cell(s.uv, j, n.is_power_of_two(), sample_grid(n)).to_array();
                     for k in (0..LANES).filter(|&k| lights.kind[k] == kind) {
-                        cell[k] = light_cell((u[k], v[k]), triples.sample[k], n.is_power_of_two(), grid);
+                        cell[k] = c[k];
                     }
                 }
                 add(kind, area_rays(s, lights.scale));
@@ -333,7 +339,7 @@ fn light_lanes(
             (lr[k], lg[k], lb[k]) = (l.x, l.y, l.z);
         }
     }
-    if let Some(cells) = cells {
+    if CELLS {
         cells.extend(lanes_of(cast).map(|k| cell[k]));
     }
     let (o, wi, slot) = (o.lanes(), [wx, wy, wz], si.map(|p| q.slot[p as usize]));

@@ -96,11 +96,13 @@ pub fn area_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
 /// early stopping walks a point's samples in. Scaling by a power of two and truncating
 /// reads the fraction's top bits exactly, so the net's points land in distinct cells;
 /// other counts take the sample's index.
+/// On lanes as for one sample (`u32`), with the same values.
 #[inline(always)]
-pub fn light_cell(uv: (f32, f32), j: u32, net: bool, grid: (u32, u32)) -> u32 {
+pub fn light_cell<W: Word>(uv: (W::Real, W::Real), j: W, net: bool, grid: (u32, u32)) -> W {
     let (cols, rows) = grid;
     if net {
-        (uv.1 * rows as f32) as u32 * cols + (uv.0 * cols as f32) as u32
+        let (x, y) = (uv.0 * W::Real::splat(cols as f32), uv.1 * W::Real::splat(rows as f32));
+        W::trunc(y).wmul(W::splat(cols)).wadd(W::trunc(x))
     } else {
         j
     }
