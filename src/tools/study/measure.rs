@@ -190,9 +190,10 @@ pub const CONFIRM_RUNS: usize = 5;
 
 /// The single-run seconds of a grid decide which settings are cheapest, but not which of
 /// the near-equal ones wins: for each target, every method's cheapest setting within
-/// [`CONTEST`] of the fastest is rendered again, the contenders of the scene in turns (so
-/// a slow spell of the machine falls on all of them), until each has [`CONFIRM_RUNS`]
-/// runs, and its seconds become their median. A setting whose new seconds make another
+/// [`CONTEST`] of the fastest is rendered [`CONFIRM_RUNS`] times more, the contenders of
+/// the scene in turns (so a slow spell of the machine falls on all of them), and its
+/// seconds become the median of those runs alone (a short setting's earlier runs came one
+/// after another). A setting whose new seconds make another
 /// of its method's the cheapest brings that one into the next round (at most three).
 fn confirm(
     rows: &mut [Row],
@@ -201,6 +202,8 @@ fn confirm(
     render_opts: &RenderOptions,
     progress: &Progress,
 ) -> Result<()> {
+    // Rows whose runs are the interleaved ones.
+    let mut confirmed = vec![false; rows.len()];
     for _ in 0..3 {
         let mut todo: Vec<usize> = targets
             .iter()
@@ -209,12 +212,18 @@ fn confirm(
                 let measures: Vec<_> = picks.iter().map(|&i| rows[i].measure()).collect();
                 contenders(&measures, CONTEST).into_iter().map(move |k| picks[k])
             })
-            .filter(|&i| rows[i].runs.len() < CONFIRM_RUNS)
+            .filter(|&i| !confirmed[i])
             .collect();
         todo.sort_unstable();
         todo.dedup();
         if todo.is_empty() {
             break;
+        }
+        // A short setting's grid runs (SHORT) came one after another, in whatever spell
+        // the machine was in then: a contender's seconds are its interleaved runs only.
+        for &i in &todo {
+            rows[i].runs.clear();
+            confirmed[i] = true;
         }
         progress.say(format!("{} confirming {} settings", plan.name, todo.len()));
         let scenes = todo
