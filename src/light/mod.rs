@@ -95,8 +95,7 @@ pub fn area_light_samples(scene: &Scene, surf: &Surface, li: usize, mut f: impl 
 /// `grid` of its count (`net`: a power of two, whose points land one a cell): the order
 /// early stopping walks a point's samples in. Scaling by a power of two and truncating
 /// reads the fraction's top bits exactly, so the net's points land in distinct cells;
-/// other counts take the sample's index.
-/// On lanes as for one sample (`u32`), with the same values.
+/// other counts take the sample's index. The same values on 16 lanes as for one sample.
 #[inline(always)]
 pub fn light_cell<W: Word>(uv: (W::Real, W::Real), j: W, net: bool, grid: (u32, u32)) -> W {
     let (cols, rows) = grid;

@@ -193,8 +193,8 @@ pub const CONFIRM_RUNS: usize = 5;
 /// [`CONTEST`] of the fastest is rendered [`CONFIRM_RUNS`] times more, the contenders of
 /// the scene in turns (so a slow spell of the machine falls on all of them), and its
 /// seconds become the median of those runs alone (a short setting's earlier runs came one
-/// after another). A setting whose new seconds make another
-/// of its method's the cheapest brings that one into the next round (at most three).
+/// after another). A setting whose new seconds make another of its method's the cheapest
+/// brings that one into the next round (at most three).
 fn confirm(
     rows: &mut [Row],
     targets: &[(String, f64)],
