@@ -59,14 +59,14 @@ impl Bitmap {
             return Vec3::ZERO;
         }
         let size = Vec2::new(self.width as f32, self.height as f32);
-        let at = |x: i64, y: i64| {
-            let (x, y) = (self.wrap(x, self.width), self.wrap(y, self.height));
-            self.texels[y * self.width as usize + x]
-        };
+        // Wrapped indices, each axis's once: a wrap is an integer division.
+        let at = |x: usize, y: usize| self.texels[y * self.width as usize + x];
+        let wrap = |x: i64, y: i64| (self.wrap(x, self.width), self.wrap(y, self.height));
         match self.filter {
             Filter::Nearest => {
                 let p = uv * size;
-                at(floor(p.x), floor(p.y))
+                let (x, y) = wrap(floor(p.x), floor(p.y));
+                at(x, y)
             }
             Filter::Bilinear => {
                 // Dr.Jit's tex_eval: position in texel units relative to the centres. A
@@ -76,20 +76,26 @@ impl Bitmap {
                 let p = uv * size - 0.5;
                 let p = Vec2::select(p.is_finite_mask(), p, Vec2::ZERO);
                 let (x, y) = (floor(p.x), floor(p.y));
+                let ((x0, y0), (x1, y1)) = (wrap(x, y), wrap(x + 1, y + 1));
                 let w1 = p - p.floor();
                 let w0 = 1.0 - w1;
-                at(x, y) * (w0.x * w0.y)
-                    + at(x + 1, y) * (w1.x * w0.y)
-                    + at(x, y + 1) * (w0.x * w1.y)
-                    + at(x + 1, y + 1) * (w1.x * w1.y)
+                at(x0, y0) * (w0.x * w0.y)
+                    + at(x1, y0) * (w1.x * w0.y)
+                    + at(x0, y1) * (w0.x * w1.y)
+                    + at(x1, y1) * (w1.x * w1.y)
             }
         }
     }
 
     /// A texel index along an axis of `n` texels brought into [0, n) by the wrap mode
     /// (Dr.Jit's `tex_wrap`).
+    #[inline]
     fn wrap(&self, i: i64, n: u32) -> usize {
         let n = n as i64;
+        // Every mode keeps an index inside the image, which most are: no division.
+        if (0..n).contains(&i) {
+            return i as usize;
+        }
         (match self.wrap {
             Wrap::Repeat => i.rem_euclid(n),
             Wrap::Mirror => {

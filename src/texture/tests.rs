@@ -397,3 +397,58 @@ fn cube_faces_cover_the_unit_square_and_face_outwards() {
         assert_eq!(corners, vec![(0, 0), (0, 1), (1, 0), (1, 1)]);
     }
 }
+
+/// Dr.Jit's formula as written: each of the four texels' indices wrapped on its own.
+fn lookup_by_the_formula(b: &Bitmap, uv: Vec2) -> Vec3 {
+    let n = |i: i64, n: u32| -> usize {
+        let n = n as i64;
+        (match b.wrap {
+            Wrap::Repeat => i.rem_euclid(n),
+            Wrap::Mirror if i.rem_euclid(2 * n) < n => i.rem_euclid(2 * n),
+            Wrap::Mirror => 2 * n - 1 - i.rem_euclid(2 * n),
+            Wrap::Clamp => i.clamp(0, n - 1),
+        }) as usize
+    };
+    let at = |x: i64, y: i64| b.texels[n(y, b.height) * b.width as usize + n(x, b.width)];
+    let floor = |x: f32| x.floor().clamp(-2_147_483_648.0, 2_147_483_648.0) as i64;
+    let p = uv * Vec2::new(b.width as f32, b.height as f32);
+    if b.filter == Filter::Nearest {
+        return at(floor(p.x), floor(p.y));
+    }
+    let p = p - 0.5;
+    let p = Vec2::select(p.is_finite_mask(), p, Vec2::ZERO);
+    let (x, y) = (floor(p.x), floor(p.y));
+    let w1 = p - p.floor();
+    let w0 = 1.0 - w1;
+    at(x, y) * (w0.x * w0.y)
+        + at(x + 1, y) * (w1.x * w0.y)
+        + at(x, y + 1) * (w0.x * w1.y)
+        + at(x + 1, y + 1) * (w1.x * w1.y)
+}
+
+#[test]
+fn lookups_wrap_each_axis_once_with_the_formulas_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    let paths = [grid(dir.path()), png(dir.path(), "one.png", 1, 1, &[[100, 50, 25]])];
+    // Inside the image, past each edge by a little and by whole periods, and far out
+    // (beyond 2^31 texels, and not finite).
+    let mut coords: Vec<f32> = (-40..=40).map(|k| k as f32 * 0.077).collect();
+    coords.extend([0.0, 1.0, -1.0, 0.999_999_9, 1e-30, -1e-30, 3e9, -3e9, 1e30, f32::INFINITY, f32::NAN]);
+    for path in &paths {
+        for wrap in [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp] {
+            for filter in [Filter::Nearest, Filter::Bilinear] {
+                let b = load(path, false, wrap, filter);
+                for &u in &coords {
+                    for &v in coords.iter().step_by(3) {
+                        let (got, want) = (b.lookup(Vec2::new(u, v)), lookup_by_the_formula(&b, Vec2::new(u, v)));
+                        assert_eq!(
+                            got.to_array().map(f32::to_bits),
+                            want.to_array().map(f32::to_bits),
+                            "{wrap:?} {filter:?} ({u}, {v})"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

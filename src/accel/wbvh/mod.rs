@@ -260,7 +260,7 @@ impl<S: Vector> WideBvh<S> {
 
     /// The shape in lane `slot % TRIS` of block `slot / TRIS`: the tree holds every
     /// primitive's shape, so the accelerator keeps no other copy.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn shape(&self, slot: u32) -> Shape {
         self.lane_shape(&self.blocks[slot as usize / TRIS], slot as usize % TRIS)
     }
