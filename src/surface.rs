@@ -234,22 +234,25 @@ fn shape_lanes(
         Shape::Triangle { v0, v1, v2 } => (v0, v1, v2, 2),
     };
     let first = hits.prim[id(0)];
-    let (a, b, c, kind, kinds) = if shared && (1..LANES).all(|k| hits.prim[id(k)] == first) {
-        // One primitive under all lanes (a large quad or triangle): its points once.
-        let (a, b, c, what) = points(0);
-        (V3::splat(a), V3::splat(b), V3::splat(c), [what; LANES], 1 << what)
-    } else {
-        let (mut abc, mut kind, mut kinds) = ([[0.0f32; LANES]; 9], [0u32; LANES], 0u32);
-        for k in 0..LANES {
-            let (a, b, c, what) = points(k);
-            for (j, x) in [a, b, c].iter().flat_map(|v| v.to_array()).enumerate() {
-                abc[j][k] = x;
-            }
-            kind[k] = what;
-            kinds |= 1 << what;
+    // One primitive under all lanes (a large quad or triangle): its points once. One
+    // call site, so that `points` is inlined: a call per lane returned its 40 bytes
+    // through memory, and the loads after it waited on the stores.
+    let one = shared && (1..LANES).all(|k| hits.prim[id(k)] == first);
+    let (mut abc, mut kind, mut kinds) = ([[0.0f32; LANES]; 9], [0u32; LANES], 0u32);
+    for k in 0..if one { 1 } else { LANES } {
+        let (a, b, c, what) = points(k);
+        for (j, x) in [a, b, c].iter().flat_map(|v| v.to_array()).enumerate() {
+            abc[j][k] = x;
         }
+        kind[k] = what;
+        kinds |= 1 << what;
+    }
+    let (a, b, c, kind) = if one {
+        let v3 = |j: usize| V3::splat(Vec3::new(abc[j][0], abc[j + 1][0], abc[j + 2][0]));
+        (v3(0), v3(3), v3(6), [kind[0]; LANES])
+    } else {
         let v3 = |j: usize| V3 { x: f32x16::from(abc[j]), y: f32x16::from(abc[j + 1]), z: f32x16::from(abc[j + 2]) };
-        (v3(0), v3(3), v3(6), kind, kinds)
+        (v3(0), v3(3), v3(6), kind)
     };
     let x = o + d.scale(ray(&hits.t));
     // Only the formulas of the shapes present (an all-triangle mesh group skips two of

@@ -62,6 +62,9 @@ impl Beam {
     /// The beam of `n` rays given by axis: `origin[k][l]` is lane l's origin on axis k,
     /// `inv[k][l]` its reciprocal direction ([`inv_dir`](crate::accel::inv_dir), never
     /// zero or NaN); `None` when an origin is not finite or no axis bounds the beam.
+    /// Always inlined: out of line, its 64 bytes, stored field by field, went back to
+    /// the caller through memory and a vector load of them waited on those stores.
+    #[inline(always)]
     pub(crate) fn new(origin: &[[f32; LANES]; 3], inv: &[[f32; LANES]; 3], n: usize) -> Option<Beam> {
         let mut beam = Beam { near: [0; 3], free: [false; 3], o_near: [0.0; 3], o_far: [0.0; 3], inv: [[0.0; 2]; 3] };
         for k in 0..3 {
