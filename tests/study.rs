@@ -240,3 +240,50 @@ fn bad_manifests_exit_2_before_any_output() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("cannot read"), "{err}");
 }
+
+#[test]
+fn seeds_average_each_settings_errors() {
+    // The same scene and reference twice: once with the seed as a grid value, once with
+    // `seeds = 2` over the scene's own seed (5) and the next.
+    let manifest = |seed_grid: &str| {
+        format!(
+            "[study]\nmethods = [\"uniform\"]\nreference_spp = 16\ntarget_spp = [1]\n\
+             [[scene]]\nfile = \"tiny.toml\"\nsets = [\"render.seed=5\"]\n\
+             [scene.grids.uniform]\n\"render.aa.samples\" = [1, 4]\n\"render.shadows.samples\" = [1]\n{seed_grid}"
+        )
+    };
+    let (by_grid, by_seeds) = (manifest("\"render.seed\" = [5, 6]\n"), manifest(""));
+    let dir = folder(&[("tiny.toml", &tiny()), ("grid.toml", &by_grid), ("seeds.toml", &by_seeds)]);
+    let opts = |m: &str, out: &str, seeds: u32| StudyOptions {
+        manifest: dir.path().join(m),
+        out_dir: dir.path().join(out),
+        threads: Some(2),
+        seeds,
+        ..StudyOptions::default()
+    };
+    let grid = study::run(&opts("grid.toml", "a", 1)).expect("study");
+    let seeds = study::run(&opts("seeds.toml", "b", 2)).expect("study");
+    assert_eq!(seeds.seeds, 2);
+    let row = |r: &StudyResult, params: &[&str]| {
+        let want: Vec<String> = params.iter().map(|p| p.to_string()).collect();
+        let found = r.scenes[0]
+            .rows
+            .iter()
+            .find(|row| row.params.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>() == want);
+        found.cloned().unwrap_or_else(|| panic!("no row {want:?}"))
+    };
+    for spp in ["1", "4"] {
+        let aa = format!("render.aa.samples={spp}");
+        let at = |seed: &str| row(&grid, &[&aa, "render.shadows.samples=1", seed]);
+        let (a, b) = (at("render.seed=5"), at("render.seed=6"));
+        let mean = row(&seeds, &[&aa, "render.shadows.samples=1"]);
+        assert!(a.metrics.flip > 0.0 && a.metrics.flip != b.metrics.flip, "{spp}: two seeds, two errors");
+        assert_eq!(mean.metrics.flip, (a.metrics.flip + b.metrics.flip) / 2.0, "{spp} spp");
+        assert_eq!(mean.metrics.rmse, (a.metrics.rmse + b.metrics.rmse) / 2.0, "{spp} spp");
+        assert_eq!(mean.total_rays, (a.total_rays + b.total_rays) / 2);
+    }
+    // Out of range: refused before any work.
+    let e = study::run(&opts("seeds.toml", "c", 17)).expect_err("17 seeds");
+    assert!(e.to_string().contains("--seeds must be 1 to 16"), "{e}");
+    assert!(!dir.path().join("c").exists());
+}

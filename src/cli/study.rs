@@ -30,6 +30,10 @@ pub struct StudyArgs {
     /// Renders per setting; the seconds are their median (rays are exact).
     #[arg(long, value_name = "N", default_value = "1", value_parser = at_least_one::<u32>())]
     runs: u32,
+    /// Seeds per setting (1 to 16): the scene's `render.seed` and the next ones; each
+    /// setting's FLIP and other errors, rays and seconds are their means.
+    #[arg(long, value_name = "N", default_value = "1", value_parser = clap::value_parser!(u32).range(1..=study::MAX_SEEDS as i64))]
+    seeds: u32,
     /// Camera samples of every scene's reference, over the manifest's.
     #[arg(long, value_name = "N", value_parser = at_least_one::<u32>())]
     reference_spp: Option<u32>,
@@ -50,6 +54,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
         quick: args.quick,
         only: args.scenes.clone(),
         runs: args.runs,
+        seeds: args.seeds,
         reference_spp: args.reference_spp,
         threads: args.threads,
         progress: !args.quiet && std::io::stderr().is_terminal(),

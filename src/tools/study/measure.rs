@@ -10,7 +10,7 @@ use super::{Choice, Counters, Pick, Row, SceneResult, StudyOptions, TargetResult
 use crate::color::srgb_encode;
 use crate::film::Image;
 use crate::scene::load;
-use crate::tools::compare::metrics;
+use crate::tools::compare::{metrics, Metrics};
 use crate::tools::sweep::{
     cached_reference, pareto_front, reference_cache_path, render_reference, Progress, ReferenceInfo,
 };
@@ -26,7 +26,7 @@ pub(super) fn scene(plan: &ScenePlan, opts: &StudyOptions, progress: &Progress) 
     for m in &plan.methods {
         for point in &m.points {
             progress.say(format!("{} {}", plan.name, m.method.name));
-            match render_row(m.method, point, plan, &reference, &render_opts, opts.runs) {
+            match render_row(m.method, point, plan, &reference, &render_opts, (opts.runs, opts.seeds)) {
                 Ok((row, t)) => {
                     rows.push(row);
                     threads = t;
@@ -39,7 +39,7 @@ pub(super) fn scene(plan: &ScenePlan, opts: &StudyOptions, progress: &Progress) 
         }
     }
     let targets = targets(plan, &rows);
-    confirm(&mut rows, &targets, plan, &render_opts, progress)?;
+    confirm(&mut rows, &targets, plan, (&render_opts, opts.seeds), progress)?;
     mark_pareto(&mut rows);
     let mut feats = Features { path: base.settings.path(), ..Features::default() };
     (feats.glossy_fraction, feats.coc_spread, feats.coc_mean_px) = features::probe(&base);
@@ -122,26 +122,36 @@ pub const SHORT_RUNS: u32 = 5;
 
 /// Renders one setting of `method` `runs` times, and more while its renders add up to
 /// less than [`SHORT`] seconds (at most [`SHORT_RUNS`] in all), and measures the first
-/// image (every run's image is the same: renders are deterministic).
+/// run's image (every run's image is the same: renders are deterministic). With `seeds`
+/// above 1 a run renders the setting at each seed ([`seed_scenes`]): its seconds, rays
+/// and errors are the seeds' means.
 fn render_row(
     method: &'static Method,
     point: &[(String, String)],
     plan: &ScenePlan,
     reference: &Image,
     render_opts: &RenderOptions,
-    runs: u32,
+    (runs, seeds): (u32, u32),
 ) -> Result<(Row, usize)> {
-    let scene = load(&plan.src, &row_sets(method, point, plan))?;
+    let scenes = seed_scenes(plan, &row_sets(method, point, plan), seeds)?;
     let mut secs = Vec::with_capacity(runs as usize);
     let mut first = None;
     let short = |secs: &[f64]| secs.len() < SHORT_RUNS as usize && secs.iter().sum::<f64>() < SHORT;
     while secs.len() < runs as usize || short(&secs) {
-        let out = crate::render(&scene, render_opts)?;
-        secs.push(out.seconds);
-        first.get_or_insert(out);
+        let (seconds, outs) = render_seeds(&scenes, render_opts)?;
+        secs.push(seconds);
+        first.get_or_insert(outs);
     }
-    let out = first.expect("runs >= 1");
-    let m = metrics(&out.image, reference)?;
+    let outs = first.expect("runs >= 1");
+    let mut sum = [0.0; 4];
+    for out in &outs {
+        let m = metrics(&out.image, reference)?;
+        for (s, v) in sum.iter_mut().zip([m.rmse, m.rel_mse, m.psnr, m.flip]) {
+            *s += v;
+        }
+    }
+    let [rmse, rel_mse, psnr, flip] = sum.map(|s| s / outs.len() as f64);
+    let out = &outs[0];
     // Display values (clamped, sRGB), as FLIP sees them: in linear values a few bright
     // pixels (a light's edge, a firefly) held nearly all the error of every scene.
     let display = |v: f32| srgb_encode(v.clamp(0.0, 1.0)) as f64;
@@ -152,20 +162,41 @@ fn render_row(
         .zip(&reference.pixels)
         .map(|(t, r)| (0..3).map(|c| (display(t[c]) - display(r[c])).powi(2)).sum())
         .collect();
+    let rays = outs.iter().map(|o| o.stats.total_rays()).sum::<u64>() / outs.len() as u64;
     let row = Row {
         method: method.name,
         params: point.to_vec(),
-        total_rays: out.stats.total_rays(),
+        total_rays: rays,
         rays: out.stats.kinds().iter().map(|&(k, n)| (k.to_string(), n)).collect(),
         seconds: median(&secs),
         runs: secs,
-        metrics: m,
+        metrics: Metrics { rmse, rel_mse, psnr, flip },
         worst10_share: worst_share(&errors, 0.1),
         counters: Counters::of(&out.stats),
         pareto_seconds: false,
         pareto_rays: false,
     };
     Ok((row, out.per_thread.len()))
+}
+
+/// A setting's scene at each of `seeds` seeds: as its `sets` give it, then with
+/// `render.seed` at the next `seeds - 1` values. An adaptive method's rays and time,
+/// and auto's plan, change with the seed as its errors do.
+fn seed_scenes(plan: &ScenePlan, sets: &[String], seeds: u32) -> Result<Vec<crate::Scene>> {
+    let first = load(&plan.src, sets)?;
+    let seed = first.settings.seed;
+    let mut scenes = vec![first];
+    for k in 1..seeds {
+        let next = [sets, &[format!("render.seed={}", seed.wrapping_add(k))]].concat();
+        scenes.push(load(&plan.src, &next)?);
+    }
+    Ok(scenes)
+}
+
+/// Renders each of `scenes` once: the mean of their seconds, and the renders.
+fn render_seeds(scenes: &[crate::Scene], render_opts: &RenderOptions) -> Result<(f64, Vec<crate::RenderOutput>)> {
+    let outs = scenes.iter().map(|s| crate::render(s, render_opts)).collect::<Result<Vec<_>>>()?;
+    Ok((outs.iter().map(|o| o.seconds).sum::<f64>() / outs.len() as f64, outs))
 }
 
 /// A setting's `--set`s: the scene's, then the method's, then the point's (later ones win).
@@ -199,7 +230,7 @@ fn confirm(
     rows: &mut [Row],
     targets: &[(String, f64)],
     plan: &ScenePlan,
-    render_opts: &RenderOptions,
+    (render_opts, seeds): (&RenderOptions, u32),
     progress: &Progress,
 ) -> Result<()> {
     // Rows whose runs are the interleaved ones.
@@ -231,14 +262,13 @@ fn confirm(
             .map(|&i| {
                 let method = plan.methods.iter().find(|m| m.method.name == rows[i].method).map(|m| m.method);
                 let method = method.ok_or_else(|| crate::Error::Internal(format!("no method {}", rows[i].method)))?;
-                load(&plan.src, &row_sets(method, &rows[i].params, plan))
+                seed_scenes(plan, &row_sets(method, &rows[i].params, plan), seeds)
             })
             .collect::<Result<Vec<_>>>()?;
         while todo.iter().any(|&i| rows[i].runs.len() < CONFIRM_RUNS) {
-            for (&i, scene) in todo.iter().zip(&scenes) {
+            for (&i, scenes) in todo.iter().zip(&scenes) {
                 if rows[i].runs.len() < CONFIRM_RUNS {
-                    let out = crate::render(scene, render_opts)?;
-                    rows[i].runs.push(out.seconds);
+                    rows[i].runs.push(render_seeds(scenes, render_opts)?.0);
                 }
             }
         }

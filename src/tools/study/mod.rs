@@ -18,6 +18,12 @@
 //! sweep`'s, so a rerun renders only the grids. Its own noise is a floor under every
 //! FLIP; the manifest sizes it above the grids' best settings.
 //!
+//! With `seeds` above 1, each setting is also rendered at the next `seeds - 1` values of
+//! `render.seed`, and its errors (FLIP among them), rays and seconds are the means over
+//! the seeds: FLIP moves about ±3% from seed to seed at equal settings, enough to put a
+//! setting on either side of a target, and an adaptive method's rays, and auto's plan,
+//! move with the seed too.
+//!
 //! Seconds are the median of `runs` renders (scene loading excluded), and of up to 5
 //! for a setting whose renders take under 0.1 s together (`measure::SHORT`); each
 //! method's cheapest setting within 1.5× of a target's fastest is then timed again, in
@@ -69,6 +75,9 @@ pub struct StudyOptions {
     pub only: Vec<String>,
     /// Renders per setting; the seconds are their median.
     pub runs: u32,
+    /// Seeds per setting (`render.seed` = the scene's, then the next ones): a setting's
+    /// errors, rays and seconds are their means.
+    pub seeds: u32,
     /// Replaces every scene's `reference_spp`.
     pub reference_spp: Option<u32>,
     /// Worker threads per render; `None` uses every core.
@@ -85,6 +94,7 @@ impl Default for StudyOptions {
             quick: false,
             only: Vec::new(),
             runs: 1,
+            seeds: 1,
             reference_spp: None,
             threads: None,
             progress: false,
@@ -247,6 +257,9 @@ pub struct SceneResult {
     pub rows: Vec<Row>,
 }
 
+/// The most seeds per setting (`--seeds`): each multiplies the grid's renders.
+pub const MAX_SEEDS: u32 = 16;
+
 /// What a study produced.
 #[derive(Clone, Debug, Serialize)]
 pub struct StudyResult {
@@ -256,6 +269,8 @@ pub struct StudyResult {
     pub quick: bool,
     /// Renders per setting.
     pub runs: u32,
+    /// Seeds per setting, whose errors, rays and seconds are averaged.
+    pub seeds: u32,
     /// Worker threads per render.
     pub threads: usize,
     /// Wall-clock seconds of the whole study, loads and references included.
@@ -281,6 +296,9 @@ pub fn run(opts: &StudyOptions) -> Result<StudyResult> {
     if opts.runs == 0 {
         return Err(Error::input("--runs must be at least 1"));
     }
+    if !(1..=MAX_SEEDS).contains(&opts.seeds) {
+        return Err(Error::input(format!("--seeds must be 1 to {MAX_SEEDS}")));
+    }
     let read = manifest::ReadOptions { quick: opts.quick, only: &opts.only, reference_spp: opts.reference_spp };
     let plan = manifest::read(&opts.manifest, &read)?;
     let files = output_files(&opts.out_dir, &plan)?;
@@ -299,6 +317,7 @@ pub fn run(opts: &StudyOptions) -> Result<StudyResult> {
         manifest: opts.manifest.clone(),
         quick: opts.quick,
         runs: opts.runs,
+        seeds: opts.seeds,
         threads,
         seconds: start.elapsed().as_secs_f64(),
         scenes,

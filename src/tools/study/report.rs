@@ -93,19 +93,21 @@ impl StudyResult {
     pub fn markdown(&self) -> String {
         let mut out = String::from("# Where adaptive sampling pays\n\n");
         out += &format!(
-            "Made by `wavetrace study {}{}` in {:.0} s ({} thread(s) per render, median of {} run(s) per setting, of up to {} where they take under {} s, and of {} interleaved for each method's cheapest setting within {}× of a target's fastest). \
-             Each cell is a method's cheapest setting whose mean FLIP against the scene's reference is at most the \
+            "Made by `wavetrace study {}{}{}` in {:.0} s ({} thread(s) per render, median of {} run(s) per setting, of up to {} where they take under {} s, and of {} interleaved for each method's cheapest setting within {}× of a target's fastest). \
+             Each cell is a method's cheapest setting whose mean FLIP{} against the scene's reference is at most the \
              target: by seconds (ties: lower FLIP, then grid order), with its rays; **bold** is the winner in seconds \
              (ties go to the method listed first), † the winner in rays where another. `–`: no setting reaches it.\n\n",
             self.manifest.display(),
             if self.quick { " --quick" } else { "" },
+            if self.seeds > 1 { format!(" --seeds {}", self.seeds) } else { String::new() },
             self.seconds,
             self.threads,
             self.runs,
             super::measure::SHORT_RUNS,
             super::measure::SHORT,
             super::measure::CONFIRM_RUNS,
-            super::measure::CONTEST
+            super::measure::CONTEST,
+            if self.seeds > 1 { format!(" (the mean over {} seeds, as are its rays and seconds)", self.seeds) } else { String::new() },
         );
         out += &map_tables(&self.map);
         out += &ratio_table(&self.scenes);
