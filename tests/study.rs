@@ -281,6 +281,8 @@ fn seeds_average_each_settings_errors() {
         assert_eq!(mean.metrics.flip, (a.metrics.flip + b.metrics.flip) / 2.0, "{spp} spp");
         assert_eq!(mean.metrics.rmse, (a.metrics.rmse + b.metrics.rmse) / 2.0, "{spp} spp");
         assert_eq!(mean.total_rays, (a.total_rays + b.total_rays) / 2);
+        let shadow = |r: &study::Row| r.rays.iter().find(|(k, _)| k == "shadow").map(|&(_, n)| n).expect("shadow rays");
+        assert_eq!(shadow(&mean), (shadow(&a) + shadow(&b)) / 2);
     }
     // Out of range: refused before any work.
     let e = study::run(&opts("seeds.toml", "c", 17)).expect_err("17 seeds");

@@ -124,7 +124,7 @@ pub const SHORT_RUNS: u32 = 5;
 /// less than [`SHORT`] seconds (at most [`SHORT_RUNS`] in all), and measures the first
 /// run's image (every run's image is the same: renders are deterministic). With `seeds`
 /// above 1 a run renders the setting at each seed ([`seed_scenes`]): its seconds, rays
-/// and errors are the seeds' means.
+/// and errors are the seeds' means, its counters and worst-pixel share the first's.
 fn render_row(
     method: &'static Method,
     point: &[(String, String)],
@@ -162,12 +162,13 @@ fn render_row(
         .zip(&reference.pixels)
         .map(|(t, r)| (0..3).map(|c| (display(t[c]) - display(r[c])).powi(2)).sum())
         .collect();
-    let rays = outs.iter().map(|o| o.stats.total_rays()).sum::<u64>() / outs.len() as u64;
+    let mean = |rays: &dyn Fn(&crate::RenderOutput) -> u64| outs.iter().map(rays).sum::<u64>() / outs.len() as u64;
+    let kinds = out.stats.kinds();
     let row = Row {
         method: method.name,
         params: point.to_vec(),
-        total_rays: rays,
-        rays: out.stats.kinds().iter().map(|&(k, n)| (k.to_string(), n)).collect(),
+        total_rays: mean(&|o| o.stats.total_rays()),
+        rays: kinds.iter().enumerate().map(|(j, &(k, _))| (k.to_string(), mean(&|o| o.stats.kinds()[j].1))).collect(),
         seconds: median(&secs),
         runs: secs,
         metrics: Metrics { rmse, rel_mse, psnr, flip },
